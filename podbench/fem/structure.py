@@ -1,0 +1,310 @@
+"""The :class:`Structure`: linear matrices plus what makes a structure time-varying or nonlinear.
+
+A structure is everything the integrators need and nothing about identification methods:
+
+``M(t) q'' + C q' + K(t) q + g(q, q') = T f(t)``,
+
+with
+
+* ``M(t) = M + m(t) e eᵀ`` when a :class:`VariableMass` is present (a point mass on one DOF
+  that moves with that DOF, so no ``ṁ q'`` term: see ``structures/ltv_beam.toml``);
+* ``K(t) = K + Σ ΔK_i`` over the :class:`StiffnessEvent` s whose time has been reached
+  (element fracture removes the element's stiffness);
+* ``g`` the sum of the :class:`NonlinearElement` s' restoring forces (cubic springs);
+* ``T`` the sensor-to-DOF injection: forces are sampled at the sensors (the dissertation's
+  force matrix ``F`` of Eq. 3.37 lives on the same points as the snapshot matrix ``W``).
+
+Units are inch, lbf, second throughout: masses in lbf·s²/in, stiffnesses in lbf/in, rotational
+DOFs in radians (so rotational mass and stiffness terms carry in² factors).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+
+from ..errors import DimensionError, InputError
+
+__all__ = [
+    "Structure",
+    "VariableMass",
+    "StiffnessEvent",
+    "NonlinearElement",
+    "CubicSpring",
+]
+
+
+@dataclass(frozen=True)
+class VariableMass:
+    """A point mass ``m(t)`` (lbf·s²/in) on DOF ``dof`` that moves with that DOF.
+
+    ``law`` maps an array of times (s) to masses; ``description`` states it in words.
+    """
+
+    dof: int
+    law: Callable[[np.ndarray], np.ndarray]
+    description: str = ""
+
+    def __call__(self, t) -> np.ndarray:
+        return np.asarray(self.law(np.asarray(t, dtype=float)), dtype=float)
+
+
+@dataclass(frozen=True)
+class StiffnessEvent:
+    """From time ``time`` (s) on, the stiffness matrix is ``K + delta_K`` (an element breaks).
+
+    Timing convention (shared by every engine): the event takes effect at the first sample
+    ``t_j = j·dt`` with ``t_j >= time - dt/2``; the equilibrium at that sample already uses
+    the changed stiffness.
+    """
+
+    time: float
+    delta_K: sp.csr_matrix
+    description: str = ""
+
+    def first_sample(self, dt: float) -> int:
+        """Index ``j`` of the first sample at which the event is in effect."""
+        return max(0, int(np.ceil(self.time / dt - 0.5)))
+
+
+@runtime_checkable
+class NonlinearElement(Protocol):
+    """A restoring force ``g(q, q')`` acting on a few DOFs (``dofs``, global indices).
+
+    ``force`` returns the internal force on those DOFs (it is added to ``K q`` on the left
+    side of the equation of motion), ``stiffness`` and ``damping`` its derivatives with
+    respect to the local displacements and velocities (square, ``len(dofs)``).
+    """
+
+    dofs: np.ndarray
+
+    def force(self, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+
+    def stiffness(self, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+
+    def damping(self, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class CubicSpring:
+    """A grounded cubic spring on one DOF: ``g = k3 q³`` (k3 in lbf/in³)."""
+
+    dof: int
+    k3: float
+
+    @property
+    def dofs(self) -> np.ndarray:
+        return np.array([self.dof])
+
+    def force(self, q, v):
+        return self.k3 * np.asarray(q) ** 3
+
+    def stiffness(self, q, v):
+        return np.array([[3.0 * self.k3 * float(q[0]) ** 2]])
+
+    def damping(self, q, v):
+        return np.zeros((1, 1))
+
+
+def _as_csr(A, name: str, n: int | None = None) -> sp.csr_matrix:
+    A = sp.csr_matrix(A, dtype=float)
+    if A.shape[0] != A.shape[1]:
+        raise DimensionError(f"Parameter `{name}`: must be square, got shape {A.shape}")
+    if n is not None and A.shape != (n, n):
+        raise DimensionError(f"Parameter `{name}`: expected shape {(n, n)}, got {A.shape}")
+    if A.nnz and not np.all(np.isfinite(A.data)):
+        raise InputError(f"Parameter `{name}`: contains NaN or Inf")
+    return A
+
+
+@dataclass(frozen=True, eq=False)
+class Structure:
+    """A discretized structure and its sensors (inch, lbf, second).
+
+    Parameters
+    ----------
+    name : str
+        Short name (the structure file's stem).
+    M, K : (n_dofs, n_dofs) sparse or dense
+        Constant mass (lbf·s²/in) and initial stiffness (lbf/in) matrices, boundary
+        conditions already applied.
+    C : (n_dofs, n_dofs) sparse or dense, optional
+        Linear viscous damping (lbf·s/in); ``None`` for an undamped structure.
+    sensor_dofs : (n_sensors,) int array
+        DOF measured by each sensor; ``-1`` for a sensor on a constrained point (reads 0,
+        e.g. the clamped root of the beams).
+    variable_mass, events, nonlinear
+        See the module docstring.
+    sensor_positions : (n_sensors,) array, optional
+        Position of each sensor along a 1-D structure (inches from the root).
+    sensor_labels, dof_labels : tuple of str, optional
+        Human-readable names.
+    description : str
+        One paragraph stating the model and its sources.
+    source : str
+        Path of the file the structure was built from ("" if built in code).
+    metadata : dict
+        Builder-specific extras (e.g. the linear tip stiffness of a beam).
+    """
+
+    name: str
+    M: sp.csr_matrix
+    K: sp.csr_matrix
+    sensor_dofs: np.ndarray
+    C: sp.csr_matrix | None = None
+    variable_mass: VariableMass | None = None
+    events: tuple[StiffnessEvent, ...] = ()
+    nonlinear: tuple = ()
+    sensor_positions: np.ndarray | None = None
+    sensor_labels: tuple[str, ...] = ()
+    dof_labels: tuple[str, ...] = ()
+    description: str = ""
+    source: str = ""
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        M = _as_csr(self.M, "M")
+        n = M.shape[0]
+        object.__setattr__(self, "M", M)
+        object.__setattr__(self, "K", _as_csr(self.K, "K", n))
+        if self.C is not None:
+            object.__setattr__(self, "C", _as_csr(self.C, "C", n))
+        sd = np.asarray(self.sensor_dofs)
+        if sd.ndim != 1 or sd.size == 0 or not np.issubdtype(sd.dtype, np.integer):
+            raise DimensionError(
+                f"Parameter `sensor_dofs`: expected a non-empty 1-D integer array, got {sd!r}"
+            )
+        if sd.min() < -1 or sd.max() >= n:
+            raise DimensionError(
+                f"Parameter `sensor_dofs`: indices must lie in [-1, {n - 1}], "
+                f"got range [{sd.min()}, {sd.max()}]"
+            )
+        object.__setattr__(self, "sensor_dofs", sd.astype(np.int64))
+        if self.sensor_positions is not None:
+            sp_ = np.asarray(self.sensor_positions, dtype=float)
+            if sp_.shape != sd.shape:
+                raise DimensionError(
+                    f"Parameter `sensor_positions`: expected shape {sd.shape}, got {sp_.shape}"
+                )
+            object.__setattr__(self, "sensor_positions", sp_)
+        for ev in self.events:
+            if ev.delta_K.shape != (n, n):
+                raise DimensionError(
+                    f"Stiffness event at t={ev.time}: delta_K has shape {ev.delta_K.shape}, "
+                    f"expected {(n, n)}"
+                )
+        if self.variable_mass is not None and not 0 <= self.variable_mass.dof < n:
+            raise DimensionError(f"Variable mass DOF {self.variable_mass.dof} outside [0, {n})")
+        object.__setattr__(self, "events", tuple(sorted(self.events, key=lambda e: e.time)))
+        object.__setattr__(self, "nonlinear", tuple(self.nonlinear))
+
+    # ------------------------------------------------------------------ sizes and maps
+    @property
+    def n_dofs(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def n_sensors(self) -> int:
+        return self.sensor_dofs.size
+
+    @property
+    def is_linear(self) -> bool:
+        return not self.nonlinear
+
+    @property
+    def is_time_invariant(self) -> bool:
+        return self.variable_mass is None and not self.events
+
+    def sensor_matrix(self) -> sp.csr_matrix:
+        """``S`` (n_sensors × n_dofs) with ``W = S q``; a row of zeros for a constrained sensor."""
+        rows = np.flatnonzero(self.sensor_dofs >= 0)
+        cols = self.sensor_dofs[rows]
+        return sp.csr_matrix(
+            (np.ones(rows.size), (rows, cols)), shape=(self.n_sensors, self.n_dofs)
+        )
+
+    def observe(self, q: np.ndarray) -> np.ndarray:
+        """Sensor readings ``S q`` of DOF vectors or histories (first axis = DOFs)."""
+        q = np.asarray(q, dtype=float)
+        out = np.zeros((self.n_sensors,) + q.shape[1:])
+        ok = self.sensor_dofs >= 0
+        out[ok] = q[self.sensor_dofs[ok]]
+        return out
+
+    def to_dofs(self, f: np.ndarray) -> np.ndarray:
+        """DOF loads ``Sᵀ f`` from loads sampled at the sensors (first axis = sensors).
+
+        A load on a constrained sensor (e.g. the clamped root) is taken by the support.
+        """
+        f = np.asarray(f, dtype=float)
+        if f.shape[0] != self.n_sensors:
+            raise DimensionError(
+                f"Force: expected {self.n_sensors} rows (one per sensor), got shape {f.shape}"
+            )
+        out = np.zeros((self.n_dofs,) + f.shape[1:])
+        ok = self.sensor_dofs >= 0
+        np.add.at(out, self.sensor_dofs[ok], f[ok])
+        return out
+
+    # ------------------------------------------------------------------ time-dependent matrices
+    def mass(self, t: float = 0.0) -> sp.csr_matrix:
+        """``M(t)`` including the variable point mass."""
+        if self.variable_mass is None:
+            return self.M
+        d = self.variable_mass.dof
+        m = float(self.variable_mass(np.array([t]))[0])
+        return (self.M + sp.csr_matrix(([m], ([d], [d])), shape=self.M.shape)).tocsr()
+
+    def stiffness(self, t: float = 0.0, dt: float | None = None) -> sp.csr_matrix:
+        """``K(t)``: the initial stiffness plus every event already in effect at ``t``.
+
+        With ``dt`` the event timing convention of :class:`StiffnessEvent` is used
+        (in effect from ``time - dt/2``), otherwise from ``time`` exactly.
+        """
+        K = self.K
+        for ev in self.events:
+            start = ev.time - (0.5 * dt if dt else 0.0)
+            if t >= start:
+                K = K + ev.delta_K
+        return K.tocsr()
+
+    def damping_matrix(self) -> sp.csr_matrix:
+        """``C`` (a zero sparse matrix if the structure is undamped)."""
+        return self.C if self.C is not None else sp.csr_matrix(self.M.shape)
+
+    # ------------------------------------------------------------------ analysis
+    def natural_frequencies(self, k: int = 5, t: float = 0.0) -> np.ndarray:
+        """The ``k`` lowest undamped natural frequencies (Hz) of the linear part at time ``t``.
+
+        Solves ``K(t) φ = ω² M(t) φ``; nonlinear elements and damping are ignored.
+        Rigid-body modes (after a fracture) appear as zero frequencies.
+        """
+        n = self.n_dofs
+        if not 1 <= k <= n:
+            raise InputError(f"Parameter `k`: must lie in [1, {n}], got {k}")
+        Kt = self.stiffness(t).toarray()
+        Mt = self.mass(t).toarray()
+        w2 = scipy.linalg.eigh(Kt, Mt, eigvals_only=True, subset_by_index=[0, k - 1])
+        return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi)
+
+    def linear_twin(self) -> Structure:
+        """The same structure with every nonlinear element removed (dampers kept)."""
+        if self.is_linear:
+            return self
+        return replace(self, name=f"{self.name}[linear twin]", nonlinear=())
+
+    def __repr__(self) -> str:
+        kind = []
+        if not self.is_time_invariant:
+            kind.append("time-varying")
+        if not self.is_linear:
+            kind.append("nonlinear")
+        kind = ", ".join(kind) or "linear time-invariant"
+        return (
+            f"Structure({self.name!r}: {self.n_dofs} DOFs, {self.n_sensors} sensors, {kind})"
+        )
