@@ -1,0 +1,229 @@
+"""An independent cross-check: the same equations of motion solved by exudyn.
+
+exudyn (https://github.com/jgerstmayr/EXUDYN) is a multibody code with its own implicit
+integrator, Newton solver and linear algebra. podbench hands it the structure's matrices as one
+``ObjectGenericODE2`` and asks for plain Newmark (β = 1/4, γ = 1/2) at fixed steps, so that its
+result must agree with :func:`podbench.dynamics.newmark.newmark` to round-off / Newton
+tolerance. Agreement tests the podbench integrator's bookkeeping (force timing, initial
+acceleration, events, variable mass, Newton) against code written by someone else.
+
+Mapping (see ``/work/shared/EXUDYN_NOTES.md`` for the measurements behind it):
+
+* ``NodeGenericODE2`` carries all DOFs; ``ObjectGenericODE2`` carries ``M``, ``K(0)``, ``C``
+  (sparse ``MatrixContainer`` and the Eigen sparse solver above ``DENSE_MAX_DOFS``).
+* Loads: ``forceUserFunction(t)`` (exudyn evaluates it at the end time of the step) returns
+  ``f[:, round(t/dt)]``. A cubic spring's ``−g(q, q')`` is added there too, with the analytic
+  ``jacobianUserFunction`` ``fODE2·∂g/∂q + fODE2_t·∂g/∂q'``.
+* Variable mass: ``massMatrixUserFunction(t)`` returns ``M + m(t) e eᵀ``.
+* Stiffness events: a pre-step user function (it receives the end time of the step about to be
+  solved) sets the stiffness of sample ``round(t/dt)`` following the
+  :class:`~podbench.fem.StiffnessEvent` convention, so the switch happens at exactly the same
+  sample as in the podbench integrator (exudyn accumulates time, hence the rounding).
+* Newton: a Jacobian is always supplied (zero for linear structures: exudyn adds K and C
+  analytically), full Newton, relative tolerance 1e-12, no adaptive step.
+
+Nothing is written to disk (no ``./solution/`` directory).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ConvergenceError, InputError
+from ..fem.structure import Structure
+from .newmark import DENSE_MAX_DOFS
+
+__all__ = ["simulate_exudyn"]
+
+
+def _import_exudyn():
+    try:
+        import exudyn
+        import exudyn.itemInterface as items
+    except ImportError as exc:  # pragma: no cover - exudyn is a declared dependency
+        raise InputError(
+            "engine='exudyn' requires the exudyn package (pip install exudyn); "
+            f"importing it failed: {exc}"
+        ) from exc
+    return exudyn, items
+
+
+def _matrix(exu, A: sp.csr_matrix, sparse: bool):
+    """A sparse ``MatrixContainer`` or a dense ndarray (the Jacobian must use the same kind)."""
+    if not sparse:
+        return A.toarray()
+    mc = exu.MatrixContainer()
+    mc.SetWithSparseMatrix(sp.csr_matrix(A))
+    return mc
+
+
+def simulate_exudyn(
+    structure: Structure,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    f: np.ndarray,
+    dt: float,
+    *,
+    newton_rtol: float = 1e-12,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Integrate the structure with exudyn's Newmark (β = 1/4, γ = 1/2), fixed step ``dt``.
+
+    Parameters
+    ----------
+    structure : Structure
+    q0, v0 : (n_dofs,) ndarray
+        Initial displacement (in) and velocity (in/s).
+    f : (n_dofs, n_samples) ndarray
+        DOF loads (lbf) at ``t_j = j·dt``.
+    dt : float
+        Time step (s).
+    newton_rtol : float
+        exudyn's Newton relative tolerance (nonlinear structures).
+
+    Returns
+    -------
+    q, qd : (n_dofs, n_samples) ndarray
+        Displacement (in) and velocity (in/s) histories.
+    """
+    exu, items = _import_exudyn()
+    s = structure
+    n_dofs, n = f.shape
+    h = float(dt)
+    sparse = n_dofs > DENSE_MAX_DOFS
+    M = s.M
+    C = s.damping_matrix()
+    K0 = s.stiffness(0.0, dt=h)
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    node = mbs.AddNode(
+        items.NodeGenericODE2(
+            referenceCoordinates=[0.0] * n_dofs,
+            initialCoordinates=list(map(float, q0)),
+            initialCoordinates_t=list(map(float, v0)),
+            numberOfODE2Coordinates=n_dofs,
+        )
+    )
+
+    def sample_index(t: float) -> int:
+        return min(max(int(round(t / h)), 0), n - 1)
+
+    nonlinear = s.nonlinear
+    el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in nonlinear]
+
+    def force_uf(mbs_, t, item, q, q_t):
+        out = f[:, sample_index(t)].copy()
+        if nonlinear:
+            q = np.asarray(q)
+            q_t = np.asarray(q_t)
+            for el, d in zip(nonlinear, el_dofs, strict=True):
+                out[d] -= el.force(q[d], q_t[d])
+        return out
+
+    if nonlinear:
+        def jacobian_uf(mbs_, t, item, q, q_t, fODE2, fODE2_t):
+            q = np.asarray(q)
+            q_t = np.asarray(q_t)
+            J = np.zeros((n_dofs, n_dofs))
+            for el, d in zip(nonlinear, el_dofs, strict=True):
+                ix = np.ix_(d, d)
+                J[ix] += fODE2 * np.asarray(el.stiffness(q[d], q_t[d]))
+                J[ix] += fODE2_t * np.asarray(el.damping(q[d], q_t[d]))
+            return sp.csr_matrix(J) if sparse else J
+    else:
+        zero_jac = sp.csr_matrix((n_dofs, n_dofs)) if sparse else np.zeros((n_dofs, n_dofs))
+
+        def jacobian_uf(mbs_, t, item, q, q_t, fODE2, fODE2_t):
+            return zero_jac
+
+    kwargs = {}
+    vm = s.variable_mass
+    if vm is not None:
+        Md = M.toarray()
+        m_t = vm(np.arange(n) * h)
+
+        def mass_uf(mbs_, t, item, q, q_t):
+            Mt = Md.copy()
+            Mt[vm.dof, vm.dof] += m_t[sample_index(t)]
+            return Mt
+
+        kwargs["massMatrixUserFunction"] = mass_uf
+
+    obj = mbs.AddObject(
+        items.ObjectGenericODE2(
+            nodeNumbers=[node],
+            massMatrix=_matrix(exu, M, sparse),
+            stiffnessMatrix=_matrix(exu, K0, sparse),
+            dampingMatrix=_matrix(exu, C, sparse),
+            forceUserFunction=force_uf,
+            jacobianUserFunction=jacobian_uf,
+            visualization=items.VObjectGenericODE2(show=False),
+            **kwargs,
+        )
+    )
+
+    if s.events:
+        first = [ev.first_sample(h) for ev in s.events]
+        current = {"state": tuple(i for i, fj in enumerate(first) if 0 >= fj)}
+
+        def pre_step(mbs_, t):
+            j = sample_index(t)
+            state = tuple(i for i, fj in enumerate(first) if j >= fj)
+            if state != current["state"]:
+                K = s.K
+                for i in state:
+                    K = K + s.events[i].delta_K
+                mbs_.SetObjectParameter(
+                    obj, "stiffnessMatrix", _matrix(exu, sp.csr_matrix(K), sparse)
+                )
+                current["state"] = state
+            return True
+
+        mbs.SetPreStepUserFunction(pre_step)
+
+    OT = exu.OutputVariableType
+    sensors = [
+        mbs.AddSensor(
+            items.SensorNode(
+                nodeNumber=node, outputVariableType=ot, storeInternal=True, writeToFile=False
+            )
+        )
+        for ot in (OT.Coordinates, OT.Coordinates_t)
+    ]
+    mbs.Assemble()
+
+    sim = exu.SimulationSettings()
+    ti = sim.timeIntegration
+    ti.numberOfSteps = n - 1
+    ti.endTime = (n - 1) * h
+    ti.generalizedAlpha.useNewmark = True
+    ti.generalizedAlpha.newmarkBeta = 0.25
+    ti.generalizedAlpha.newmarkGamma = 0.5
+    ti.adaptiveStep = False
+    ti.verboseMode = 0
+    ti.newton.useModifiedNewton = False
+    ti.newton.relativeTolerance = newton_rtol
+    if vm is not None:
+        ti.reuseConstantMassMatrix = False
+    sim.solution.file.write = False
+    sim.solution.sensors.writePeriod = h
+    sim.show.computationTime = False
+    sim.show.statistics = False
+    if sparse:
+        sim.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+
+    try:
+        mbs.SolveDynamic(sim)
+    except Exception as exc:  # exudyn raises its own SolverError / ModelError types
+        raise ConvergenceError(f"exudyn failed to integrate {s.name!r}: {exc}") from exc
+
+    out = []
+    for sensor in sensors:
+        data = np.asarray(mbs.GetSensorStoredData(sensor))
+        if data.shape[0] != n:
+            raise ConvergenceError(
+                f"exudyn returned {data.shape[0]} samples for {s.name!r}, expected {n}"
+            )
+        out.append(np.ascontiguousarray(data[:, 1:].T))
+    return out[0], out[1]

@@ -1,0 +1,145 @@
+"""``simulate``: one entry point for every engine, returning a :class:`podbench.data.Response`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import as_finite_array, check_positive
+from ..data import Response
+from ..errors import DimensionError, InputError, UnknownNameError
+from ..fem.structure import Structure
+from .newmark import newmark
+
+__all__ = ["simulate", "ENGINES"]
+
+ENGINES = ("newmark", "exudyn")
+"""Names accepted by ``simulate(engine=...)``."""
+
+
+def _dof_vector(x, structure: Structure, name: str) -> np.ndarray:
+    """An initial DOF vector from None (zeros), an array or an object with ``dof_vector``."""
+    n = structure.n_dofs
+    if x is None:
+        return np.zeros(n)
+    if hasattr(x, "dof_vector"):
+        x = x.dof_vector(structure)
+    arr = as_finite_array(x, name)
+    if arr.shape != (n,):
+        raise DimensionError(
+            f"Parameter `{name}`: expected a full DOF vector of shape ({n},) for structure "
+            f"{structure.name!r}, got shape {arr.shape}"
+        )
+    return arr
+
+
+def _force_history(force, structure: Structure, n_samples: int, dt: float) -> np.ndarray:
+    """The (n_sensors, n_samples) force matrix from None, an array or an excitation object."""
+    shape = (structure.n_sensors, n_samples)
+    if force is None:
+        return np.zeros(shape)
+    if hasattr(force, "sample"):
+        force = force.sample(structure, n_samples, dt)
+    F = as_finite_array(force, "force", ndim=2)
+    if F.shape != shape:
+        raise DimensionError(
+            f"Parameter `force`: expected shape {shape} (n_sensors, n_samples), got {F.shape}"
+        )
+    return F
+
+
+def simulate(
+    structure: Structure,
+    n_samples: int = 500,
+    dt: float = 1e-4,
+    initial_displacement=None,
+    initial_velocity=None,
+    force=None,
+    engine: str = "newmark",
+    label: str = "",
+) -> Response:
+    """Simulate the response of ``structure`` and sample it at its sensors.
+
+    Solves ``M(t) q'' + C q' + K(t) q + g(q, q') = Sᵀ f(t)`` (see :mod:`podbench.fem.structure`)
+    from ``q(0) = q0``, ``q'(0) = v0`` at ``t_j = j·dt``, ``j = 0 … n_samples − 1``, with
+    average-acceleration Newmark (β = 1/4, γ = 1/2). Units: inch, lbf, second.
+
+    Parameters
+    ----------
+    structure : Structure
+        The structure to simulate.
+    n_samples : int
+        Number of samples ``n`` (≥ 2), including the initial state at ``t = 0``.
+    dt : float
+        Time step (s), > 0.
+    initial_displacement, initial_velocity : (n_dofs,) array_like or None
+        Full DOF vectors ``q0`` (in, rad) and ``v0`` (in/s, rad/s): the beams have
+        unmeasured rotations, so sensor vectors are not enough. ``None`` means zeros. An
+        object with a ``dof_vector(structure)`` method (see :mod:`podbench.excitations`) is
+        also accepted.
+    force : (n_sensors, n_samples) array_like, excitation object or None
+        Load sampled at the sensors (lbf), acting on the sensors' DOFs (``structure.to_dofs``).
+        An object with a ``sample(structure, n_samples, dt)`` method (e.g.
+        :class:`podbench.excitations.Pulse`) is sampled first. ``F[:, j]`` acts in the
+        equilibrium at ``t_j``; ``F[:, 0]`` only through the initial acceleration.
+    engine : {"newmark", "exudyn"}
+        ``"newmark"``: podbench's integrator (:func:`podbench.dynamics.newmark.newmark`).
+        ``"exudyn"``: the same scheme solved by the exudyn multibody code, an independent
+        cross-check (requires the ``exudyn`` package).
+    label : str
+        Stored in the response (e.g. the excitation's name).
+
+    Returns
+    -------
+    Response
+        ``t`` (n,), ``W = S q`` and ``F`` (n_sensors, n), ``w0 = S q0``, ``v0 = S v0``,
+        ``q`` and ``qd`` (n_dofs, n), the structure's name, the engine and the label.
+
+    Raises
+    ------
+    InputError
+        NaN/Inf, ``n_samples < 2``, ``dt <= 0``, a non-Structure.
+    DimensionError
+        Arrays of the wrong shape (the message gives the expected and received shapes).
+    UnknownNameError
+        An unknown engine.
+    ConvergenceError
+        Newton iterations failed (nonlinear structures).
+    """
+    if not isinstance(structure, Structure):
+        raise InputError(
+            f"Parameter `structure`: expected a podbench Structure, got {type(structure).__name__}"
+        )
+    if not isinstance(engine, str) or engine not in ENGINES:
+        raise UnknownNameError(
+            f"Parameter `engine`: unknown engine {engine!r}; known engines: {', '.join(ENGINES)}"
+        )
+    n_samples = check_positive(n_samples, "n_samples", integer=True)
+    if n_samples < 2:
+        raise InputError(f"Parameter `n_samples`: must be at least 2, got {n_samples}")
+    dt = check_positive(dt, "dt")
+    q0 = _dof_vector(initial_displacement, structure, "initial_displacement")
+    v0 = _dof_vector(initial_velocity, structure, "initial_velocity")
+    F = _force_history(force, structure, n_samples, dt)
+    f_dofs = structure.to_dofs(F)
+
+    if engine == "newmark":
+        res = newmark(structure, q0, v0, f_dofs, dt)
+        q, qd = res.q, res.v
+    else:
+        from .exudyn_engine import simulate_exudyn
+
+        q, qd = simulate_exudyn(structure, q0, v0, f_dofs, dt)
+
+    return Response(
+        t=np.arange(n_samples) * dt,
+        W=structure.observe(q),
+        F=F,
+        w0=structure.observe(q0),
+        v0=structure.observe(v0),
+        dt=dt,
+        q=q,
+        qd=qd,
+        structure=structure.name,
+        engine=engine,
+        label=label,
+    )

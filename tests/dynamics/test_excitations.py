@@ -1,0 +1,175 @@
+"""Excitations: static profiles, impulses, pulses, user histories."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from dynamics_systems import cantilever, chain, tip_mass
+
+from podbench.dynamics import simulate
+from podbench.errors import DimensionError, InputError, UnknownNameError
+from podbench.excitations import (
+    Combined,
+    ForceHistory,
+    ImpulseVelocity,
+    Pulse,
+    StaticDisplacement,
+    excitation_from_dict,
+    impulse_velocity,
+    resolve_dof,
+    static_displacement,
+)
+
+
+def test_static_tip_load_gives_cantilever_formula():
+    # Euler–Bernoulli elements are exact at the nodes for point loads: δ = P L³ / (3 EI)
+    s = cantilever()
+    P = 100.0
+    q0 = static_displacement(s, [(24.0, P)])
+    EI, L = s.metadata["EI"], s.metadata["L"]
+    assert s.observe(q0)[-1] == pytest.approx(P * L**3 / (3 * EI), rel=1e-10)
+    # a load at 12 in: deflection at x >= a is P a²(3x − a)/(6 EI)
+    q1 = static_displacement(s, [(12.0, P)])
+    x = s.sensor_positions[12:]
+    np.testing.assert_allclose(s.observe(q1)[12:], P * 144.0 * (3 * x - 12.0) / (6 * EI),
+                               rtol=1e-11)
+
+
+def test_static_profile_superposes_and_satisfies_K_q_equals_f():
+    s = cantilever()
+    loads = [(17, 300.0), (18, 200.0), (24, -260.0)]  # §4.1.1, w_0
+    q0 = static_displacement(s, loads)
+    parts = sum(static_displacement(s, [p]) for p in loads)
+    np.testing.assert_allclose(q0, parts, rtol=1e-12, atol=1e-15)
+    f = s.K @ q0
+    expected = np.zeros(s.n_sensors)
+    expected[[17, 18, 24]] = [300.0, 200.0, -260.0]
+    np.testing.assert_allclose(s.observe(f), expected, atol=1e-8)
+
+
+def test_reference_structure_profile_is_applied_to_another_structure():
+    lti = cantilever()
+    ltv = replace(lti, name="ltv", variable_mass=tip_mass(lti.n_dofs - 2))
+    soft = replace(lti, name="soft", K=lti.K * 0.5)
+    w = StaticDisplacement([(24, 100.0)], reference=lti)
+    np.testing.assert_array_equal(w.dof_vector(soft), static_displacement(lti, [(24, 100.0)]))
+    # without a reference the soft beam deflects twice as much
+    assert static_displacement(soft, [(24, 100.0)])[-2] == pytest.approx(
+        2 * w.dof_vector(soft)[-2], rel=1e-12)
+    # impulses: computed with the LTI beam's mass, not the LTV beam's M(0) (tip mass)
+    v_ref = impulse_velocity(ltv, [(19, 1000.0)], 1e-4, reference=lti)
+    v_own = impulse_velocity(ltv, [(19, 1000.0)], 1e-4)
+    np.testing.assert_array_equal(v_ref, impulse_velocity(lti, [(19, 1000.0)], 1e-4))
+    assert not np.allclose(v_ref, v_own)
+    with pytest.raises(DimensionError, match="reference.*48 DOFs.*4"):
+        StaticDisplacement([(1, 1.0)], by="dof", reference=lti).dof_vector(chain(4))
+
+
+def test_impulse_velocity_is_momentum_over_mass():
+    # J = F·duration: 1000 lbf for one step of 1e-4 s = 0.1 lbf·s (§4.1.2 definition)
+    s = cantilever()
+    v0 = impulse_velocity(s, [(19, 1000.0)], duration=1e-4)
+    J = s.M @ v0
+    expected = np.zeros(s.n_dofs)
+    expected[resolve_dof(s, 19)] = 0.1
+    np.testing.assert_allclose(J, expected, atol=1e-14)
+    # on a chain with a diagonal mass matrix, v = J / m at the loaded DOF only
+    c = chain(4)
+    v = impulse_velocity(c, [(2, 1125.0)], 0.05, by="dof")
+    np.testing.assert_allclose(v, [0.0, 0.0, 1125.0 * 0.05 / 1.5, 0.0], rtol=1e-14)
+
+
+def test_small_impulse_matches_short_force_response():
+    # the velocity after a short, weak force pulse tends to M⁻¹ J (first-order check)
+    c = chain(3, damping=False)
+    dt, n_load = 1e-5, 10
+    F = np.zeros((3, n_load + 1))
+    F[1, :] = 10.0  # acts on [0, n_load·dt]: impulse J = 10 · 1e-4 (trapezoid)
+    r = simulate(c, n_load + 1, dt, force=F)
+    v = impulse_velocity(c, [(1, 10.0)], n_load * dt, by="dof")
+    np.testing.assert_allclose(r.qd[:, -1], v, rtol=1e-2, atol=1e-3 * np.abs(v).max())
+
+
+@pytest.mark.parametrize(
+    ("duration", "dt", "amplitude", "samples"),
+    [(5e-4, 1e-4, 500.0, [1, 2, 3, 4, 5]),  # beams, §4.1.3
+     (0.4, 0.05, 225.0, [1, 2, 3, 4, 5, 6, 7, 8])],  # truss, §4.2.2
+)
+def test_rectangular_pulse_loads_the_stated_samples(duration, dt, amplitude, samples):
+    p = Pulse(0, amplitude, duration, by="dof")
+    h = p.history(40, dt)
+    np.testing.assert_array_equal(np.flatnonzero(h), samples)
+    np.testing.assert_array_equal(h[samples], amplitude)
+    assert h[0] == 0.0  # default start: one sample after t = 0
+
+
+def test_pulse_edges_are_robust_to_floating_point():
+    # 0.3 / 0.1 = 2.9999999999999996 and 0.7 / 0.1 = 6.999999999999999
+    h = Pulse(0, 1.0, 0.4, start=0.3, by="dof").history(12, 0.1)
+    np.testing.assert_array_equal(np.flatnonzero(h), [3, 4, 5, 6])
+    h0 = Pulse(0, 1.0, 0.2, start=0.0, by="dof").history(5, 0.1)
+    np.testing.assert_array_equal(h0, [1.0, 1.0, 0.0, 0.0, 0.0])
+
+
+def test_pulse_shapes():
+    dt = 0.1
+    hs = Pulse(0, 2.0, 0.8, start=0.0, shape="half_sine", by="dof").history(10, dt)
+    t = np.arange(8) * dt
+    np.testing.assert_allclose(hs[:8], 2.0 * np.sin(np.pi * t / 0.8), atol=1e-15)
+    assert hs[8] == 0.0
+    tri = Pulse(0, 2.0, 0.8, start=0.0, shape="triangle", by="dof").history(10, dt)
+    np.testing.assert_allclose(tri[:9], [0, 0.5, 1.0, 1.5, 2.0, 1.5, 1.0, 0.5, 0], atol=1e-14)
+
+
+def test_pulse_sample_places_the_history_on_the_sensor_row():
+    s = cantilever()
+    F = Pulse(23.0, 500.0, 5e-4).sample(s, 500, 1e-4)
+    assert F.shape == (25, 500)
+    assert np.count_nonzero(F) == 5 and np.all(F[23, 1:6] == 500.0)
+    both = (Pulse(23.0, 500.0, 5e-4) + Pulse(2.0, -100.0, 1e-3)).sample(s, 500, 1e-4)
+    np.testing.assert_array_equal(both, F + Pulse(2.0, -100.0, 1e-3).sample(s, 500, 1e-4))
+
+
+def test_to_dict_round_trip():
+    lti = cantilever()
+    items = [
+        StaticDisplacement([(14, 2000.0), (18, -1300.0)], reference=lti),
+        ImpulseVelocity([(19, 1000.0)], 1e-4),
+        Pulse(21.0, 500.0, 5e-4, shape="half_sine"),
+        Combined(Pulse(21.0, 500.0, 5e-4), Pulse(3.0, 50.0, 1e-3, start=0.0)),
+        ForceHistory(np.arange(50.0).reshape(25, 2)),
+    ]
+    for item in items:
+        back = excitation_from_dict(item.to_dict(), structures={"test_cantilever": lti})
+        assert back.to_dict() == item.to_dict()
+        if isinstance(item, StaticDisplacement | ImpulseVelocity):
+            np.testing.assert_array_equal(back.dof_vector(lti), item.dof_vector(lti))
+        else:
+            n = 2 if isinstance(item, ForceHistory) else 30
+            np.testing.assert_array_equal(back.sample(lti, n, 1e-4), item.sample(lti, n, 1e-4))
+
+
+def test_location_errors():
+    s = cantilever()
+    with pytest.raises(InputError, match="17.5 in: no sensor"):
+        static_displacement(s, [(17.5, 1.0)])
+    with pytest.raises(InputError, match="constrained point"):
+        static_displacement(s, [(0.0, 1.0)])
+    with pytest.raises(InputError, match="no sensor positions"):
+        static_displacement(chain(3), [(1.0, 1.0)])
+    with pytest.raises(InputError, match="DOF 7: outside"):
+        static_displacement(chain(3), [(7, 1.0)], by="dof")
+    with pytest.raises(InputError, match="'tip'"):
+        Pulse("tip", 1.0, 1.0).sample(s, 5, 0.1)
+    with pytest.raises(InputError, match="not one of"):
+        Pulse(1.0, 1.0, 1.0, shape="square")
+    with pytest.raises(InputError, match="duration"):
+        Pulse(1.0, 1.0, 0.0)
+    with pytest.raises(InputError, match="loads"):
+        static_displacement(s, [24.0, 100.0])
+    with pytest.raises(InputError, match="finite"):
+        static_displacement(s, [(24.0, np.nan)])
+    with pytest.raises(UnknownNameError, match="unknown kind 'ramp'"):
+        excitation_from_dict({"kind": "ramp"})
+    with pytest.raises(InputError, match="missing entry 'duration'"):
+        excitation_from_dict({"kind": "pulse", "location": 1.0, "amplitude": 2.0})
