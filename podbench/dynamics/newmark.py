@@ -47,8 +47,9 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
+from scipy.linalg.lapack import dpotrs as _potrs
 
-from ..errors import ConvergenceError, IllConditionedError
+from ..errors import ConvergenceError, IllConditionedError, InputError
 from ..fem.structure import Structure
 
 __all__ = ["NewmarkResult", "newmark", "BETA", "GAMMA", "DENSE_MAX_DOFS"]
@@ -99,8 +100,9 @@ class _Factorization:
         return "lu", lu
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        if self._kind == "cho":
-            return scipy.linalg.cho_solve(self._f, b, check_finite=False)
+        if self._kind == "cho":  # LAPACK directly: cho_solve's checks dominate small solves
+            x, _ = _potrs(self._f[0], b, lower=self._f[1])
+            return x
         if self._kind == "lu":
             return scipy.linalg.lu_solve(self._f, b, check_finite=False)
         return self._f.solve(b)
@@ -125,13 +127,13 @@ class _LowRankUpdatedSolver:
             E[dofs, np.arange(dofs.size)] = 1.0
             self.Z = self.factorization.solve(E)
             self.Zd = self.Z[dofs, :]
+            self._eye = np.eye(dofs.size)
 
     def solve(self, r: np.ndarray, B: np.ndarray | None = None) -> np.ndarray:
         y = self.factorization.solve(r)
         if B is None or not np.any(B):
             return y
-        k = self.dofs.size
-        G = np.eye(k) + self.Zd @ B
+        G = self._eye + self.Zd @ B
         try:
             xd = np.linalg.solve(G, y[self.dofs])
         except np.linalg.LinAlgError as exc:
@@ -144,6 +146,100 @@ class _LowRankUpdatedSolver:
 def _operator(A: sp.spmatrix, dense: bool):
     """``A`` as a dense ndarray (small systems: faster products) or a CSR matrix."""
     return A.toarray() if dense else sp.csr_matrix(A)
+
+
+class _Model:
+    """The structure's terms as the integrator needs them, for one time step ``h``.
+
+    * ``stiffness(j)``: ``K(t_j)`` (events per :class:`StiffnessEvent`), ``|K(t_j)|`` and the
+      solver of the base effective matrix ``S = M + h/2 C + h²/4 K(t_j)`` (cached per set
+      of events in effect);
+    * ``mass_times(j, a)``: ``M(t_j) a`` (``|M(t_j)| |a|`` with ``absolute=True``);
+    * ``restoring(q, v)``: ``g(q, v)`` of the nonlinear elements;
+    * ``update(j, q, v)``: the small matrix ``B`` with tangent ``S + E B Eᵀ``:
+      ``m(t_j)`` on the variable-mass DOF plus ``h²/4 K_g + h/2 C_g`` of the elements.
+    """
+
+    def __init__(self, s: Structure, n: int, h: float):
+        self.s = s
+        self.h = h
+        self.bh2, self.gh = BETA * h * h, GAMMA * h
+        self.dense = s.n_dofs <= DENSE_MAX_DOFS
+        self.C_sparse = s.damping_matrix()
+        self.has_damping = self.C_sparse.nnz > 0
+        self.M = _operator(s.M, self.dense)
+        self.C = _operator(self.C_sparse, self.dense)
+        self.absM, self.absC = abs(self.M), abs(self.C)
+        self.nonlinear = s.nonlinear
+        self.el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in self.nonlinear]
+
+        self.vm = s.variable_mass
+        self.m_t = None
+        if self.vm is not None:
+            self.m_t = self.vm(np.arange(n) * h)
+            if self.m_t.shape != (n,) or not np.all(np.isfinite(self.m_t)):
+                raise InputError(
+                    f"Variable mass of {s.name!r}: the law must return {n} finite masses for "
+                    f"{n} times, got shape {self.m_t.shape}"
+                )
+
+        # DOFs of the low-rank terms: the variable-mass DOF and the elements' DOFs
+        dofs = {int(d) for ed in self.el_dofs for d in ed}
+        if self.vm is not None:
+            dofs.add(self.vm.dof)
+        self.upd = np.array(sorted(dofs), dtype=np.int64)
+        pos = {d: i for i, d in enumerate(self.upd)}
+        self.vm_pos = pos[self.vm.dof] if self.vm is not None else None
+        self.el_pos = [np.array([pos[int(d)] for d in ed]) for ed in self.el_dofs]
+
+        self.first = [ev.first_sample(h) for ev in s.events]
+        self._cache: dict[tuple[int, ...], tuple] = {}
+
+    def stiffness(self, j: int):
+        """``(K, |K|, solver)`` at sample ``j``."""
+        state = tuple(i for i, fj in enumerate(self.first) if j >= fj)
+        if state not in self._cache:
+            K = self.s.K
+            for i in state:
+                K = K + self.s.events[i].delta_K
+            S = self.s.M + self.gh * self.C_sparse + self.bh2 * K
+            what = f"The Newmark effective matrix (stiffness events in effect: {list(state)})"
+            K = _operator(K, self.dense)
+            self._cache[state] = (K, abs(K), _LowRankUpdatedSolver(S, self.upd, what))
+        return self._cache[state]
+
+    def mass_times(self, j: int, a: np.ndarray, absolute: bool = False) -> np.ndarray:
+        if absolute:
+            a = np.abs(a)
+        Ma = (self.absM if absolute else self.M) @ a
+        if self.vm is not None:
+            m = abs(self.m_t[j]) if absolute else self.m_t[j]
+            Ma[self.vm.dof] += m * a[self.vm.dof]
+        return Ma
+
+    def mass_matrix(self, j: int) -> sp.spmatrix:
+        M = self.s.M.tolil()
+        if self.vm is not None:
+            M[self.vm.dof, self.vm.dof] += self.m_t[j]
+        return M
+
+    def restoring(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        g = np.zeros(q.shape[0])
+        for el, d in zip(self.nonlinear, self.el_dofs, strict=True):
+            g[d] += el.force(q[d], v[d])
+        return g
+
+    def update(self, j: int, q: np.ndarray, v: np.ndarray) -> np.ndarray | None:
+        if self.upd.size == 0:
+            return None
+        B = np.zeros((self.upd.size, self.upd.size))
+        if self.vm_pos is not None:
+            B[self.vm_pos, self.vm_pos] += self.m_t[j]
+        for el, d, p in zip(self.nonlinear, self.el_dofs, self.el_pos, strict=True):
+            Kg = np.asarray(el.stiffness(q[d], v[d]), dtype=float)
+            Cg = np.asarray(el.damping(q[d], v[d]), dtype=float)
+            B[np.ix_(p, p)] += self.bh2 * Kg + self.gh * Cg
+        return B
 
 
 def newmark(
@@ -188,79 +284,12 @@ def newmark(
     Notes
     -----
     Input validation is done by :func:`podbench.dynamics.simulate`; this function trusts
-    its arguments.
+    its arguments (shapes, finiteness).
     """
-    s = structure
     n_dofs, n = f.shape
     h = float(dt)
-    bh2, gh = BETA * h * h, GAMMA * h
-    dense = n_dofs <= DENSE_MAX_DOFS
-    C_sparse = s.damping_matrix()
-    has_damping = C_sparse.nnz > 0
-    M = _operator(s.M, dense)
-    C = _operator(C_sparse, dense)
-    nonlinear = s.nonlinear
-
-    # mass history: m(t_j) on one DOF (variable mass) -------------------------------------
-    vm = s.variable_mass
-    m_t = vm(np.arange(n) * h) if vm is not None else None
-    if m_t is not None and m_t.shape != (n,):
-        raise IllConditionedError(
-            f"Variable mass law returned shape {m_t.shape} for {n} times, expected ({n},)"
-        )
-
-    # DOFs of the low-rank terms (variable mass DOF + nonlinear elements' DOFs) ----------
-    el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in nonlinear]
-    upd_set = {int(d) for ed in el_dofs for d in ed}
-    if vm is not None:
-        upd_set.add(vm.dof)
-    upd = np.array(sorted(upd_set), dtype=np.int64)
-    pos = {d: i for i, d in enumerate(upd)}
-    vm_pos = pos[vm.dof] if vm is not None else None
-    el_pos = [np.array([pos[int(d)] for d in ed], dtype=np.int64) for ed in el_dofs]
-
-    # stiffness states and their factorizations (one per distinct set of active events) --
-    first = [ev.first_sample(h) for ev in s.events]
-    cache: dict[tuple[int, ...], tuple] = {}
-
-    def state_at(j: int) -> tuple[int, ...]:
-        return tuple(i for i, fj in enumerate(first) if j >= fj)
-
-    def stiffness_and_solver(state):
-        if state not in cache:
-            K = s.K
-            for i in state:
-                K = K + s.events[i].delta_K
-            S = s.M + gh * C_sparse + bh2 * K
-            what = f"The Newmark effective matrix (events in effect: {list(state)})"
-            K = _operator(K, dense)
-            cache[state] = (K, abs(K), _LowRankUpdatedSolver(S, upd, what))
-        return cache[state]
-
-    def g_force(q, v):
-        g = np.zeros(n_dofs)
-        for el, d in zip(nonlinear, el_dofs, strict=True):
-            g[d] += el.force(q[d], v[d])
-        return g
-
-    def update_matrix(j, q, v):
-        """The small matrix B of the tangent ``S + E B Eᵀ`` at sample j (None if zero)."""
-        if upd.size == 0:
-            return None
-        B = np.zeros((upd.size, upd.size))
-        if vm_pos is not None:
-            B[vm_pos, vm_pos] += m_t[j]
-        for el, d, p in zip(nonlinear, el_dofs, el_pos, strict=True):
-            Kg = np.asarray(el.stiffness(q[d], v[d]), dtype=float)
-            Cg = np.asarray(el.damping(q[d], v[d]), dtype=float)
-            B[np.ix_(p, p)] += bh2 * Kg + gh * Cg
-        return B
-
-    def mass_times(j, a):
-        Ma = M @ a
-        if vm is not None:
-            Ma[vm.dof] += m_t[j] * a[vm.dof]
-        return Ma
+    model = _Model(structure, n, h)
+    bh2, gh = model.bh2, model.gh
 
     q = np.empty((n_dofs, n))
     v = np.empty((n_dofs, n))
@@ -269,67 +298,62 @@ def newmark(
     q[:, 0] = q0
     v[:, 0] = v0
 
-    # initial acceleration: M(0) a0 = f0 − C v0 − K(0) q0 − g(q0, v0) ----------------------
-    K0 = stiffness_and_solver(state_at(0))[0]
-    rhs0 = f[:, 0] - K0 @ q0 - g_force(q0, v0)
-    if has_damping:
-        rhs0 -= C @ v0
-    M0 = s.M.tolil()
-    if vm is not None:
-        M0[vm.dof, vm.dof] += m_t[0]
-    a[:, 0] = _Factorization(M0, "The mass matrix M(0)").solve(rhs0)
-
-    absM, absC = abs(M), abs(C)
+    # initial acceleration: M(0) a0 = f0 − C v0 − K(0) q0 − g(q0, v0)
+    K0 = model.stiffness(0)[0]
+    rhs0 = f[:, 0] - K0 @ q0 - model.restoring(q0, v0)
+    if model.has_damping:
+        rhs0 -= model.C @ v0
+    a[:, 0] = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
 
     for j in range(n - 1):
-        state = state_at(j + 1)
-        K, absK, solver = stiffness_and_solver(state)
+        K, absK, solver = model.stiffness(j + 1)
         qp = q[:, j] + h * v[:, j] + bh2 * a[:, j]  # predictors q̃, ṽ
         vp = v[:, j] + gh * a[:, j]
-        rhs = f[:, j + 1] - K @ qp
-        if has_damping:
-            rhs -= C @ vp
-        if not nonlinear:
-            a1 = solver.solve(rhs, update_matrix(j + 1, qp, vp))
-        else:
+        if model.nonlinear:
             a1, iters[j + 1] = _newton(
-                j, h, a[:, j].copy(), qp, vp, f[:, j + 1], K, C if has_damping else None,
-                solver, g_force, update_matrix, mass_times, absM, absC, absK, rtol, max_iter,
+                model, j + 1, a[:, j], qp, vp, f[:, j + 1], K, absK, solver, rtol, max_iter
             )
+        else:  # S(t_{j+1}) a = f − C ṽ − K q̃, one solve
+            rhs = f[:, j + 1] - K @ qp
+            if model.has_damping:
+                rhs -= model.C @ vp
+            a1 = solver.solve(rhs, model.update(j + 1, qp, vp))
         a[:, j + 1] = a1
         q[:, j + 1] = qp + bh2 * a1
         v[:, j + 1] = vp + gh * a1
     return NewmarkResult(q=q, v=v, a=a, newton_iterations=iters)
 
 
-def _newton(j, h, a, qp, vp, f1, K, C, solver, g_force, update_matrix, mass_times,
-            absM, absC, absK, rtol, max_iter):
-    """Newton iterations for ``a_{j+1}``; returns (a, number of iterations)."""
-    bh2, gh = BETA * h * h, GAMMA * h
+def _newton(model: _Model, j, a, qp, vp, f, K, absK, solver, rtol, max_iter):
+    """Newton iterations for the acceleration at sample ``j``, starting from ``a``.
+
+    Residual ``r(a) = f − M(t_j) a − C v − K q − g(q, v)`` with ``q = q̃ + h²/4 a``,
+    ``v = ṽ + h/2 a``; returns ``(a, number of linear solves)``.
+    """
+    bh2, gh = model.bh2, model.gh
     dq_norm = np.inf
     for it in range(max_iter + 1):
         q = qp + bh2 * a
         v = vp + gh * a
-        g = g_force(q, v)
-        Ma = mass_times(j + 1, a)
-        r = f1 - Ma - K @ q - g
-        scale_vec = np.abs(f1) + absM @ np.abs(a) + absK @ np.abs(q) + np.abs(g)
-        if C is not None:
-            r -= C @ v
-            scale_vec += absC @ np.abs(v)
+        g = model.restoring(q, v)
+        r = f - model.mass_times(j, a) - K @ q - g
+        scale = np.abs(f) + model.mass_times(j, a, absolute=True) + absK @ np.abs(q) + np.abs(g)
+        if model.has_damping:
+            r -= model.C @ v
+            scale += model.absC @ np.abs(v)
         r_norm = np.linalg.norm(r)
-        if r_norm <= rtol * np.linalg.norm(scale_vec) and dq_norm <= rtol * np.linalg.norm(q):
-            return a, it
-        if r_norm == 0.0:  # exact solution (e.g. at rest)
+        if r_norm == 0.0 or (
+            r_norm <= rtol * np.linalg.norm(scale) and dq_norm <= rtol * np.linalg.norm(q)
+        ):
             return a, it
         if it == max_iter:
             break
-        da = solver.solve(r, update_matrix(j + 1, q, v))
+        da = solver.solve(r, model.update(j, q, v))
         a = a + da
         dq_norm = bh2 * np.linalg.norm(da)  # displacement increment of this iteration
     raise ConvergenceError(
-        f"Newton iterations did not converge at time step {j + 1} (t = {(j + 1) * h:.6g} s) "
-        f"after {max_iter} iterations: residual {r_norm:.3e}, force scale "
-        f"{np.linalg.norm(scale_vec):.3e}, last displacement increment {dq_norm:.3e} in "
+        f"Newton iterations did not converge at time step {j} (t = {j * model.h:.6g} s) "
+        f"after {max_iter} iterations: residual {r_norm:.3e} lbf, force scale "
+        f"{np.linalg.norm(scale):.3e} lbf, last displacement increment {dq_norm:.3e} in "
         f"(relative tolerance {rtol:g})"
     )
