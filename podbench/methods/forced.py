@@ -1,0 +1,318 @@
+"""Forced-response methods (§3.3): single-load (SL) and multiple-load (ML).
+
+The structure starts at rest and the scaled POC histories are the convolution of a modal
+impulse-response kernel ``C(t) = Φ12(t) M⁻¹`` (``k × k``) with the modal forces
+``q = Uᵀ F`` (Eqs. 3.34–3.38). Time-sampled, with the Δt of Eq. 3.39 kept::
+
+    v̂_l[s] = Δt Σ_i Σ_{p=0}^{s} c_{li}[p] q_i[s−p].
+
+Sampling: column 0 of ``W`` and ``F`` is ``t = 0``. A response that starts at rest has
+``W[:, 0] = 0`` and, with the pulses podbench uses, ``F[:, 0] = 0``; the convolution matrices
+then have a zero diagonal and are singular, but the system is consistent and the
+minimum-norm least-squares solution (``solver="ls"``) reproduces and predicts exactly. A
+Newmark response to a force with ``F[:, 0] ≠ 0`` is *not* a causal convolution of this form
+(Newmark brings ``f_0`` in through the initial acceleration), which shows as an error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..deconvolution import (
+    block_convolution_matrix,
+    convolution_matrix,
+    convolve,
+    convolve_kernel,
+    solve,
+)
+from ..errors import IllConditionedError, InputError
+from .base import (
+    PODMethod,
+    as_int_list,
+    check_datasets,
+    check_dt,
+    check_energy,
+    check_force,
+    check_forces,
+    check_max_cond,
+    check_n_modes,
+    check_new_force,
+    check_snapshots,
+    check_solver,
+    check_tol,
+    modal_share_too_small,
+    select_basis,
+)
+
+__all__ = ["SingleLoad", "MultipleLoad"]
+
+
+def _relative_residual(A, X, B) -> float:
+    nb = np.linalg.norm(B)
+    return float(np.linalg.norm(A @ X - B) / nb) if nb > 0 else float(np.linalg.norm(A @ X))
+
+
+class SingleLoad(PODMethod):
+    """Single-load method (§3.3.1, Eqs. 3.43–3.45).
+
+    Assumes ``C(t)`` diagonal in the POM basis (identity-proportional mass, light
+    proportional damping) and identifies each diagonal kernel from one load case by an
+    independent scalar deconvolution ``v̂_i = Q̌_i c_ii`` (Eq. 3.43, ``Q̌_i`` from Eq. 3.40).
+    A new load is predicted by ``ṽ_i = c_ii * q̃_i`` (Eq. 3.44) and ``W̃ = Σ u_i ṽ_iᵀ``
+    (Eq. 3.45).
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        Number of POMs; default from ``energy`` (or ``basis.shape[1]``).
+    energy : float
+        Cumulative energy fraction (Eq. 2.3, σ-based) when ``n_modes`` is None (0.99).
+    solver : str
+        Deconvolution solver name (:func:`podbench.deconvolution.available_solvers`):
+        ``"ls"`` (default, Eq. 3.76) or ``"tls"`` (Eqs. 3.78–3.80).
+    solver_options : dict, optional
+        Keyword options of the solver (e.g. ``{"rcond": 1e-3}`` or
+        ``{"noise_level": 1e-4}`` for ``"tls"``).
+    tol : float
+        ``fit`` raises :class:`IllConditionedError` if a modal force is too small to
+        deconvolve: ``‖q_i‖ <= tol·‖F‖_F`` (default 1e-6; the load is orthogonal to a POM).
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+    povs_ : (k,) ndarray
+    pocs_ : (n, k) ndarray
+    kernel_ : (k, k, n) ndarray
+        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); diagonal for SL.
+    fit_residual_ : float
+        Relative residual of the deconvolutions, ``‖Q̌ c − v̂‖ / ‖v̂‖`` over all modes.
+    dt_ : float
+    n_modes_ : int
+    """
+
+    abbreviation = "SL"
+
+    def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
+                 tol=1e-6):
+        self.n_modes = n_modes
+        self.energy = energy
+        self.solver = solver
+        self.solver_options = solver_options
+        self.tol = tol
+
+    def fit(self, W, F, *, dt, basis=None) -> SingleLoad:
+        """Identify the diagonal kernel from one forced response that starts at rest.
+
+        Parameters
+        ----------
+        W : (m, n) array_like
+            Displacements (in).
+        F : (m, n) array_like
+            Forces at the same sensors and times (lbf).
+        dt : float
+            Sampling interval (s).
+        basis : (m, k) array_like, optional
+            Orthonormal basis to use instead of the POMs of ``W``.
+
+        Returns
+        -------
+        self
+        """
+        n_modes = check_n_modes(self.n_modes)
+        energy = check_energy(self.energy)
+        options = check_solver(self.solver, self.solver_options)
+        tol = check_tol(self.tol)
+        dt = check_dt(dt)
+        W = check_snapshots(W)
+        F = check_force(F, W, "F")
+        U, povs, pocs = select_basis(W, n_modes, basis, energy=energy)
+        k, n = U.shape[1], W.shape[1]
+        Vh = U.T @ W
+        Q = U.T @ F
+        scale = float(np.linalg.norm(F))
+        if scale == 0:
+            raise IllConditionedError("Parameter `F`: the force matrix is zero")
+        bad = modal_share_too_small(np.linalg.norm(Q, axis=1), scale, tol)
+        if np.any(bad):
+            raise IllConditionedError(
+                f"SL: the modal force of mode(s) {as_int_list(bad)} is too small to deconvolve "
+                f"(‖u_iᵀF‖ <= tol·‖F‖ = {tol * scale:.3g}, tol = {tol:g}): the load is "
+                "(nearly) orthogonal to the POM; use fewer modes or MultipleLoad"
+            )
+        kernel = np.zeros((k, k, n))
+        num = 0.0
+        for i in range(k):
+            A = convolution_matrix(Q[i], dt)
+            c = solve(A, Vh[i], self.solver, **options)
+            kernel[i, i] = c
+            num += float(np.sum((A @ c - Vh[i]) ** 2))
+        nv = np.linalg.norm(Vh)
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.kernel_ = kernel
+        self.fit_residual_ = float(np.sqrt(num) / nv) if nv > 0 else float(np.sqrt(num))
+        self.dt_ = dt
+        self.n_modes_ = k
+        return self
+
+    def predict(self, F_new) -> np.ndarray:
+        """Response to a new load (Eqs. 3.44–3.45).
+
+        Parameters
+        ----------
+        F_new : (m, n') array_like
+            Forces (lbf) with ``n' <= n`` samples, column 0 at ``t = 0``.
+
+        Returns
+        -------
+        (m, n') ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        m, k, n = self.modes_.shape[0], self.n_modes_, self.kernel_.shape[2]
+        F = check_new_force(F_new, m, n, "F_new")
+        q = self.modes_.T @ F
+        idx = np.arange(k)
+        v = convolve(self.kernel_[idx, idx], q, self.dt_)
+        return self.modes_ @ v
+
+
+class MultipleLoad(PODMethod):
+    """Multiple-load method (§3.3.2, Eqs. 3.46–3.49).
+
+    With the POMs ``U`` (``m × k``) of the first load case, every case ``j`` gives scaled POC
+    histories ``ʲV̂ = (Uᵀ ʲW)ᵀ`` (``n × k``, Eq. 3.46) and modal forces ``ʲq_i = u_iᵀ ʲF``
+    (Eq. 3.47). The full kernel ``C̄`` (``k·n × k``, Eq. 3.42) solves the block system
+
+        ``[¹V̂; ²V̂; …] = [ʲQ̌_i]_{j,i} C̄``   (Eq. 3.48, ``n_cases·n × k·n``),
+
+    and a new load is predicted by ``Ṽ = [Q̃̌_1 … Q̃̌_k] C̄`` (Eq. 3.49), computed here as a
+    fast convolution. No diagonal assumption: for a linear time-invariant system, ``k``
+    equal to the number of sensors and forces whose first sample is zero the prediction is
+    exact.
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        ``k``; default the number of load cases (or ``basis.shape[1]``). Must not exceed it;
+        more load cases than modes give an over-determined system (an extension).
+    solver : str
+        ``"ls"`` (default) or ``"tls"``, see :mod:`podbench.deconvolution`.
+    solver_options : dict, optional
+        Keyword options of the solver.
+    max_cond : float
+        ``fit`` raises :class:`IllConditionedError` if the load cases are (nearly)
+        linearly dependent: the condition number of the ``n_cases × k·n`` matrix whose row
+        ``j`` is the flattened modal-force history ``ʲq`` exceeds ``max_cond``
+        (default 1e10).
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+        POMs of the first load case.
+    povs_ : (k,) ndarray
+    pocs_ : (n, k) ndarray
+    kernel_ : (k, k, n) ndarray
+        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); ``kernel_[l, i] = c_li``.
+    Cbar_ : (k·n, k) ndarray
+        ``C̄`` of Eq. 3.42.
+    condition_number_ : float
+        Condition number of the load cases' modal-force histories (see ``max_cond``).
+    fit_residual_ : float
+        ``‖A C̄ − B‖ / ‖B‖`` of the block system.
+    dt_ : float
+    n_modes_ : int
+    """
+
+    abbreviation = "ML"
+
+    def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10):
+        self.n_modes = n_modes
+        self.solver = solver
+        self.solver_options = solver_options
+        self.max_cond = max_cond
+
+    def fit(self, W, F, *, dt, basis=None) -> MultipleLoad:
+        """Identify the full kernel ``C(t)`` from several forced responses that start at rest.
+
+        Parameters
+        ----------
+        W : sequence of (m, n) array_like
+            Displacements of each load case (in).
+        F : sequence of (m, n) array_like
+            Forces of each load case at the same sensors and times (lbf).
+        dt : float
+            Sampling interval (s).
+        basis : (m, k) array_like, optional
+            Orthonormal basis to use instead of the POMs of ``W[0]``.
+
+        Returns
+        -------
+        self
+        """
+        n_modes = check_n_modes(self.n_modes)
+        options = check_solver(self.solver, self.solver_options)
+        max_cond = check_max_cond(self.max_cond)
+        dt = check_dt(dt)
+        Ws = check_datasets(W)
+        Fs = check_forces(F, Ws)
+        n_sets = len(Ws)
+        n = Ws[0].shape[1]
+        if basis is not None:
+            U, povs, pocs = select_basis(Ws[0], n_modes, basis)
+            k = U.shape[1]
+        else:
+            k = n_sets if n_modes is None else n_modes
+        if k > n_sets:
+            raise InputError(
+                f"ML: fewer load cases ({n_sets}) than modes ({k}); C̄ has k²n unknowns and "
+                f"each load case adds only k·n equations (Eq. 3.48), so k = {k} cases are needed"
+            )
+        if basis is None:
+            U, povs, pocs = select_basis(Ws[0], k, None)
+        Qs = [U.T @ Fj for Fj in Fs]
+        L = np.stack([Qj.ravel() for Qj in Qs])  # n_sets × k·n
+        s = np.linalg.svd(L, compute_uv=False)
+        cond = float(s[0] / s[k - 1]) if s[k - 1] > 0 else np.inf
+        if not cond <= max_cond:
+            raise IllConditionedError(
+                f"ML: the load cases are (nearly) linearly dependent in the POM basis: "
+                f"condition number of their modal-force histories is {cond:.3g} > max_cond = "
+                f"{max_cond:g}; use linearly independent loads"
+            )
+        A = block_convolution_matrix(Qs, dt)
+        B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
+        Cbar = solve(A, B, self.solver, **options)
+        kernel = np.empty((k, k, n))
+        for i in range(k):
+            kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.Cbar_ = Cbar
+        self.kernel_ = kernel
+        self.condition_number_ = cond
+        self.fit_residual_ = _relative_residual(A, Cbar, B)
+        self.dt_ = dt
+        self.n_modes_ = k
+        return self
+
+    def predict(self, F_new) -> np.ndarray:
+        """Response to a new load (Eq. 3.49 and Eq. 3.45).
+
+        Parameters
+        ----------
+        F_new : (m, n') array_like
+            Forces (lbf) with ``n' <= n`` samples, column 0 at ``t = 0``.
+
+        Returns
+        -------
+        (m, n') ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        m, n = self.modes_.shape[0], self.kernel_.shape[2]
+        F = check_new_force(F_new, m, n, "F_new")
+        v = convolve_kernel(self.kernel_, self.modes_.T @ F, self.dt_)
+        return self.modes_ @ v
