@@ -1,0 +1,194 @@
+"""Euler–Bernoulli cantilever beams (dissertation §4.1): LTI, time-varying tip mass, cubic spring.
+
+Hermite-cubic elements with consistent mass, two DOFs per node: the vertical displacement
+``w`` (in) and the rotation ``θ`` (rad). The root node is clamped and removed, so a beam of
+``n`` elements has ``2 n`` DOFs ordered ``(w_1, θ_1, w_2, θ_2, …, w_n, θ_n)`` (node 1 is the
+first free node, node ``n`` the tip). Sensors read ``w`` at every node, root included
+(``sensor_dofs = -1`` there: the clamp reads zero), as in the dissertation's 25-point
+snapshot matrices.
+
+Units: inch, lbf, second; mass density in lbf·s²/in⁴ (:func:`density_from_lbm_per_ft3`
+converts the dissertation's lbm/ft³).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .._validation import check_positive
+from ..errors import InputError
+from .structure import CubicSpring, Structure, VariableMass
+
+__all__ = [
+    "G0_IN_PER_S2",
+    "density_from_lbm_per_ft3",
+    "beam_element_matrices",
+    "cantilever_beam",
+]
+
+#: Standard gravity 9.80665 m/s² in in/s² (= 9.80665 / 0.0254): 1 lbm = 1/G0 lbf·s²/in.
+G0_IN_PER_S2 = 9.80665 / 0.0254
+
+
+def density_from_lbm_per_ft3(rho_lbm_ft3: float) -> float:
+    """Mass density in lbf·s²/in⁴ from lbm/ft³: ``ρ = ρ_lbm / 1728 / g0``, g0 = 386.0886 in/s².
+
+    A weight density in lbf/ft³ (as §4.1 writes "500 lbf/ft³") gives the same number.
+    """
+    check_positive(rho_lbm_ft3, "rho_lbm_ft3")
+    return float(rho_lbm_ft3) / 1728.0 / G0_IN_PER_S2
+
+
+def beam_element_matrices(EI: float, rho_A: float, le: float) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness and consistent mass of a Hermite-cubic Euler–Bernoulli element.
+
+    Parameters
+    ----------
+    EI : float
+        Bending stiffness (lbf·in²).
+    rho_A : float
+        Mass per unit length (lbf·s²/in²).
+    le : float
+        Element length (in).
+
+    Returns
+    -------
+    ke, me : (4, 4) ndarray
+        In the local DOFs ``(w_i, θ_i, w_j, θ_j)`` (in, rad, in, rad): ``ke`` in lbf/in
+        (lbf·in/rad etc.), ``me`` in lbf·s²/in.
+    """
+    L = le
+    ke = EI / L**3 * np.array([
+        [12.0, 6 * L, -12.0, 6 * L],
+        [6 * L, 4 * L**2, -6 * L, 2 * L**2],
+        [-12.0, -6 * L, 12.0, -6 * L],
+        [6 * L, 2 * L**2, -6 * L, 4 * L**2],
+    ])
+    me = rho_A * L / 420.0 * np.array([
+        [156.0, 22 * L, 54.0, -13 * L],
+        [22 * L, 4 * L**2, 13 * L, -3 * L**2],
+        [54.0, 13 * L, 156.0, -22 * L],
+        [-13 * L, -3 * L**2, -22 * L, 4 * L**2],
+    ])
+    return ke, me
+
+
+def cantilever_beam(
+    *,
+    name: str = "cantilever_beam",
+    length: float = 24.0,
+    width: float = 1.0,
+    depth: float = 0.75,
+    E: float = 29.0e6,
+    density: float | None = None,
+    n_elements: int = 24,
+    tip_mass=None,
+    tip_k3: float | None = None,
+    tip_dashpot: float | None = None,
+    description: str = "",
+    source: str = "",
+) -> Structure:
+    """A clamped–free Euler–Bernoulli beam, optionally with tip mass, cubic spring, dashpot.
+
+    Defaults are the steel beam of §4.1: 24 × 1 × 0.75 in, E = 29e6 psi, 500 lbm/ft³,
+    24 elements, bending about the weak axis (``I = width·depth³/12``).
+
+    Parameters
+    ----------
+    name : str
+        Structure name.
+    length, width, depth : float
+        Length, width (out of the bending plane) and depth (in the bending plane), in.
+    E : float
+        Young's modulus, psi (lbf/in²).
+    density : float, optional
+        Mass density, lbf·s²/in⁴; default steel 500 lbm/ft³ (see
+        :func:`density_from_lbm_per_ft3`).
+    n_elements : int
+        Number of equal elements.
+    tip_mass : callable, optional
+        Time law ``m(t)`` (lbf·s²/in) of a point mass on the tip's ``w`` DOF that moves with
+        the tip (no ``ṁ v`` term), e.g. :class:`podbench.fem.laws.SineLaw`.
+    tip_k3 : float, optional
+        Coefficient (lbf/in³) of a grounded cubic spring ``g = k3 w_tip³`` at the tip.
+    tip_dashpot : float, optional
+        Grounded viscous dashpot (lbf·s/in) on the tip ``w`` DOF (the only damping).
+    description, source : str
+        Stored on the structure.
+
+    Returns
+    -------
+    Structure
+        ``2·n_elements`` DOFs and ``n_elements + 1`` sensors (``w`` at every node, the root
+        reading 0). ``metadata`` holds ``tip_dof``, ``tip_stiffness`` (3EI/L³, lbf/in),
+        ``beam_mass`` (ρAL, lbf·s²/in), ``EI``, ``rho_A``, ``length`` and ``density``.
+    """
+    length = check_positive(length, "length")
+    width = check_positive(width, "width")
+    depth = check_positive(depth, "depth")
+    E = check_positive(E, "E")
+    rho = density_from_lbm_per_ft3(500.0) if density is None else check_positive(
+        density, "density")
+    n = check_positive(n_elements, "n_elements", integer=True)
+
+    EI = E * width * depth**3 / 12.0
+    rho_A = rho * width * depth
+    ke, me = beam_element_matrices(EI, rho_A, length / n)
+
+    nd = 2 * (n + 1)  # before clamping
+    rows, cols, kv, mv = [], [], [], []
+    local_r, local_c = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    for e in range(n):
+        rows.append((2 * e + local_r).ravel())
+        cols.append((2 * e + local_c).ravel())
+        kv.append(ke.ravel())
+        mv.append(me.ravel())
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    K = sp.csr_matrix((np.concatenate(kv), (rows, cols)), shape=(nd, nd))[2:, 2:]
+    M = sp.csr_matrix((np.concatenate(mv), (rows, cols)), shape=(nd, nd))[2:, 2:]
+    # exact symmetry (summation order can leave 1-ulp differences)
+    K = ((K + K.T) * 0.5).tocsr()
+    M = ((M + M.T) * 0.5).tocsr()
+
+    tip = 2 * (n - 1)
+    n_dofs = 2 * n
+    C = None
+    if tip_dashpot is not None:
+        c = check_positive(tip_dashpot, "tip_dashpot", allow_zero=True)
+        C = sp.csr_matrix(([c], ([tip], [tip])), shape=(n_dofs, n_dofs))
+    variable_mass = None
+    if tip_mass is not None:
+        if not callable(tip_mass):
+            raise InputError(f"Parameter `tip_mass`: expected a callable m(t), got {tip_mass!r}")
+        variable_mass = VariableMass(
+            dof=tip, law=tip_mass,
+            description=f"tip point mass moving with the tip w DOF: {tip_mass}",
+        )
+    nonlinear = ()
+    if tip_k3 is not None:
+        nonlinear = (CubicSpring(dof=tip, k3=check_positive(tip_k3, "tip_k3", allow_zero=True)),)
+
+    x = np.linspace(0.0, length, n + 1)
+    sensor_dofs = np.concatenate([[-1], 2 * np.arange(n)]).astype(np.int64)
+    dof_labels = tuple(f"{q}@{x[i + 1]:g}in" for i in range(n) for q in ("w", "theta"))
+    sensor_labels = tuple(f"w@{xi:g}in" for xi in x)
+    metadata = {
+        "tip_dof": tip,
+        "tip_stiffness": 3.0 * EI / length**3,
+        "beam_mass": rho_A * length,
+        "EI": EI,
+        "rho_A": rho_A,
+        "length": length,
+        "density": rho,
+        "n_elements": n,
+    }
+    if tip_k3 is not None:
+        metadata["k3"] = float(tip_k3)
+    if tip_dashpot is not None:
+        metadata["tip_dashpot"] = float(tip_dashpot)
+    return Structure(
+        name=name, M=M, K=K, C=C, sensor_dofs=sensor_dofs, variable_mass=variable_mass,
+        nonlinear=nonlinear, sensor_positions=x, sensor_labels=sensor_labels,
+        dof_labels=dof_labels, description=description, source=source, metadata=metadata,
+    )

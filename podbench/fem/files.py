@@ -1,0 +1,398 @@
+"""Declarative structure files: ``structures/<name>.toml`` → :class:`Structure`.
+
+A structure file is a TOML document with four common top-level fields and the tables of its
+``kind``::
+
+    # Units: inch, lbf, second (mass lbf·s²/in, stiffness lbf/in)
+    name = "lti_beam"                # must equal the file's stem
+    kind = "cantilever_beam"         # which builder (see KINDS)
+    units = "inch, lbf, second"      # the only system podbench works in; checked
+    description = "..."              # the model, its source section, every choice made
+
+    [beam]
+    ...
+
+Kinds (see ``docs/structures.md`` for every field):
+
+``cantilever_beam``  §4.1 beams: ``[beam]``, optional ``[tip_mass]``, ``[tip_spring]``,
+                     ``[tip_dashpot]`` (:func:`podbench.fem.beam.cantilever_beam`)
+``satellite_truss``  §4.2 truss: ``[truss]`` with ``[truss.longeron|batten|diagonal]``,
+                     optional ``[fracture]`` (:func:`podbench.fem.truss.satellite_truss`)
+``chain``            spring–mass chain: ``[chain]``, optional ``[damping]``
+                     (:func:`podbench.fem.chain.chain`)
+``matrices``         a user's own M, K (C) from .npz/.mat/.mtx/.npy files: ``[matrices]``
+``python``           ``builder = "module:function"`` (optional ``path = "file.py"`` relative
+                     to the structure file) called with ``[parameters]`` as keyword arguments
+
+Every malformed file raises one :class:`~podbench.errors.StructureFileError` naming the file
+and the field; unknown fields are rejected. Nothing is unpickled.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import inspect
+import os
+import sys
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from types import MappingProxyType
+
+from ..errors import InputError, StructureFileError, UnknownNameError
+from ._spec import Table
+from .beam import cantilever_beam, density_from_lbm_per_ft3
+from .laws import ConstantLaw, LinearLaw, SineLaw
+from .structure import Structure
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = [
+    "UNITS",
+    "KINDS",
+    "SpecContext",
+    "register_kind",
+    "structure_dirs",
+    "list_structures",
+    "find_structure",
+    "load_structure",
+    "build_structure",
+]
+
+#: The unit system every structure file must declare (``units = "inch, lbf, second"``).
+UNITS = "inch, lbf, second"
+
+_ENV = "PODBENCH_STRUCTURES"
+_DEFAULT_DIR = Path(__file__).resolve().parents[2] / "structures"
+
+
+@dataclass(frozen=True)
+class SpecContext:
+    """What a kind's parser knows besides its tables.
+
+    ``file`` is the name shown in messages, ``base_dir`` the folder relative paths in the file
+    refer to, ``name``/``description``/``source`` the common top-level fields.
+    """
+
+    file: str
+    base_dir: Path
+    name: str
+    description: str
+    source: str
+
+
+_Parser = Callable[[Table, SpecContext], Structure]
+_KINDS: dict[str, _Parser] = {}
+#: Read-only view of the registered kinds (kind name → parser).
+KINDS: Mapping[str, _Parser] = MappingProxyType(_KINDS)
+
+
+def register_kind(kind: str, parser: _Parser | None = None, *, replace_existing=False):
+    """Register ``parser(top: Table, ctx: SpecContext) -> Structure`` for ``kind``.
+
+    Usable as a decorator. The parser reads its own tables from ``top`` (the top-level
+    :class:`~podbench.fem._spec.Table`; ``name``, ``kind``, ``units`` and ``description`` are
+    already read) and must read every field it accepts: the loader rejects the rest.
+    """
+
+    def deco(func):
+        if kind in _KINDS and not replace_existing:
+            raise InputError(f"Parameter `kind`: {kind!r} is already registered")
+        _KINDS[kind] = func
+        return func
+
+    return deco(parser) if parser is not None else deco
+
+
+# ---------------------------------------------------------------------------- locating files
+def structure_dirs(search_path=None) -> list[Path]:
+    """Folders searched for structure names, in order.
+
+    ``search_path`` (a folder or a list of folders), then the folders of the environment
+    variable ``PODBENCH_STRUCTURES`` (``os.pathsep``-separated), then the repository's
+    ``structures/`` folder (next to the ``podbench`` package) if it exists.
+    """
+    dirs: list[Path] = []
+    if search_path is not None:
+        if isinstance(search_path, (str, os.PathLike)):
+            search_path = [search_path]
+        dirs += [Path(p) for p in search_path]
+    env = os.environ.get(_ENV, "")
+    dirs += [Path(p) for p in env.split(os.pathsep) if p]
+    if _DEFAULT_DIR.is_dir():
+        dirs.append(_DEFAULT_DIR)
+    seen, out = set(), []
+    for d in dirs:
+        key = d.resolve()
+        if key not in seen:
+            seen.add(key)
+            out.append(d)
+    return out
+
+
+def list_structures(search_path=None) -> list[str]:
+    """Names of the structure files found (``sub/name`` for files in sub-folders), sorted."""
+    names = set()
+    for d in structure_dirs(search_path):
+        if d.is_dir():
+            for p in d.rglob("*.toml"):
+                names.add(p.relative_to(d).with_suffix("").as_posix())
+    return sorted(names)
+
+
+def _is_path(name_or_path) -> bool:
+    if isinstance(name_or_path, os.PathLike):
+        return True
+    s = str(name_or_path)
+    return s.endswith(".toml") or os.path.isfile(s)
+
+
+def find_structure(name_or_path, *, search_path=None) -> Path:
+    """The file of a structure name (or the given path, checked to exist)."""
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise InputError(
+            f"Parameter `name_or_path`: expected a structure name or a path, got {name_or_path!r}"
+        )
+    if _is_path(name_or_path):
+        p = Path(name_or_path)
+        if not p.is_file():
+            raise StructureFileError(f"{p}: no such structure file")
+        return p
+    name = str(name_or_path)
+    for d in structure_dirs(search_path):
+        p = d / f"{name}.toml"
+        if p.is_file():
+            return p
+    available = list_structures(search_path)
+    where = ", ".join(str(d) for d in structure_dirs(search_path)) or "no folder"
+    raise UnknownNameError(
+        f"Unknown structure {name!r} (searched {where}); available: "
+        f"{', '.join(available) if available else 'none'}"
+    )
+
+
+def _display(path: Path) -> str:
+    try:
+        rel = os.path.relpath(path)
+    except ValueError:  # pragma: no cover - different drive on Windows
+        return str(path)
+    return str(path) if rel.startswith("..") else rel
+
+
+def load_structure(name_or_path, *, search_path=None) -> Structure:
+    """Build the structure of a file, given its name (``"lti_beam"``) or its path.
+
+    Parameters
+    ----------
+    name_or_path : str or path-like
+        A bare name (looked up as ``<dir>/<name>.toml`` in :func:`structure_dirs`; names of
+        files in sub-folders read ``"examples/my_builder"``) or the path of a ``.toml`` file.
+    search_path : path or list of paths, optional
+        Folders searched before ``PODBENCH_STRUCTURES`` and the repository's ``structures/``.
+
+    Raises
+    ------
+    UnknownNameError
+        No file of that name (the message lists the available names).
+    StructureFileError
+        A malformed file (the message names the file and the field).
+    """
+    path = find_structure(name_or_path, search_path=search_path)
+    shown = _display(path)
+    try:
+        with open(path, "rb") as fh:
+            spec = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise StructureFileError(f"{shown}: TOML syntax error: {exc}") from None
+    except UnicodeDecodeError as exc:  # pragma: no cover - tomllib reports most of these
+        raise StructureFileError(f"{shown}: not UTF-8 text ({exc})") from None
+    return build_structure(spec, source=str(path))
+
+
+def build_structure(spec: dict, *, source: str = "") -> Structure:
+    """Build a :class:`Structure` from an already-parsed structure-file dictionary.
+
+    Parameters
+    ----------
+    spec : dict
+        The parsed TOML document.
+    source : str
+        Path of the file it came from: names the file in messages, anchors relative paths
+        (``matrices`` files, ``python`` builders) and must have the stem ``spec["name"]``.
+        ``""`` for a spec built in code (relative paths then refer to the working folder).
+    """
+    if source:
+        src = Path(source)
+        shown, base_dir = _display(src), src.resolve().parent
+    else:
+        shown, base_dir = "<structure spec>", Path.cwd()
+    top = Table(spec, file=shown)
+    name = top.string("name")
+    if source and name != Path(source).stem:
+        top.fail("name", f'"{name}" does not match the file name "{Path(source).name}"')
+    kind = top.string("kind")
+    if kind not in _KINDS:
+        top.fail("kind", f'unknown kind "{kind}"; known kinds: {", ".join(sorted(_KINDS))}')
+    units = top.string("units")
+    if " ".join(units.lower().replace(",", " ").split()) != "inch lbf second":
+        top.fail("units", f'expected "{UNITS}" (podbench works in inch, lbf, second; convert '
+                          f'the model), got "{units}"')
+    description = top.string("description")
+    ctx = SpecContext(file=shown, base_dir=base_dir, name=name, description=description.strip(),
+                      source=str(source))
+    try:
+        structure = _KINDS[kind](top, ctx)
+    except StructureFileError:
+        raise
+    except InputError as exc:
+        raise StructureFileError(f"{shown}: {exc}") from exc
+    top.close()
+    meta = dict(structure.metadata)
+    meta.setdefault("units", UNITS)
+    meta.setdefault("kind", kind)
+    return replace(structure, name=name, description=ctx.description, source=ctx.source,
+                   metadata=meta)
+
+
+# ---------------------------------------------------------------------------- shared readers
+def _density(t: Table) -> float:
+    """``density`` (lbf·s²/in⁴) or ``density_lbm_per_ft3`` (converted with g0 = 386.0886)."""
+    key = t.exclusive("density", "density_lbm_per_ft3")
+    if key == "density":
+        return t.number("density", positive=True)
+    return density_from_lbm_per_ft3(t.number("density_lbm_per_ft3", positive=True))
+
+
+# ---------------------------------------------------------------------------- cantilever_beam
+@register_kind("cantilever_beam")
+def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
+    b = top.table("beam", required=True)
+    kw = dict(
+        length=b.number("length", positive=True),
+        width=b.number("width", positive=True),
+        depth=b.number("depth", positive=True),
+        E=b.number("E", positive=True),
+        density=_density(b),
+        n_elements=b.integer("n_elements", positive=True),
+    )
+    b.close()
+    EI = kw["E"] * kw["width"] * kw["depth"] ** 3 / 12.0
+    k_tip = 3.0 * EI / kw["length"] ** 3
+    beam_mass = kw["density"] * kw["width"] * kw["depth"] * kw["length"]
+
+    tm = top.table("tip_mass")
+    if tm is not None:
+        law = tm.string("law", choices=("constant", "sine", "linear"))
+        scale = tm.string("scale", "absolute", choices=("absolute", "beam_mass"))
+        f = beam_mass if scale == "beam_mass" else 1.0
+        if law == "constant":
+            kw["tip_mass"] = ConstantLaw(f * tm.number("value", nonnegative=True))
+        elif law == "sine":
+            mean = tm.number("mean", nonnegative=True)
+            amp = tm.number("amplitude")
+            if abs(amp) > mean:
+                tm.fail("amplitude", f"|amplitude| = {abs(amp)!r} exceeds mean = {mean!r}: "
+                                     "the mass would become negative")
+            kw["tip_mass"] = SineLaw(f * mean, f * amp, tm.number("period", positive=True),
+                                     tm.number("phase", 0.0))
+        else:
+            kw["tip_mass"] = LinearLaw(f * tm.number("initial", nonnegative=True),
+                                       f * tm.number("final", nonnegative=True),
+                                       tm.number("duration", positive=True))
+        tm.close()
+
+    ts = top.table("tip_spring")
+    if ts is not None:
+        key = ts.exclusive("k3", "k3_match_linear_at")
+        if key == "k3":
+            kw["tip_k3"] = ts.number("k3", nonnegative=True)
+        else:
+            # cubic force k3 w³ equals the linear tip-stiffness force (3EI/L³) w at w = w_ref
+            w_ref = ts.number("k3_match_linear_at", positive=True)
+            kw["tip_k3"] = k_tip / w_ref**2
+        ts.close()
+
+    td = top.table("tip_dashpot")
+    if td is not None:
+        kw["tip_dashpot"] = td.number("c", nonnegative=True)
+        td.close()
+    return cantilever_beam(name=ctx.name, **kw)
+
+
+# ---------------------------------------------------------------------------- python
+_RESULT_KEYS = ("M", "K", "C", "sensor_dofs", "sensor_positions", "sensor_labels",
+                "dof_labels", "metadata")
+
+
+@register_kind("python")
+def _python(top: Table, ctx: SpecContext) -> Structure:
+    target = top.string("builder")
+    if target.count(":") != 1 or not all(target.split(":")):
+        top.fail("builder", f'expected "module:function", got "{target}"')
+    module_name, func_name = target.split(":")
+    rel = top.string("path", None)
+    params = top.table("parameters")
+    kwargs = dict(params.data) if params is not None else {}
+    if params is not None:
+        params._used.update(kwargs)  # the builder's signature checks them below
+
+    if rel is not None:
+        file = (ctx.base_dir / rel).resolve()
+        if not file.is_file():
+            top.fail("path", f'no such file "{file}"')
+        unique = f"podbench_user_builder_{abs(hash(str(file))):x}_{module_name.replace('.', '_')}"
+        module_spec = importlib.util.spec_from_file_location(unique, file)
+        if module_spec is None or module_spec.loader is None:
+            top.fail("path", f'cannot import "{file}" as a Python module')
+        module = importlib.util.module_from_spec(module_spec)
+        sys.modules[unique] = module
+        try:
+            module_spec.loader.exec_module(module)
+        except Exception as exc:
+            sys.modules.pop(unique, None)
+            top.fail("path", f'importing "{file}" failed: {type(exc).__name__}: {exc}')
+    else:
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as exc:
+            top.fail("builder", f'cannot import module "{module_name}" ({exc}); give `path` '
+                                "to load a file next to the structure file")
+    func = getattr(module, func_name, None)
+    if not callable(func):
+        top.fail("builder", f'module "{module_name}" has no function "{func_name}"')
+    try:
+        inspect.signature(func).bind(**kwargs)
+    except TypeError as exc:
+        top.fail("parameters", f"do not match {target}: {exc}")
+    except ValueError:  # pragma: no cover - builtins without a signature
+        pass
+    try:
+        result = func(**kwargs)
+    except InputError:
+        raise
+    except Exception as exc:
+        top.fail("builder", f"{target} raised {type(exc).__name__}: {exc}")
+
+    if isinstance(result, Structure):
+        return result
+    if not isinstance(result, Mapping):
+        top.fail("builder", f"{target} must return a Structure or a dict with M, K (and "
+                            f"optionally C, sensor_dofs, ...), got {type(result).__name__}")
+    unknown = [k for k in result if k not in _RESULT_KEYS]
+    if unknown:
+        top.fail("builder", f"{target} returned unknown key {unknown[0]!r} (allowed: "
+                            f"{', '.join(_RESULT_KEYS)})")
+    for k in ("M", "K"):
+        if k not in result:
+            top.fail("builder", f"{target} returned no {k!r}")
+    from .matrices import from_matrices
+
+    kw = {k: result[k] for k in _RESULT_KEYS if k in result}
+    kw.setdefault("sensor_dofs", "all")
+    kw["where"] = f"{target} returned"
+    return from_matrices(name=ctx.name, **kw)
+

@@ -1,0 +1,141 @@
+"""Loading structure files: lookup, registry, and one clear error per malformed file."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from podbench.errors import StructureFileError, UnknownNameError
+from podbench.fem import build_structure, list_structures, load_structure
+from podbench.fem.files import KINDS, structure_dirs
+
+REPO_STRUCTURES = Path(__file__).resolve().parents[2] / "structures"
+
+BEAM = """\
+# Units: inch, lbf, second
+name = "{name}"
+kind = "cantilever_beam"
+units = "inch, lbf, second"
+description = "test beam"
+
+[beam]
+length = 24.0
+width = 1.0
+depth = 0.75
+E = 29.0e6
+density_lbm_per_ft3 = 500.0
+n_elements = {n}
+"""
+
+
+def write(tmp_path, text, name="foo"):
+    p = tmp_path / f"{name}.toml"
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_shipped_files_are_listed_and_load():
+    names = list_structures()
+    for n in ("lti_beam", "ltv_beam", "nl_beam"):
+        assert n in names
+        s = load_structure(n)
+        assert s.name == n and Path(s.source) == REPO_STRUCTURES / f"{n}.toml"
+        assert s.metadata["units"] == "inch, lbf, second"
+        assert "0.0238" in s.description or n != "lti_beam"
+
+
+def test_every_shipped_file_states_units_at_the_top():
+    for p in REPO_STRUCTURES.rglob("*.toml"):
+        first = p.read_text(encoding="utf-8").splitlines()[0]
+        assert first.startswith("# Units: inch, lbf, second"), p
+
+
+def test_path_and_search_path_and_env(tmp_path, monkeypatch):
+    p = write(tmp_path, BEAM.format(name="mybeam", n=4), name="mybeam")
+    assert load_structure(p).n_dofs == 8
+    assert load_structure(str(p)).n_dofs == 8
+    assert load_structure("mybeam", search_path=[tmp_path]).n_dofs == 8
+    assert "mybeam" in list_structures(search_path=tmp_path)
+    with pytest.raises(UnknownNameError, match="mybeam"):
+        load_structure("mybeam")
+    monkeypatch.setenv("PODBENCH_STRUCTURES", str(tmp_path))
+    assert structure_dirs()[0] == tmp_path
+    assert load_structure("mybeam").n_dofs == 8
+
+
+def test_unknown_name_lists_available():
+    with pytest.raises(UnknownNameError, match=r"no_such_beam.*available:.*lti_beam"):
+        load_structure("no_such_beam")
+
+
+def test_build_from_dict_matches_file():
+    import tomllib
+
+    p = REPO_STRUCTURES / "lti_beam.toml"
+    spec = tomllib.loads(p.read_text(encoding="utf-8"))
+    a = build_structure(spec)
+    b = load_structure("lti_beam")
+    np.testing.assert_array_equal(a.K.toarray(), b.K.toarray())
+    assert a.source == "" and a.name == "lti_beam"
+
+
+def test_registry_has_all_kinds():
+    assert {"cantilever_beam", "python"} <= set(KINDS)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        (BEAM.format(name="foo", n=-3),
+         r"foo\.toml: field `beam\.n_elements`: expected a positive integer, got -3$"),
+        (BEAM.format(name="foo", n='"24"'),
+         r"field `beam\.n_elements`: expected a positive integer, got \"24\" \(string\)"),
+        (BEAM.format(name="foo", n=2.5),
+         r"field `beam\.n_elements`: expected a positive integer, got 2\.5 \(float\)"),
+        (BEAM.format(name="foo", n=24).replace("length", "lenght"),
+         r"field `beam\.length`: missing .*; is `beam\.lenght` a misspelling\?"),
+        (BEAM.format(name="foo", n=24) + "lenght = 3.0\n",
+         r"field `beam\.lenght`: unknown field; did you mean `length`\?"),
+        (BEAM.format(name="foo", n=24).replace("length = 24.0\n", ""),
+         r"field `beam\.length`: missing"),
+        (BEAM.format(name="foo", n=24) + "colour = 'red'\n",
+         r"field `beam\.colour`: unknown field"),
+        (BEAM.format(name="foo", n=24).replace('description = "test beam"',
+                                               'description = "x"\nextra = 1'),
+         r"field `extra`: unknown field"),
+        (BEAM.format(name="foo", n=24).replace('"cantilever_beam"', '"cantilever"'),
+         r'field `kind`: unknown kind "cantilever"; known kinds: .*cantilever_beam'),
+        (BEAM.format(name="foo", n=24).replace('"inch, lbf, second"', '"m, N, s"'),
+         r'field `units`: expected "inch, lbf, second"'),
+        (BEAM.format(name="bar", n=24),
+         r'field `name`: "bar" does not match the file name "foo\.toml"'),
+        (BEAM.format(name="foo", n=24).replace("E = 29.0e6", "E = -1.0"),
+         r"field `beam\.E`: expected a positive number, got -1\.0"),
+        (BEAM.format(name="foo", n=24).replace("E = 29.0e6", "E = nan"),
+         r"field `beam\.E`: expected a finite positive number"),
+        (BEAM.format(name="foo", n=24) + "density = 7e-4\n",
+         r"field `beam\.density_lbm_per_ft3`: give only one of"),
+        (BEAM.format(name="foo", n=24).replace("[beam]", "beam = 3\n[beem]"),
+         r"field `beam`: expected a table"),
+        (BEAM.format(name="foo", n=24).replace("n_elements =", "n_elements"),
+         r"foo\.toml: TOML syntax error: .*line 13"),
+        (BEAM.format(name="foo", n=24) + "[tip_mass]\nlaw = 'sine'\nmean = 1.0\namplitude = 2.0"
+         "\nperiod = 0.05\n",
+         r"field `tip_mass\.amplitude`: \|amplitude\| = 2\.0 exceeds mean"),
+        (BEAM.format(name="foo", n=24) + "[tip_mass]\nlaw = 'constant'\nvalue = 1.0"
+         "\nperiod = 0.05\n",
+         r"field `tip_mass\.period`: unknown field"),
+        (BEAM.format(name="foo", n=24) + "[tip_mass]\nlaw = 'cubic'\n",
+         r"field `tip_mass\.law`: expected one of 'constant', 'sine', 'linear'"),
+        (BEAM.format(name="foo", n=24) + "[tip_spring]\n",
+         r"field `tip_spring\.k3`: missing: give one of"),
+    ],
+)
+def test_malformed_beam_files(tmp_path, text, match):
+    with pytest.raises(StructureFileError, match=match):
+        load_structure(write(tmp_path, text))
+
+
+def test_missing_file_is_named(tmp_path):
+    with pytest.raises(StructureFileError, match="nope.toml: no such structure file"):
+        load_structure(tmp_path / "nope.toml")
