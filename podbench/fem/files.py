@@ -323,6 +323,48 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
     return cantilever_beam(name=ctx.name, **kw)
 
 
+# ---------------------------------------------------------------------------- satellite_truss
+def _tube(t: Table, key: str):
+    from .truss import TubeSection
+
+    sub = t.table(key, required=True)
+    D = sub.number("outer_diameter", positive=True)
+    th = sub.number("thickness", positive=True)
+    if 2 * th > D:
+        sub.fail("thickness", f"{th!r} in exceeds half the outer diameter {D!r} in")
+    sub.close()
+    return TubeSection(D, th)
+
+
+@register_kind("satellite_truss")
+def _satellite_truss(top: Table, ctx: SpecContext) -> Structure:
+    from .truss import satellite_truss
+
+    t = top.table("truss", required=True)
+    kw = dict(
+        n_elements=t.integer("n_elements", positive=True),
+        bay_length=t.number("bay_length", positive=True),
+        side=t.number("side", positive=True),
+        E=t.number("E", positive=True),
+        density=_density(t),
+        diagonal_pattern=t.string("diagonal_pattern", "mirrored",
+                                  choices=("mirrored", "parallel")),
+        supports=t.string("supports", "pinned", choices=("pinned", "free")),
+        longeron=_tube(t, "longeron"),
+        batten=_tube(t, "batten"),
+        diagonal=_tube(t, "diagonal"),
+    )
+    t.close()
+    fr = top.table("fracture")
+    kw["fracture_element"] = None
+    if fr is not None:
+        kw["fracture_element"] = fr.integer("element", positive=True,
+                                            maximum=kw["n_elements"])
+        kw["fracture_time"] = fr.number("time", nonnegative=True)
+        fr.close()
+    return satellite_truss(name=ctx.name, **kw)
+
+
 # ---------------------------------------------------------------------------- python
 _RESULT_KEYS = ("M", "K", "C", "sensor_dofs", "sensor_positions", "sensor_labels",
                 "dof_labels", "metadata")

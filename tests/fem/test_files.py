@@ -80,7 +80,7 @@ def test_build_from_dict_matches_file():
 
 
 def test_registry_has_all_kinds():
-    assert {"cantilever_beam", "python"} <= set(KINDS)
+    assert {"cantilever_beam", "satellite_truss", "python"} <= set(KINDS)
 
 
 @pytest.mark.parametrize(
