@@ -5,10 +5,12 @@ Structures are usually loaded from declarative files: ``load_structure("lti_beam
 """
 
 from .beam import beam_element_matrices, cantilever_beam, density_from_lbm_per_ft3
+from .chain import chain
 from .files import build_structure, list_structures, load_structure, register_kind
 from .laws import ConstantLaw, LinearLaw, SineLaw
 from .matrices import from_matrices, read_matrix
 from .structure import CubicSpring, NonlinearElement, StiffnessEvent, Structure, VariableMass
+from .truss import TubeSection, face_dof, satellite_truss, truss_dof
 
 __all__ = [
     "Structure",
@@ -26,6 +28,11 @@ __all__ = [
     "cantilever_beam",
     "beam_element_matrices",
     "density_from_lbm_per_ft3",
+    "chain",
+    "satellite_truss",
+    "TubeSection",
+    "truss_dof",
+    "face_dof",
     "from_matrices",
     "read_matrix",
 ]

@@ -235,14 +235,16 @@ class Table:
         """Check that exactly one (at most one if not ``required``) of ``keys`` is present."""
         present = [k for k in keys if k in self.data]
         if len(present) > 1:
-            self.fail(present[1], f"give only one of {', '.join(map(self.field, keys))}")
+            self.fail(present[1], f"give only one of {self._names(keys)}")
         if not present:
             if required:
                 hint = "".join(self._typo_hint(k) for k in keys)[:120]
-                self.fail(keys[0],
-                          f"missing: give one of {', '.join(map(self.field, keys))}{hint}")
+                self.fail(keys[0], f"missing: give one of {self._names(keys)}{hint}")
             return None
         return present[0]
+
+    def _names(self, keys) -> str:
+        return ", ".join(f"`{self.field(k)}`" for k in keys)
 
     def close(self) -> None:
         """Reject the fields that were never read (unknown or misspelt)."""

@@ -41,7 +41,7 @@ from pathlib import Path
 from types import MappingProxyType
 
 from ..errors import InputError, StructureFileError, UnknownNameError
-from ._spec import Table
+from ._spec import Table, fail
 from .beam import cantilever_beam, density_from_lbm_per_ft3
 from .laws import ConstantLaw, LinearLaw, SineLaw
 from .structure import Structure
@@ -365,6 +365,132 @@ def _satellite_truss(top: Table, ctx: SpecContext) -> Structure:
     return satellite_truss(name=ctx.name, **kw)
 
 
+# ---------------------------------------------------------------------------- chain
+@register_kind("chain")
+def _chain(top: Table, ctx: SpecContext) -> Structure:
+    from .chain import chain
+
+    c = top.table("chain", required=True)
+    n = c.integer("n", positive=True)
+    boundary = c.string("boundary", "fixed-free", choices=("fixed-free", "fixed-fixed"))
+    masses = c.numbers("masses", positive=True, scalar_ok=True)
+    if isinstance(masses, list) and len(masses) != n:
+        c.fail("masses", f"expected {n} values (one per mass, n = {n}), got {len(masses)}")
+    springs = c.numbers("springs", positive=True, scalar_ok=True)
+    n_springs = n if boundary == "fixed-free" else n + 1
+    if isinstance(springs, list) and len(springs) != n_springs:
+        c.fail("springs", f"expected {n_springs} values (a {boundary} chain of n = {n} "
+                          f"masses), got {len(springs)}")
+    mu = c.number("mass_coupling", 0.0)
+    if not abs(mu) < 0.5:
+        c.fail("mass_coupling", f"expected |μ| < 0.5 (keeps M positive definite), got {mu!r}")
+    c.close()
+    kw = dict(masses=masses, springs=springs, mass_coupling=mu, boundary=boundary)
+
+    d = top.table("damping")
+    if d is not None:
+        kind = d.string("type", choices=("none", "rayleigh", "dashpots"))
+        if kind == "rayleigh":
+            kw["rayleigh"] = (d.number("alpha", nonnegative=True),
+                              d.number("beta", nonnegative=True))
+        elif kind == "dashpots":
+            pots = []
+            for t in d.tables("dashpots"):
+                dofs = t.integers("dofs", minimum=0)
+                if len(dofs) not in (1, 2) or (len(dofs) == 2 and dofs[0] == dofs[1]):
+                    t.fail("dofs", f"expected [i] (grounded) or [i, j] (i != j), got {dofs}")
+                if max(dofs) >= n:
+                    t.fail("dofs", f"DOF {max(dofs)} outside [0, {n - 1}] (n = {n})")
+                pots.append((*dofs, t.number("c", nonnegative=True)))
+                t.close()
+            if not pots:
+                d.fail("dashpots", "expected at least one dashpot")
+            kw["dashpots"] = pots
+        d.close()
+    return chain(n, name=ctx.name, **kw)
+
+
+# ---------------------------------------------------------------------------- matrices
+@register_kind("matrices")
+def _matrices(top: Table, ctx: SpecContext) -> Structure:
+    from .matrices import from_matrices, read_arrays, read_matrix
+
+    t = top.table("matrices", required=True)
+    form = t.exclusive("file", "M")
+    rtol = t.number("symmetry_rtol", 1e-10, positive=True)
+
+    def resolve(key):
+        rel = t.string(key)
+        path = (ctx.base_dir / rel).resolve()
+        if not path.is_file():
+            t.fail(key, f'no such file "{path}"')
+        return rel, path
+
+    mats = {}
+    if form == "file":
+        rel, path = resolve("file")
+        if path.suffix.lower() not in (".npz", ".mat"):
+            t.fail("file", f'expected a .npz or .mat file holding M, K (and C), got "{rel}"')
+        try:
+            arrays = read_arrays(path)
+        except InputError as exc:
+            t.fail("file", str(exc))
+        for key in arrays:
+            if key not in ("M", "K", "C"):
+                t.fail("file", f'"{rel}" holds an unexpected array "{key}" (expected M, K '
+                               "and optionally C)")
+        for key in ("M", "K"):
+            if key not in arrays:
+                t.fail("file", f'"{rel}" holds no matrix "{key}" (it holds {sorted(arrays)})')
+        mats = {k: (f"field `{t.field('file')}`: matrix {k} in \"{rel}\"", rel, arrays[k])
+                for k in arrays}
+    else:
+        for key in ("M", "K", "C"):
+            if key == "C" and not t.has("C"):
+                continue
+            rel, path = resolve(key)
+            try:
+                mats[key] = (f"field `{t.field(key)}` (\"{rel}\")", rel, read_matrix(path))
+            except InputError as exc:
+                t.fail(key, str(exc))
+
+    sd = t.raw("sensor_dofs")
+    if isinstance(sd, str):
+        if sd != "all":
+            t.fail("sensor_dofs", f'expected "all" or an array of DOF indices, got "{sd}"')
+    else:
+        sd = t.integers("sensor_dofs", minimum=-1)
+    labels = t.strings("dof_labels", ())
+    positions = t.numbers("sensor_positions", None)
+    t.close()
+
+    from .matrices import check_matrix
+
+    checked = {}
+    for key in ("M", "K", "C"):
+        if key in mats:
+            where, _, A = mats[key]
+            n = checked["M"].shape[0] if key != "M" else None
+            try:
+                checked[key] = check_matrix(A, where, n=n, symmetry_rtol=rtol,
+                                            positive_definite=(key == "M"))
+            except InputError as exc:
+                fail(ctx.file, None, str(exc))
+    n = checked["M"].shape[0]
+    if not isinstance(sd, str) and max(sd) >= n:
+        t.fail("sensor_dofs", f"DOF {max(sd)} outside [-1, {n - 1}] (M is {n} x {n})")
+    if labels and len(labels) != n:
+        t.fail("dof_labels", f"expected {n} labels (M is {n} x {n}), got {len(labels)}")
+    n_sensors = n if isinstance(sd, str) else len(sd)
+    if positions is not None and len(positions) != n_sensors:
+        t.fail("sensor_positions", f"expected {n_sensors} values (one per sensor), got "
+                                   f"{len(positions)}")
+    files = {k: mats[k][1] for k in mats}
+    return from_matrices(name=ctx.name, M=checked["M"], K=checked["K"], C=checked.get("C"),
+                         sensor_dofs=sd, dof_labels=labels, sensor_positions=positions,
+                         symmetry_rtol=rtol, metadata={"matrix_sources": files})
+
+
 # ---------------------------------------------------------------------------- python
 _RESULT_KEYS = ("M", "K", "C", "sensor_dofs", "sensor_positions", "sensor_labels",
                 "dof_labels", "metadata")
@@ -407,11 +533,21 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
     if not callable(func):
         top.fail("builder", f'module "{module_name}" has no function "{func_name}"')
     try:
-        inspect.signature(func).bind(**kwargs)
-    except TypeError as exc:
-        top.fail("parameters", f"do not match {target}: {exc}")
-    except ValueError:  # pragma: no cover - builtins without a signature
-        pass
+        sig = inspect.signature(func)
+    except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
+        sig = None
+    if sig is not None:
+        accepted = [p.name for p in sig.parameters.values()
+                    if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        if not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
+            for key in kwargs:
+                if key not in accepted:
+                    params.fail(key, f"not a parameter of {target} (its parameters: "
+                                     f"{', '.join(accepted) or 'none'})")
+        try:
+            sig.bind(**kwargs)
+        except TypeError as exc:
+            top.fail("parameters", f"do not match {target}: {exc}")
     try:
         result = func(**kwargs)
     except InputError:

@@ -80,7 +80,7 @@ def test_build_from_dict_matches_file():
 
 
 def test_registry_has_all_kinds():
-    assert {"cantilever_beam", "satellite_truss", "python"} <= set(KINDS)
+    assert {"cantilever_beam", "satellite_truss", "chain", "matrices", "python"} <= set(KINDS)
 
 
 @pytest.mark.parametrize(
@@ -139,3 +139,70 @@ def test_malformed_beam_files(tmp_path, text, match):
 def test_missing_file_is_named(tmp_path):
     with pytest.raises(StructureFileError, match="nope.toml: no such structure file"):
         load_structure(tmp_path / "nope.toml")
+
+
+CHAIN = """\
+# Units: inch, lbf, second
+name = "foo"
+kind = "chain"
+units = "inch, lbf, second"
+description = "test chain"
+
+[chain]
+n = 3
+{body}
+"""
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [
+        ("masses = [1.0, 2.0]\nsprings = 1.0",
+         r"field `chain\.masses`: expected 3 values \(one per mass, n = 3\), got 2"),
+        ("masses = 1.0\nsprings = [1.0, 2.0, 3.0]\nboundary = 'fixed-fixed'",
+         r"field `chain\.springs`: expected 4 values \(a fixed-fixed chain of n = 3"),
+        ("masses = [1.0, -2.0, 1.0]\nsprings = 1.0",
+         r"field `chain\.masses\[1\]`: expected a positive number, got -2\.0"),
+        ("masses = 'heavy'\nsprings = 1.0",
+         r"field `chain\.masses`: expected a number or a non-empty array"),
+        ("masses = 1.0\nsprings = 1.0\nmass_coupling = 0.7",
+         r"field `chain\.mass_coupling`: expected \|μ\| < 0\.5"),
+        ("masses = 1.0\nsprings = 1.0\n[damping]\ntype = 'dashpots'\n"
+         "dashpots = [{dofs = [0, 3], c = 1.0}]",
+         r"field `damping\.dashpots\[0\]\.dofs`: DOF 3 outside \[0, 2\]"),
+        ("masses = 1.0\nsprings = 1.0\n[damping]\ntype = 'dashpots'\n"
+         "dashpots = [{dofs = [0], c = 1.0, k = 2.0}]",
+         r"field `damping\.dashpots\[0\]\.k`: unknown field"),
+        ("masses = 1.0\nsprings = 1.0\n[damping]\ntype = 'rayleigh'\nalpha = 0.1",
+         r"field `damping\.beta`: missing"),
+        ("masses = 1.0\nsprings = 1.0\n[damping]\ntype = 'modal'",
+         r"field `damping\.type`: expected one of 'none', 'rayleigh', 'dashpots'"),
+        ("masses = 1.0\nsprings = 1.0\n[damping]\ntype = 'none'\nalpha = 0.1",
+         r"field `damping\.alpha`: unknown field"),
+    ],
+)
+def test_malformed_chain_files(tmp_path, body, match):
+    with pytest.raises(StructureFileError, match=match):
+        load_structure(write(tmp_path, CHAIN.format(body=body)))
+
+
+def test_malformed_truss_files(tmp_path):
+    text = (REPO_STRUCTURES / "satellite_truss.toml").read_text(encoding="utf-8")
+    text = text.replace('name = "satellite_truss"', 'name = "foo"')
+    cases = [
+        (text.replace("element = 10 ", "element = 51 "),
+         r"field `fracture\.element`: expected an integer <= 50, got 51"),
+        (text.replace("thickness = 0.04 ", "thickness = 2.0 "),
+         r"field `truss\.longeron\.thickness`: 2\.0 in exceeds half the outer diameter"),
+        (text.replace("[truss.batten]", "[truss.battens]"),
+         r"field `truss\.batten`: missing"),
+        (text.replace('supports = "pinned"', 'supports = "clamped"'),
+         r"field `truss\.supports`: expected one of 'pinned', 'free'"),
+        (text.replace("time = 3.0 ", "time = -3.0 "),
+         r"field `fracture\.time`: expected a non-negative number, got -3\.0"),
+    ]
+    assert load_structure(write(tmp_path, text)).n_dofs == 299
+    for bad, match in cases:
+        assert bad != text
+        with pytest.raises(StructureFileError, match=match):
+            load_structure(write(tmp_path, bad))

@@ -112,7 +112,8 @@ def test_free_truss_has_exactly_two_rigid_modes(free_truss):
     K = free_truss.K.toarray()
     assert free_truss.n_dofs == 303
     # ω² of K φ = ω² M φ (rad²/s²): rigid modes ~1e-10, the first flexible one ~2
-    w2 = scipy.linalg.eigh(K, free_truss.M.toarray(), eigvals_only=True)
+    w2 = scipy.linalg.eigh(K, free_truss.M.toarray(), eigvals_only=True,
+                           subset_by_index=[0, 4])
     assert np.sum(np.abs(w2) < 1e-6) == 2 and w2[2] > 1.0
     for q in (rigid_vectors(free_truss, range(101), 0.0, rotation=False),
               rigid_vectors(free_truss, range(101), 1234.5)):
@@ -148,13 +149,13 @@ def test_fracture_of_element_10(truss):
     for k, name in enumerate(("d_top", "d_bot", "theta")):
         orphan[face_dof(19, name), k] = 1.0
     basis = np.column_stack([left, right, orphan])
-    scale = np.linalg.norm(K1, 2)
+    scale = np.abs(K1).max()
     for q in basis.T:
         assert np.linalg.norm(K1 @ q) < 1e-9 * scale * np.linalg.norm(q)
         # ... and none of them is a zero-energy motion of the intact truss
         assert np.linalg.norm(K0 @ q) > 1e6 * np.linalg.norm(K1 @ q)
 
-    w2, vec = scipy.linalg.eigh(K1, truss.M.toarray())  # ω², rad²/s²
+    w2, vec = scipy.linalg.eigh(K1, truss.M.toarray(), subset_by_index=[0, 7])  # ω², rad²/s²
     zero = np.abs(w2) < 1e-6
     assert zero.sum() == 5  # two rigid rotations + the orphaned middle face of element 10
     assert w2[5] > 1.0
