@@ -20,7 +20,8 @@ A load's ``location`` is resolved on the structure (see :func:`resolve_dof`):
 * a string: a sensor label (``structure.sensor_labels``) or a DOF label
   (``structure.dof_labels``);
 * a number with ``by="position"`` (default): a position in inches along a 1-D structure,
-  matched to ``structure.sensor_positions`` within 1e-9 in (error if no sensor is there);
+  matched to ``structure.sensor_positions`` within 1e-9 in (error if no sensor, or more
+  than one, is there: the truss has three sensors per face position);
 * an integer with ``by="dof"``: a 0-based DOF index (the dissertation's truss tables count
   DOFs from 1: subtract one, or use the truss's DOF labels).
 
@@ -114,6 +115,12 @@ def resolve_sensor(structure: Structure, location, *, by: str = "position") -> i
                 f"Location {location!r} in: no sensor of structure {s.name!r} within "
                 f"{POSITION_TOLERANCE:g} in (sensor positions span "
                 f"[{s.sensor_positions.min():g}, {s.sensor_positions.max():g}] in)"
+            )
+        if hits.size > 1:
+            labels = [s.sensor_labels[i] for i in hits] if s.sensor_labels else list(hits)
+            raise InputError(
+                f"Location {location!r} in: {hits.size} sensors of structure {s.name!r} are "
+                f"at this position ({', '.join(map(str, labels))}); use a label or by='dof'"
             )
         return int(hits[0])
     dof = _dof_index(s, location)

@@ -6,42 +6,12 @@ Imported by the test modules of this folder (pytest puts the folder on sys.path)
 import numpy as np
 import scipy.sparse as sp
 
-from podbench.fem import StiffnessEvent, Structure, VariableMass
-
-# Steel cantilever of §4.1 (24 x 1 x 0.75 in, E = 29e6 psi, 500 lbf/ft³), used here only as a
-# realistic stiff test system; the project's beams come from podbench.fem.
-E_PSI = 29e6
-RHO = 500.0 / 1728.0 / 386.0886  # lbf·s²/in⁴
-B_IN, H_IN, L_IN = 1.0, 0.75, 24.0
+from podbench.fem import StiffnessEvent, Structure, VariableMass, load_structure
 
 
-def cantilever(n_el: int = 24) -> Structure:
-    """Euler–Bernoulli cantilever, consistent mass, DOFs (w, θ) per free node (in, rad)."""
-    le = L_IN / n_el
-    EI = E_PSI * B_IN * H_IN**3 / 12.0
-    rA = RHO * B_IN * H_IN
-    ke = EI / le**3 * np.array(
-        [[12, 6 * le, -12, 6 * le], [6 * le, 4 * le**2, -6 * le, 2 * le**2],
-         [-12, -6 * le, 12, -6 * le], [6 * le, 2 * le**2, -6 * le, 4 * le**2]]
-    )
-    me = rA * le / 420.0 * np.array(
-        [[156, 22 * le, 54, -13 * le], [22 * le, 4 * le**2, 13 * le, -3 * le**2],
-         [54, 13 * le, 156, -22 * le], [-13 * le, -3 * le**2, -22 * le, 4 * le**2]]
-    )
-    nd = 2 * (n_el + 1)
-    K = np.zeros((nd, nd))
-    M = np.zeros((nd, nd))
-    for e in range(n_el):
-        ix = np.ix_(range(2 * e, 2 * e + 4), range(2 * e, 2 * e + 4))
-        K[ix] += ke
-        M[ix] += me
-    K, M = K[2:, 2:], M[2:, 2:]  # clamp the root
-    sensor_dofs = np.array([-1] + [2 * i for i in range(n_el)])
-    return Structure(
-        name="test_cantilever", M=M, K=K, sensor_dofs=sensor_dofs,
-        sensor_positions=np.linspace(0.0, L_IN, n_el + 1),
-        metadata={"EI": EI, "L": L_IN},
-    )
+def cantilever() -> Structure:
+    """The LTI beam of §4.1 (structures/lti_beam.toml): 48 DOFs, 25 sensors at 0..24 in."""
+    return load_structure("lti_beam")
 
 
 def chain(n: int = 4, *, damping: bool = True, **extra) -> Structure:

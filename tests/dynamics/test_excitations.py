@@ -26,7 +26,7 @@ def test_static_tip_load_gives_cantilever_formula():
     s = cantilever()
     P = 100.0
     q0 = static_displacement(s, [(24.0, P)])
-    EI, L = s.metadata["EI"], s.metadata["L"]
+    EI, L = s.metadata["EI"], s.metadata["length"]
     assert s.observe(q0)[-1] == pytest.approx(P * L**3 / (3 * EI), rel=1e-10)
     # a load at 12 in: deflection at x >= a is P a²(3x − a)/(6 EI)
     q1 = static_displacement(s, [(12.0, P)])
@@ -140,7 +140,7 @@ def test_to_dict_round_trip():
         ForceHistory(np.arange(50.0).reshape(25, 2)),
     ]
     for item in items:
-        back = excitation_from_dict(item.to_dict(), structures={"test_cantilever": lti})
+        back = excitation_from_dict(item.to_dict(), structures={"lti_beam": lti})
         assert back.to_dict() == item.to_dict()
         if isinstance(item, StaticDisplacement | ImpulseVelocity):
             np.testing.assert_array_equal(back.dof_vector(lti), item.dof_vector(lti))

@@ -25,7 +25,7 @@ def test_response_holds_sensor_samples_of_the_dof_histories():
     np.testing.assert_array_equal(r.W[:, 0], s.observe(q0))
     np.testing.assert_array_equal(r.w0, s.observe(q0))
     np.testing.assert_array_equal(r.v0, s.observe(v0))
-    assert (r.structure, r.engine, r.label) == ("test_cantilever", "newmark", "w0+pulse")
+    assert (r.structure, r.engine, r.label) == ("lti_beam", "newmark", "w0+pulse")
     assert r.dt == 1e-4
     # the force acts on the sensor's DOF: same result as passing the DOF loads to newmark
     ref = newmark(s, q0, v0, s.to_dofs(r.F), 1e-4)
