@@ -243,6 +243,10 @@ class Table:
             return None
         return present[0]
 
+    def accept_all(self) -> None:
+        """Mark every field as read (for free-form tables checked elsewhere)."""
+        self._used.update(self.data)
+
     def _names(self, keys) -> str:
         return ", ".join(f"`{self.field(k)}`" for k in keys)
 

@@ -30,6 +30,7 @@ and the field; unknown fields are rejected. Nothing is unpickled.
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import importlib.util
 import inspect
@@ -506,13 +507,14 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
     params = top.table("parameters")
     kwargs = dict(params.data) if params is not None else {}
     if params is not None:
-        params._used.update(kwargs)  # the builder's signature checks them below
+        params.accept_all()  # the builder's signature checks them below
 
     if rel is not None:
         file = (ctx.base_dir / rel).resolve()
         if not file.is_file():
             top.fail("path", f'no such file "{file}"')
-        unique = f"podbench_user_builder_{abs(hash(str(file))):x}_{module_name.replace('.', '_')}"
+        digest = hashlib.sha1(str(file).encode("utf-8")).hexdigest()[:12]
+        unique = f"podbench_user_builder_{digest}_{module_name.replace('.', '_')}"
         module_spec = importlib.util.spec_from_file_location(unique, file)
         if module_spec is None or module_spec.loader is None:
             top.fail("path", f'cannot import "{file}" as a Python module')

@@ -1,6 +1,7 @@
 """The §4.1 beams against Euler–Bernoulli theory and their stated properties."""
 
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -119,3 +120,24 @@ def test_builder_rejects_bad_arguments():
         SineLaw(1.0, 2.0, 0.05)
     with pytest.raises(InputError, match="tip_mass"):
         cantilever_beam(tip_mass=3.0)
+
+
+@pytest.mark.parametrize(
+    ("table", "expected"),
+    [
+        ("law = 'constant'\nvalue = 0.02", lambda t: np.full_like(t, 0.02)),
+        ("law = 'linear'\ninitial = 0.0\nfinal = 2.0\nduration = 0.04\nscale = 'beam_mass'",
+         lambda t: 2.0 * RHO_A * L * np.minimum(t / 0.04, 1.0)),
+        ("law = 'sine'\nmean = 0.01\namplitude = -0.005\nperiod = 0.1\nphase = 1.0",
+         lambda t: 0.01 - 0.005 * np.sin(2 * np.pi * t / 0.1 + 1.0)),
+    ],
+)
+def test_tip_mass_laws_from_files(tmp_path, table, expected):
+    text = (Path(__file__).resolve().parents[2] / "structures" / "lti_beam.toml").read_text(
+        encoding="utf-8").replace('name = "lti_beam"', 'name = "tm"')
+    p = tmp_path / "tm.toml"
+    p.write_text(text + "\n[tip_mass]\n" + table + "\n", encoding="utf-8")
+    s = load_structure(p)
+    t = np.linspace(0.0, 0.06, 13)
+    np.testing.assert_allclose(s.variable_mass(t), expected(t), rtol=1e-12, atol=1e-15)
+    assert np.all(s.variable_mass(t) >= 0)
