@@ -58,12 +58,12 @@ def forced_case(name: str, start: int = 1) -> SimpleNamespace:
 
 
 @cache
-def mixed_case(name: str) -> SimpleNamespace:
+def mixed_case(name: str, seed: int = 14) -> SimpleNamespace:
     """Three mixed responses a, b, c (random w0, v0; pulses at DOFs 4, 2, 0) and new
     excitations (a new initial displacement, a new initial velocity, a new load)."""
     M, C, K = system(name)
     dt, n = sampling(name)
-    rng = np.random.default_rng(14)
+    rng = np.random.default_rng(seed)
     w0 = [0.01 * rng.standard_normal(D) for _ in range(3)]
     v0 = [rng.standard_normal(D) for _ in range(3)]
     F = [pulse(D, n, j, width=3) for j in (4, 2, 0)]
