@@ -28,8 +28,11 @@ from .base import (
 __all__ = ["POVR", "MDS"]
 
 _EXCITATIONS = ("displacement", "velocity")
-_WORD = {"displacement": ("displacement", "w0", "value"), "velocity": ("velocity", "v0",
-                                                                      "derivative")}
+# (noun, symbol, what of the POC is divided by) per excitation, for messages
+_WORD = {
+    "displacement": ("displacement", "w0", "value"),
+    "velocity": ("velocity", "v0", "derivative"),
+}
 
 
 class POVR(PODMethod):
