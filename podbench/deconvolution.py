@@ -1,7 +1,7 @@
 """Discrete convolution, convolution matrices and deconvolution solvers (§3.3, §3.5).
 
 Convolution convention (Eq. 3.39, with the Δt factor kept; the dissertation's MATLAB drops
-it, which only rescales the identified kernel by 1/Δt and leaves predictions unchanged)::
+it, so its identified kernel is Δt times podbench's, with identical predictions)::
 
     v[s] = Δt Σ_{p=0}^{s} c[p] q[s−p],   s = 0 … n−1,
 

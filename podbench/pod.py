@@ -113,7 +113,8 @@ def method_of_snapshots(W, n_modes: int | None = None) -> POD:
     no ``m × m`` matrix is ever formed (cost ``O(m n²)``, memory ``O(m n)``). The result
     equals the SVD's leading modes up to round-off *where the spectrum separates*: squaring
     the singular values loses precision for ``σ_i ≲ sqrt(eps)·σ_1``, so only use modes well
-    above that level (a mode with ``σ_i = 0`` cannot be normalized and raises).
+    above that level (a mode with ``σ_i <= sqrt(eps·n)·σ_1`` cannot be normalized and
+    raises).
 
     Parameters
     ----------
@@ -134,10 +135,12 @@ def method_of_snapshots(W, n_modes: int | None = None) -> POD:
     lam, V = scipy.linalg.eigh(G, subset_by_index=(n - k, n - 1))
     lam, V = lam[::-1], V[:, ::-1]
     s = np.sqrt(np.clip(lam, 0.0, None))
-    if k and s[-1] <= np.finfo(float).eps * max(s[0], np.finfo(float).tiny) * n:
+    # σ² carries round-off of about eps·n·σ_1², so σ below sqrt(eps·n)·σ_1 is noise
+    if k and s[-1] <= np.sqrt(np.finfo(float).eps * n) * max(s[0], np.finfo(float).tiny):
         raise InputError(
-            f"Parameter `n_modes`: mode {k} has a zero proper orthogonal value; the method of "
-            "snapshots cannot normalize it (request fewer modes)"
+            f"Parameter `n_modes`: mode {k} has a zero proper orthogonal value at the method of "
+            f"snapshots' precision (σ_{k}/σ_1 <= sqrt(eps·n)); it cannot be normalized "
+            "(request fewer modes or use the SVD)"
         )
     U = (W @ V) / s
     U, V = _fix_signs(U, V)
