@@ -2,10 +2,21 @@
 
 The science is T. C. Allison, *System Identification via the Proper Orthogonal
 Decomposition*, PhD dissertation, Virginia Tech, 2007. Units are inch, lbf, second.
+
+Quick tour::
+
+    import podbench as pb
+    s = pb.load_structure("lti_beam")                 # structures/lti_beam.toml
+    w0 = pb.excitations.static_displacement(s, [(24.0, 1.0)])
+    r = pb.simulate(s, n_samples=500, dt=1e-4, initial_displacement=w0)
+    from podbench.methods import POVR
+    W_hat = POVR(n_modes=3).fit(r.W, r.W[:, 0]).predict(r.W[:, 0])
 """
 
-from . import errors
+from . import deconvolution, errors, excitations, methods, pod
 from .data import Response, displacement_norm, norm_percent_error
+from .dynamics import simulate
+from .fem import list_structures, load_structure
 from .fem.structure import Structure
 
 __version__ = "0.1.0"
@@ -13,7 +24,14 @@ __version__ = "0.1.0"
 __all__ = [
     "Response",
     "Structure",
+    "deconvolution",
     "displacement_norm",
-    "norm_percent_error",
     "errors",
+    "excitations",
+    "list_structures",
+    "load_structure",
+    "methods",
+    "norm_percent_error",
+    "pod",
+    "simulate",
 ]

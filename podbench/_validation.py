@@ -24,7 +24,9 @@ def as_finite_array(x, name: str, *, ndim: int | None = None, dtype=float) -> np
     try:
         arr = np.asarray(x, dtype=dtype)
     except (TypeError, ValueError) as exc:
-        raise InputError(f"Parameter `{name}`: cannot be converted to a numeric array ({exc})")
+        raise InputError(
+            f"Parameter `{name}`: cannot be converted to a numeric array ({exc})"
+        ) from None
     if ndim is not None and arr.ndim != ndim:
         raise DimensionError(
             f"Parameter `{name}`: expected a {ndim}-D array, got shape {arr.shape}"
