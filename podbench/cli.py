@@ -1,14 +1,238 @@
-"""Command-line interface (``podbench``). Subcommands are added by the harness."""
+"""Command line: ``podbench run | regress | list``.
+
+Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
+missing path, a malformed scenario/structure/claims file, an unknown name), reported on one
+line; 130 interrupted.
+"""
 
 from __future__ import annotations
 
+import argparse
+import os
 import sys
+import time
+from pathlib import Path
+
+DEFAULT_SCENARIOS = Path("scenarios") / "chapter4"
+DEFAULT_BASELINE = Path("results") / "baseline.csv"
+DEFAULT_CACHE = Path(".podbench_cache")
+
+_EPILOG = """\
+Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
+target) and the norm percent errors follow Eq. 4.2 of Allison (2007); README.md defines
+every column. Exit codes: 0 ok, 1 regression found (regress), 2 unusable input, 130
+interrupted.
+"""
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="podbench",
+        description="Benchmark suite for structural system identification with the proper "
+                    "orthogonal decomposition (POD), after Allison (2007).",
+        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from . import __version__
+
+    p.add_argument("--version", action="version", version=f"podbench {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    def common(sp):
+        sp.add_argument("paths", nargs="*", metavar="PATH",
+                        help=f"scenario files or folders of them (default: {DEFAULT_SCENARIOS}); "
+                             "a folder's claims.toml is checked into FINDINGS.md")
+        sp.add_argument("-j", "--jobs", type=int, default=1, metavar="N",
+                        help="worker processes for the (scenario, structure) units "
+                             "(default 1; results do not depend on N)")
+        sp.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
+                        help=f"truth-data cache folder (default {DEFAULT_CACHE}); entries are "
+                             "keyed by the content of structure and scenario")
+        sp.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
+        sp.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
+                        help="override the scenarios' integration engine (default: each "
+                             "scenario's own, normally newmark)")
+        sp.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+
+    r = sub.add_parser(
+        "run", help="run scenarios and write tables, figures and findings",
+        description="Simulate the truth data (cached), fit every method of every scenario, "
+                    "predict every target and write OUT/summary.csv, OUT/summary.md, "
+                    "OUT/figures/*.png and (with a claims.toml) OUT/FINDINGS.md. OUT is "
+                    "replaced as a whole only when everything is written.",
+        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    common(r)
+    r.add_argument("-o", "--out", default=None, metavar="DIR",
+                   help="output folder (default results/<name of the scenario folder>, "
+                        "e.g. results/chapter4)")
+    r.add_argument("--no-figures", action="store_true", help="skip the figures")
+
+    g = sub.add_parser(
+        "regress", help="re-run the study and compare every error with the baseline",
+        description="Re-run the scenarios (no figures, nothing written to results/ except "
+                    "with --update) and compare every error column with the baseline table. "
+                    "An error is worse when new > base·(1 + rtol) + atol. Exit 0 when "
+                    "nothing got worse, 1 with a readable diff when something did, 2 on "
+                    "unusable input.",
+        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    common(g)
+    g.add_argument("--baseline", default=str(DEFAULT_BASELINE), metavar="CSV",
+                   help=f"baseline table (default {DEFAULT_BASELINE})")
+    g.add_argument("--rtol", type=float, default=0.01, help="relative tolerance (default 0.01)")
+    g.add_argument("--atol", type=float, default=1e-6, help="absolute tolerance (default 1e-6)")
+    g.add_argument("--update", action="store_true",
+                   help="write this run's table as the new baseline (deliberately) and exit 0")
+    g.add_argument("--table", default=None, metavar="CSV",
+                   help="compare this existing summary.csv instead of re-running")
+
+    sub.add_parser("list", help="list structures, scenarios, methods and solvers",
+                   description="List the structures found (structures/ and PODBENCH_STRUCTURES), "
+                               f"the scenarios of {DEFAULT_SCENARIOS}, the built-in methods "
+                               "and the deconvolution solvers.")
+    return p
+
+
+class _Usage(Exception):
+    pass
+
+
+def _scenario_paths(paths):
+    from .scenarios import find_scenarios
+
+    if not paths:
+        if not DEFAULT_SCENARIOS.is_dir():
+            raise _Usage(f"{DEFAULT_SCENARIOS}: no such folder (run podbench from the project "
+                         "folder, or give scenario paths)")
+        paths = [DEFAULT_SCENARIOS]
+    return paths, find_scenarios(paths)
+
+
+def _claims_path(paths):
+    from .scenarios import CLAIMS_FILE
+
+    dirs = {Path(p).resolve() if Path(p).is_dir() else Path(p).resolve().parent for p in paths}
+    found = [d / CLAIMS_FILE for d in sorted(dirs) if (d / CLAIMS_FILE).is_file()]
+    if len(found) != 1:
+        return None
+    try:  # shown in FINDINGS.md: relative, so that the file does not depend on the checkout
+        return Path(os.path.relpath(found[0]))
+    except ValueError:  # pragma: no cover - another drive on Windows
+        return found[0]
+
+
+def _default_out(paths) -> Path:
+    p = Path(paths[0])
+    name = p.name if p.is_dir() else p.resolve().parent.name
+    return Path("results") / name
+
+
+def _run(args, *, figures: bool):
+    from .harness.runner import run_study
+    from .scenarios import load_scenario
+
+    if args.jobs < 1:
+        raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
+    paths, files = _scenario_paths(args.paths)
+    scenarios = {}
+    for f in files:
+        sc = load_scenario(f)
+        if sc.name in scenarios:
+            raise _Usage(f"{f}: a second scenario named {sc.name!r}")
+        scenarios[sc.name] = sc
+    say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    t0 = time.perf_counter()
+    results = run_study(files, jobs=args.jobs, cache_dir=None if args.no_cache else args.cache,
+                        engine=args.engine, progress=say, keep_series=figures)
+    return paths, scenarios, results, time.perf_counter() - t0
+
+
+def cmd_run(args) -> int:
+    from .harness.report import write_study
+
+    paths, scenarios, results, secs = _run(args, figures=not args.no_figures)
+    out = Path(args.out) if args.out else _default_out(paths)
+    claims = _claims_path(paths)
+    df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
+                                figures=not args.no_figures)
+    n_sim = sum(u.simulated for u in results)
+    n_cached = sum(u.cached for u in results)
+    print(f"{len(df)} rows from {len(scenarios)} scenarios in {secs:.1f} s "
+          f"({n_sim} responses simulated, {n_cached} from the cache) -> {out}/summary.csv")
+    if evaluated is not None:
+        n_ok = sum(e["verdict"] == "reproduced" for e in evaluated)
+        print(f"claims: {n_ok} of {len(evaluated)} reproduced -> {out}/FINDINGS.md")
+    failed = df[df.status != "ok"]
+    if len(failed):
+        print(f"note: {len(failed)} rows have a failed method or twin (see summary.md)")
+    return 0
+
+
+def cmd_regress(args) -> int:
+    from .harness.regress import compare, read_table
+    from .harness.report import atomic_write_text, summary_table, table_csv
+
+    if args.table:
+        new = read_table(args.table)
+    else:
+        _, _, results, _ = _run(args, figures=False)
+        new = summary_table(results)
+    if args.update:
+        atomic_write_text(args.baseline, table_csv(new))
+        print(f"baseline updated: {args.baseline} ({len(new)} rows)")
+        return 0
+    if not Path(args.baseline).is_file():
+        raise _Usage(f"{args.baseline}: no such baseline (create it with --update)")
+    base = read_table(args.baseline)
+    cmp = compare(new, base, rtol=args.rtol, atol=args.atol)
+    print(cmp.report(args.rtol, args.atol))
+    return 1 if cmp.failed else 0
+
+
+def cmd_list(args) -> int:
+    from .deconvolution import available_solvers
+    from .fem import list_structures
+    from .harness.adapters import KIND
+    from .scenarios import find_scenarios, load_scenario
+
+    print("structures:")
+    for name in list_structures():
+        print(f"  {name}")
+    print(f"scenarios ({DEFAULT_SCENARIOS}):")
+    if DEFAULT_SCENARIOS.is_dir():
+        for f in find_scenarios([DEFAULT_SCENARIOS]):
+            sc = load_scenario(f)
+            methods = ", ".join(m.label for m in sc.reported_methods())
+            print(f"  {sc.name}: {sc.title} [{', '.join(sc.structures)}; {methods}]")
+    else:
+        print("  (folder not found: run podbench from the project folder)")
+    print("methods:")
+    for name, kind in KIND.items():
+        print(f"  {name} ({kind})")
+    print("  superposition (sum of other methods; MR's coupled twin)")
+    print("  module:Class or file.py:Class (your own; see podbench.harness.adapters)")
+    print("deconvolution solvers: " + ", ".join(available_solvers()))
+    return 0
 
 
 def main(argv=None) -> int:
-    print("podbench: the study harness is not built yet", file=sys.stderr)
-    return 2
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    from .errors import PodbenchError
+
+    try:
+        return {"run": cmd_run, "regress": cmd_regress, "list": cmd_list}[args.command](args)
+    except (_Usage, PodbenchError) as exc:
+        msg = " ".join(str(exc).split())
+        print(f"podbench {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"podbench {args.command}: interrupted; results/ was left as it was",
+              file=sys.stderr)
+        return 130
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+if __name__ == "__main__":  # pragma: no cover
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    sys.exit(main())

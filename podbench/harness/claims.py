@@ -1,0 +1,160 @@
+"""Claims of a study (``claims.toml`` beside its scenarios), checked on the measured table.
+
+Format::
+
+    [[claims]]
+    id = "lti-free-disp-mds-accurate"      # unique
+    source = "§4.1.1, Fig. 4.8"
+    quote = "..."                          # the dissertation's words
+    scenario = "beam_free_displacement"
+    structure = "lti_beam"                 # or a list: the checks must hold for each
+    target = "w3"                          # or a list
+    checks = ["MDS.total_error < 0.05", "POVR.total_error < MDS.total_error"]
+    criterion = "how the words became a threshold"
+    note = "optional: what podbench found and why (written after measuring)"
+
+    [[remarks]]                            # optional free-text findings that are not claims
+    title = "..."
+    text = "..."
+
+A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and each operand a
+number or ``METHOD.metric`` (a method label and a column of the summary table). A claim is
+*reproduced* when every check holds on every (structure, target) row, *not reproduced* when
+one fails, and *not measured* when a value is missing or NaN.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import tomllib
+
+from ..errors import ScenarioFileError, StructureFileError
+from ..fem._spec import Table
+
+__all__ = ["Claim", "load_claims", "evaluate_claims", "CHECK_RE"]
+
+_OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+_OPERAND = r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[^\s<>=.][^<>=]*?\.[a-z_0-9]+)"
+CHECK_RE = re.compile(rf"^\s*({_OPERAND})\s*(<=|>=|<|>)\s*({_OPERAND})\s*$")
+
+
+@dataclass(frozen=True)
+class Claim:
+    id: str
+    source: str
+    quote: str
+    scenario: str
+    structures: tuple[str, ...]
+    targets: tuple[str, ...]
+    checks: tuple[str, ...]
+    criterion: str
+    note: str
+
+
+def _listify(t: Table, key: str) -> tuple[str, ...]:
+    v = t.raw(key)
+    if isinstance(v, str):
+        return (v,)
+    if isinstance(v, list) and v and all(isinstance(x, str) for x in v):
+        return tuple(v)
+    t.fail(key, f"expected a string or a non-empty array of strings, got {v!r}")
+    return ()  # pragma: no cover
+
+
+def load_claims(path) -> tuple[list[Claim], list[dict]]:
+    """Claims and remarks of a claims file (clear errors naming the file and field)."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ScenarioFileError(f"{path}: cannot read the claims file ({exc})") from None
+    try:
+        top = Table(doc, file=str(path))
+        claims, ids = [], set()
+        for t in top.tables("claims", []):
+            c = Claim(
+                id=t.string("id"), source=t.string("source"), quote=t.string("quote"),
+                scenario=t.string("scenario"), structures=_listify(t, "structure"),
+                targets=_listify(t, "target"), checks=tuple(t.strings("checks")),
+                criterion=t.string("criterion", ""), note=t.string("note", ""),
+            )
+            if c.id in ids:
+                t.fail("id", f'"{c.id}" is used twice')
+            ids.add(c.id)
+            for i, chk in enumerate(c.checks):
+                if not CHECK_RE.match(chk):
+                    t.fail(f"checks[{i}]", f'"{chk}" is not `<operand> <op> <operand>` '
+                                           "(op one of < <= > >=, operand a number or "
+                                           "METHOD.metric)")
+            t.close()
+            claims.append(c)
+        remarks = []
+        for t in top.tables("remarks", []):
+            remarks.append({"title": t.string("title"), "text": t.string("text")})
+            t.close()
+        top.close()
+    except StructureFileError as exc:
+        raise ScenarioFileError(str(exc)) from None
+    return claims, remarks
+
+
+def _value(operand: str, rows: dict):
+    try:
+        return float(operand), operand
+    except ValueError:
+        pass
+    label, _, metric = operand.rpartition(".")
+    row = rows.get(label)
+    if row is None or metric not in row:
+        return math.nan, f"{operand} (no such row/column)"
+    v = float(row[metric])
+    return v, f"{operand} = {v:.4g}"
+
+
+def check(expr: str, rows: dict) -> tuple[bool | None, str]:
+    """Evaluate one check on ``rows`` (method label -> row dict). None when not measurable."""
+    m = CHECK_RE.match(expr)
+    a, sa = _value(m.group(1), rows)
+    b, sb = _value(m.group(3), rows)
+    shown = f"{sa} {m.group(2)} {sb}" if not _is_num(m.group(3)) else f"{sa} {m.group(2)} {b:g}"
+    if math.isnan(a) or math.isnan(b):
+        return None, shown
+    return bool(_OPS[m.group(2)](a, b)), shown
+
+
+def _is_num(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def evaluate_claims(claims, table) -> list[dict]:
+    """Verdicts of every claim on the summary table (a pandas DataFrame)."""
+    out = []
+    for c in claims:
+        details, verdicts = [], []
+        for s in c.structures:
+            for t in c.targets:
+                sub = table[(table.scenario == c.scenario) & (table.structure == s)
+                            & (table.target == t)]
+                rows = {r["method"]: r for r in sub.to_dict("records")}
+                for expr in c.checks:
+                    ok, shown = check(expr, rows)
+                    verdicts.append(ok)
+                    details.append({"structure": s, "target": t, "check": expr, "shown": shown,
+                                    "holds": ok})
+        if any(v is False for v in verdicts):
+            verdict = "not reproduced"
+        elif any(v is None for v in verdicts):
+            verdict = "not measured"
+        else:
+            verdict = "reproduced"
+        out.append({"claim": c, "verdict": verdict, "details": details})
+    return out

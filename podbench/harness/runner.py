@@ -1,0 +1,293 @@
+"""Run scenarios: simulate truth (cached), fit every method, predict every target, decompose
+the errors.
+
+The unit of work is one (scenario, structure) pair; units are independent, so ``jobs > 1``
+runs them in separate processes (spawned, one BLAS thread each) and the result does not
+depend on ``jobs``: rows are sorted by scenario file, structure (scenario order), method
+(scenario order) and target (scenario order).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+from ..data import Response, displacement_norm, norm_percent_error
+from ..dynamics import simulate
+from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
+from ..excitations import excitation_from_dict
+from ..fem import load_structure
+from ..scenarios import Scenario, load_scenario
+from .adapters import UserAdapter, all_cases, make_adapter
+from .cache import TruthCache, structure_fingerprint
+from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
+
+__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS"]
+
+COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS[:5],
+           "subspace_error", *NORM_COLUMNS, "status")
+"""Columns of ``summary.csv`` in order."""
+
+COUPLED = ("MDS", "ML")
+
+
+@dataclass
+class UnitResult:
+    """What one (scenario, structure) unit produced."""
+
+    scenario: str
+    structure: str
+    rows: list = field(default_factory=list)
+    series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
+    simulated: int = 0
+    cached: int = 0
+    seconds: float = 0.0
+
+
+def _structure_search(scenario: Scenario) -> list[Path]:
+    return [scenario.folder, scenario.folder / "structures", Path.cwd() / "structures"]
+
+
+def resolve_structure(entry: str, scenario: Scenario):
+    """Load a structure named in a scenario (a name, or a path relative to the file)."""
+    if entry.endswith(".toml") and not os.path.isabs(entry):
+        entry = str(scenario.folder / entry)
+    try:
+        return load_structure(entry, search_path=_structure_search(scenario))
+    except UnknownNameError as exc:
+        raise ScenarioFileError(f"{scenario.path}: field `scenario.structures`: {exc}") from None
+
+
+def _references(case) -> set[str]:
+    refs = set()
+    for d in (case.initial_displacement, case.initial_velocity, *case.force):
+        if isinstance(d, dict) and "reference" in d:
+            refs.add(d["reference"])
+    return refs
+
+
+class _Truth:
+    """Truth responses of one structure (and its linear twin), simulated or cached."""
+
+    def __init__(self, scenario: Scenario, structure, cache: TruthCache, engine: str):
+        self.scenario, self.structure, self.cache, self.engine = scenario, structure, cache, engine
+        self._refs: dict = {}
+        self._store: dict = {}
+        self.simulated = 0
+
+    def _reference(self, name: str):
+        if name not in self._refs:
+            if name == self.structure.name:
+                self._refs[name] = self.structure
+            else:
+                self._refs[name] = resolve_structure(name, self.scenario)
+        return self._refs[name]
+
+    def get(self, case_name: str, linear: bool = False) -> Response:
+        key = (case_name, linear)
+        if key in self._store:
+            return self._store[key]
+        sc, case = self.scenario, self.scenario.cases[case_name]
+        s = self.structure.linear_twin() if linear else self.structure
+        refs = {n: self._reference(n) for n in sorted(_references(case))}
+        where = f"{sc.path}: case `{case_name}`"
+        try:
+            ic_d = (excitation_from_dict(case.initial_displacement, structures=refs)
+                    if case.initial_displacement else None)
+            ic_v = (excitation_from_dict(case.initial_velocity, structures=refs)
+                    if case.initial_velocity else None)
+            forces = [excitation_from_dict(f, structures=refs) for f in case.force]
+        except PodbenchError as exc:
+            raise ScenarioFileError(f"{where}: {exc}") from None
+        ckey = TruthCache.key(
+            structure=structure_fingerprint(s),
+            refs={n: structure_fingerprint(r) for n, r in refs.items()},
+            case=case.spec(), n=sc.n_samples, dt=sc.dt, engine=self.engine,
+        )
+        shape = (s.n_sensors, sc.n_samples)
+        arrays = self.cache.load(ckey, shape)
+        if arrays is None:
+            force = None
+            if forces:
+                force = sum(f.sample(s, sc.n_samples, sc.dt) for f in forces)
+            try:
+                r = simulate(s, n_samples=sc.n_samples, dt=sc.dt, initial_displacement=ic_d,
+                             initial_velocity=ic_v, force=force, engine=self.engine,
+                             label=case_name)
+            except PodbenchError as exc:
+                raise ScenarioFileError(f"{where} on {s.name}: {exc}") from None
+            self.simulated += 1
+            arrays = {"W": r.W, "F": r.F, "w0": r.w0, "v0": r.v0, "t": r.t}
+            self.cache.store(ckey, arrays)
+        r = Response(t=arrays["t"], W=arrays["W"], F=arrays["F"], w0=arrays["w0"],
+                     v0=arrays["v0"], dt=sc.dt, structure=s.name, engine=self.engine,
+                     label=case_name)
+        self._store[key] = r
+        return r
+
+
+def _fit(spec, scenario: Scenario, truth: _Truth, linear: bool, basis=None):
+    adapter = make_adapter(spec, scenario)
+    if spec.method == "superposition":
+        trains = [[truth.get(c, linear) for c in scenario.method(p).train] for p in spec.parts]
+        return adapter.fit(trains, basis=basis)
+    return adapter.fit([truth.get(c, linear) for c in spec.train], basis=basis)
+
+
+_EXPECTED = (PodbenchError, np.linalg.LinAlgError)
+
+
+def _failure(exc: BaseException) -> str:
+    msg = " ".join(str(exc).split())
+    return f"failed: {type(exc).__name__}: {msg}"[:300]
+
+
+def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | None = None,
+             keep_series: bool = True) -> UnitResult:
+    """Run every method of a scenario on one structure.
+
+    Truth for every case the methods and targets need is simulated (or read from the cache in
+    ``cache_dir``); each reported method is fitted on its training cases and predicts every
+    target; the error components of :mod:`podbench.harness.metrics` are computed with the
+    declared coupled twin and, for a nonlinear structure, the linear twin.
+    A method that fails (ill-conditioned data, too few data sets, ...) gets a row with NaN
+    errors and the reason in ``status``; an error in the scenario itself raises.
+    """
+    t_start = time.perf_counter()
+    scenario = load_scenario(scenario_path)
+    structure = resolve_structure(structure_entry, scenario)
+    cache = TruthCache(cache_dir)
+    truth = _Truth(scenario, structure, cache, engine or scenario.engine)
+    nonlinear = not structure.is_linear
+    res = UnitResult(scenario=scenario.name, structure=structure.name)
+
+    needed = set(scenario.targets)
+    for m in scenario.methods:
+        needed |= all_cases(m, scenario)
+    for c in sorted(needed):
+        truth.get(c)
+        if nonlinear:
+            truth.get(c, linear=True)
+
+    for target in scenario.targets:
+        W = truth.get(target).W
+        res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
+
+    for spec in scenario.reported_methods():
+        base = {"scenario": scenario.name, "structure": structure.name, "method": spec.label}
+        try:
+            adapter = _fit(spec, scenario, truth, False)
+            preds = {t: adapter.predict(truth.get(t)) for t in scenario.targets}
+        except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
+            if not isinstance(exc, _EXPECTED) and ":" not in spec.method:
+                raise
+            status = _failure(exc)
+            for t in scenario.targets:
+                res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
+                                 **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
+            continue
+        U = adapter.modes_
+        U = None if U is None else np.asarray(U, dtype=float)
+        status = "ok"
+        coupled = spec.method in COUPLED
+        twin_spec = spec if coupled else (scenario.method(spec.twin) if spec.twin else None)
+        W_twin = W_lin = W_twin_lin = None
+        if twin_spec is not None and U is not None and not isinstance(adapter, UserAdapter):
+            try:
+                tw = adapter if coupled else _fit(twin_spec, scenario, truth, False, basis=U)
+                W_twin = {t: tw.predict(truth.get(t)) for t in scenario.targets}
+                if nonlinear:
+                    twl = _fit(twin_spec, scenario, truth, True, basis=U)
+                    W_twin_lin = {t: twl.predict(truth.get(t, True)) for t in scenario.targets}
+                    W_lin = {t: truth.get(t, True).W for t in scenario.targets}
+            except _EXPECTED as exc:
+                status = "twin " + _failure(exc)
+                W_twin = W_lin = W_twin_lin = None
+        for t in scenario.targets:
+            W = truth.get(t).W
+            Wh = preds[t]
+            row = {**base, "target": t, "n_modes": -1 if U is None else int(U.shape[1])}
+            row.update(decompose(
+                W, Wh, U, W_twin=None if W_twin is None else W_twin[t], coupled=coupled,
+                W_lin=None if W_lin is None else W_lin[t],
+                W_twin_lin=None if W_twin_lin is None else W_twin_lin[t], nonlinear=nonlinear,
+            ))
+            row.update(norm_summaries(W, Wh))
+            row["status"] = status
+            res.rows.append(row)
+            if keep_series:
+                res.series[t][spec.label] = displacement_norm(Wh)
+                res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
+    res.simulated = truth.simulated
+    res.cached = cache.hits
+    res.seconds = time.perf_counter() - t_start
+    return res
+
+
+def _unit_worker(args):
+    try:
+        return run_unit(*args)
+    except PodbenchError:
+        raise
+    except Exception as exc:  # keep the worker's traceback readable in the parent
+        raise RuntimeError("".join(traceback.format_exception(exc))) from None
+
+
+def plan(paths) -> list[tuple[Path, str]]:
+    """The (scenario file, structure entry) units of the given scenario files, validated."""
+    units = []
+    for p in paths:
+        sc = load_scenario(p)
+        for entry in sc.structures:
+            resolve_structure(entry, sc)  # fail early, in the parent, on unknown names
+            units.append((Path(p), entry))
+    return units
+
+
+def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None,
+              progress=None, keep_series: bool = True) -> list[UnitResult]:
+    """Run every unit of the scenario files ``paths``; results in deterministic order."""
+    units = plan(paths)
+    total = len(units)
+    results: dict[int, UnitResult] = {}
+    say = progress or (lambda *_: None)
+    t0 = time.perf_counter()
+
+    def report(i, r):
+        done = len(results)
+        bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
+        say(f"[{bar}] {done}/{total}  {r.scenario} × {r.structure}: {r.simulated} simulated, "
+            f"{r.cached} from cache, {r.seconds:.1f} s (elapsed {time.perf_counter() - t0:.1f} s)")
+
+    args = [(str(p), e, None if cache_dir is None else str(cache_dir), engine, keep_series)
+            for p, e in units]
+    if jobs <= 1 or total <= 1:
+        for i, a in enumerate(args):
+            results[i] = run_unit(*a)
+            report(i, results[i])
+    else:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
+            futs = {ex.submit(_unit_worker, a): i for i, a in enumerate(args)}
+            try:
+                for f in as_completed(futs):
+                    results[futs[f]] = f.result()
+                    report(futs[f], results[futs[f]])
+            except BaseException:
+                for f in futs:
+                    f.cancel()
+                raise
+    return [results[i] for i in range(total)]
+
+
+def _eprint(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)

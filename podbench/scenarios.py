@@ -1,0 +1,332 @@
+"""Scenario files: which structures, excitations, training sets, targets and methods a study runs.
+
+A scenario is a TOML file (``scenarios/chapter4/*.toml``); every field is checked and an error
+names the file and the dotted field::
+
+    scenarios/chapter4/beam_forced.toml: field `methods[1].train[2]`: unknown case "load9"; ...
+
+Format (units inch, lbf, second)::
+
+    [scenario]
+    name = "beam_forced"                 # must equal the file's stem
+    title = "Beams, forced response"     # one line, used in tables and figures
+    source = "Allison (2007) §4.1.2"     # where the study comes from (free text)
+    description = "..."                  # free text
+    structures = ["lti_beam", "nl_beam"] # names (structures/ folders) or paths to .toml files
+    n_samples = 500                      # samples per record, t_j = j·dt, j = 0 … n−1
+    dt = 1.0e-4                          # s
+    engine = "newmark"                   # optional: "newmark" (default) or "exudyn"
+    targets = ["load5"]                  # cases every reported method predicts
+
+    [cases.load1]                        # a named excitation; any of the three entries
+    description = "..."                  # optional
+    force = [{ kind = "pulse", location = 2.0, amplitude = 500.0, duration = 5.0e-4 }]
+    # initial_displacement = { kind = "static_displacement", loads = [[24, 100]],
+    #                          reference = "lti_beam" }
+    # initial_velocity = { kind = "impulse_velocity", impulses = [[19, 1000]],
+    #                      duration = 1.0e-4, reference = "lti_beam" }
+
+    [[methods]]
+    label = "SL"                         # name in the tables (unique)
+    method = "SL"                        # POVR, MDS, SL, ML, MR, superposition or module:Class
+    n_modes = 4                          # optional (method default otherwise)
+    train = ["load1"]                    # training cases, in order (the first gives the POMs)
+    options = { solver = "ls" }          # optional constructor keywords of the method
+    twin = "ML"                          # optional: label of the coupled twin (see README)
+    report = true                        # optional: false = used only as another's twin
+
+The excitation tables are those of :func:`podbench.excitations.excitation_from_dict`;
+``force`` is one table or an array of tables (summed). A ``reference`` names a structure of
+the scenario's ``structures`` list or any other loadable structure (the beams' profiles are
+computed on ``lti_beam``, §4.1.1).
+
+A ``claims.toml`` file in a scenario folder is not a scenario: it holds the dissertation's
+claims that ``podbench run`` checks against the measured table (see
+:mod:`podbench.harness.claims`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import tomllib
+
+from .errors import ScenarioFileError, StructureFileError
+from .fem._spec import Table
+
+__all__ = [
+    "Scenario",
+    "Case",
+    "MethodSpec",
+    "load_scenario",
+    "find_scenarios",
+    "BUILTIN_METHODS",
+    "CLAIMS_FILE",
+]
+
+BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
+"""Method names a scenario may use without a ``module:Class`` path."""
+
+CLAIMS_FILE = "claims.toml"
+_EXCITATION_KEYS = ("initial_displacement", "initial_velocity", "force")
+ENGINES = ("newmark", "exudyn")
+
+
+@dataclass(frozen=True)
+class Case:
+    """A named excitation: initial displacement, initial velocity and/or force (dicts)."""
+
+    name: str
+    initial_displacement: dict | None = None
+    initial_velocity: dict | None = None
+    force: tuple[dict, ...] = ()
+    description: str = ""
+
+    def spec(self) -> dict:
+        """A JSON-able description (used in cache keys)."""
+        return {
+            "initial_displacement": self.initial_displacement,
+            "initial_velocity": self.initial_velocity,
+            "force": list(self.force),
+        }
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """One ``[[methods]]`` entry."""
+
+    label: str
+    method: str
+    train: tuple[str, ...]
+    n_modes: int | None = None
+    options: dict = field(default_factory=dict)
+    twin: str | None = None
+    report: bool = True
+    parts: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario file."""
+
+    name: str
+    title: str
+    source: str
+    description: str
+    structures: tuple[str, ...]
+    n_samples: int
+    dt: float
+    engine: str
+    targets: tuple[str, ...]
+    cases: dict
+    methods: tuple[MethodSpec, ...]
+    path: Path
+    digest: str
+
+    @property
+    def folder(self) -> Path:
+        return self.path.parent
+
+    def method(self, label: str) -> MethodSpec:
+        for m in self.methods:
+            if m.label == label:
+                return m
+        raise KeyError(label)
+
+    def reported_methods(self) -> tuple[MethodSpec, ...]:
+        return tuple(m for m in self.methods if m.report)
+
+
+def _display(path: Path) -> str:
+    try:
+        rel = os.path.relpath(path)
+    except ValueError:  # pragma: no cover
+        return str(path)
+    return str(path) if rel.startswith("..") else rel
+
+
+def _excitation(t: Table, key: str, *, many: bool):
+    value = t.raw(key, None)
+    if value is None:
+        return () if many else None
+    items = value if (many and isinstance(value, list)) else [value]
+    if many and isinstance(value, list) and not value:
+        t.fail(key, "expected a force table or a non-empty array of force tables")
+    out = []
+    for i, item in enumerate(items):
+        where = f"{key}[{i}]" if (many and isinstance(value, list)) else key
+        if not isinstance(item, dict):
+            t.fail(where, f"expected an excitation table with a `kind`, got {item!r}")
+        if "kind" not in item or not isinstance(item["kind"], str):
+            t.fail(where, "the excitation table needs a `kind` string (static_displacement, "
+                          "impulse_velocity, pulse, force_history, combined)")
+        out.append(dict(item))
+    return tuple(out) if many else out[0]
+
+
+def load_scenario(path) -> Scenario:
+    """Read and validate one scenario file.
+
+    Raises
+    ------
+    ScenarioFileError
+        Missing file, TOML syntax error, a missing/misspelt/ill-typed field, an unknown case
+        or method label, a twin that does not exist. The message names the file and field.
+    """
+    path = Path(path)
+    shown = _display(path)
+    if not path.is_file():
+        raise ScenarioFileError(f"{shown}: no such scenario file")
+    try:
+        raw = path.read_bytes()
+        doc = tomllib.loads(raw.decode("utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioFileError(f"{shown}: not UTF-8 text ({exc})") from None
+    try:
+        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest())
+    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
+        raise ScenarioFileError(str(exc)) from None
+
+
+def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
+    top = Table(doc, file=shown)
+    sc = top.table("scenario", required=True)
+    name = sc.string("name")
+    if name != path.stem:
+        sc.fail("name", f'"{name}" does not match the file name "{path.name}"')
+    title = sc.string("title")
+    source = sc.string("source", "")
+    description = sc.string("description", "", nonempty=False)
+    structures = sc.strings("structures")
+    if not structures:
+        sc.fail("structures", "expected at least one structure")
+    if len(set(structures)) != len(structures):
+        sc.fail("structures", f"a structure is listed twice: {structures}")
+    n_samples = sc.integer("n_samples", minimum=2)
+    dt = sc.number("dt", positive=True)
+    engine = sc.string("engine", "newmark", choices=ENGINES)
+    targets = sc.strings("targets")
+    if not targets:
+        sc.fail("targets", "expected at least one target case")
+    sc.close()
+
+    cases_t = top.table("cases", required=True)
+    cases = {}
+    for cname in list(cases_t.data):
+        ct = cases_t.table(cname, required=True)
+        case = Case(
+            name=cname,
+            initial_displacement=_excitation(ct, "initial_displacement", many=False),
+            initial_velocity=_excitation(ct, "initial_velocity", many=False),
+            force=_excitation(ct, "force", many=True),
+            description=ct.string("description", "", nonempty=False),
+        )
+        if case.initial_displacement is None and case.initial_velocity is None and not case.force:
+            ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS))
+        ct.close()
+        cases[cname] = case
+    cases_t.close()
+
+    def check_case(t: Table, key: str, cname: str):
+        if cname not in cases:
+            t.fail(key, f'unknown case "{cname}"; the file defines: {", ".join(cases)}')
+
+    for i, tname in enumerate(targets):
+        check_case(sc, f"targets[{i}]", tname)
+
+    methods = []
+    mtables = top.tables("methods")
+    if not mtables:
+        top.fail("methods", "expected at least one [[methods]] entry")
+    for mt in mtables:
+        label = mt.string("label")
+        method = mt.string("method")
+        if method not in BUILTIN_METHODS and ":" not in method:
+            mt.fail("method", f'unknown method "{method}"; built-in methods: '
+                              f'{", ".join(BUILTIN_METHODS)}, or "module:Class" / '
+                              f'"file.py:Class" for a method of your own')
+        parts = ()
+        if method == "superposition":
+            parts = tuple(mt.strings("parts"))
+            train = ()
+        else:
+            train = tuple(mt.strings("train"))
+            if not train:
+                mt.fail("train", "expected at least one training case")
+            for j, c in enumerate(train):
+                check_case(mt, f"train[{j}]", c)
+        n_modes = mt.integer("n_modes", None, minimum=1)
+        options = mt.raw("options", {})
+        if not isinstance(options, dict):
+            mt.fail("options", f"expected a table of keyword arguments, got {options!r}")
+        twin = mt.string("twin", None)
+        report = mt.boolean("report", True)
+        mt.close()
+        methods.append(MethodSpec(label=label, method=method, train=train, n_modes=n_modes,
+                                  options=dict(options), twin=twin, report=report, parts=parts))
+    labels = [m.label for m in methods]
+    for i, m in enumerate(methods):
+        where = f"methods[{i}]"
+        if labels.count(m.label) > 1:
+            top.fail(f"{where}.label", f'label "{m.label}" is used twice')
+        if m.twin is not None and m.twin not in labels:
+            top.fail(f"{where}.twin",
+                     f'unknown method label "{m.twin}"; labels: {", ".join(labels)}')
+        if m.twin == m.label:
+            top.fail(f"{where}.twin", "a method cannot be its own twin (leave `twin` out)")
+        for j, p in enumerate(m.parts):
+            if p not in labels or p == m.label:
+                top.fail(f"{where}.parts[{j}]", f'unknown method label "{p}"; labels: '
+                                                f'{", ".join(x for x in labels if x != m.label)}')
+    if not any(m.report for m in methods):
+        top.fail("methods", "every method has report = false: nothing would be tabulated")
+    top.close()
+    return Scenario(
+        name=name, title=title, source=source, description=description.strip(),
+        structures=tuple(structures), n_samples=n_samples, dt=dt, engine=engine,
+        targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
+        digest=digest,
+    )
+
+
+def find_scenarios(paths) -> list[Path]:
+    """Scenario files of ``paths`` (files, or folders scanned for ``*.toml`` except
+    ``claims.toml``), sorted and without duplicates.
+
+    Raises
+    ------
+    ScenarioFileError
+        A path that does not exist, a folder without scenario files, a non-TOML file.
+    """
+    found: list[Path] = []
+    for p in paths:
+        p = Path(p)
+        if p.is_dir():
+            files = sorted(f for f in p.glob("*.toml") if f.name != CLAIMS_FILE)
+            if not files:
+                raise ScenarioFileError(f"{_display(p)}: no scenario files (*.toml) in this folder")
+            found.extend(files)
+        elif p.is_file():
+            if p.suffix != ".toml":
+                raise ScenarioFileError(f"{_display(p)}: a scenario file must end in .toml")
+            found.append(p)
+        else:
+            raise ScenarioFileError(f"{_display(p)}: no such file or folder")
+    out, seen = [], set()
+    for f in found:
+        r = f.resolve()
+        if r not in seen:
+            seen.add(r)
+            out.append(f)
+    return out
+
+
+def canonical_json(obj) -> str:
+    """Deterministic JSON (sorted keys) used to build cache keys."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
