@@ -272,9 +272,10 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
                                   options=dict(options), twin=twin, report=report, parts=parts))
     labels = [m.label for m in methods]
     for i, m in enumerate(methods):
+        if m.label in labels[:i]:
+            top.fail(f"methods[{i}].label", f'label "{m.label}" is used twice')
+    for i, m in enumerate(methods):
         where = f"methods[{i}]"
-        if labels.count(m.label) > 1:
-            top.fail(f"{where}.label", f'label "{m.label}" is used twice')
         if m.twin is not None and m.twin not in labels:
             top.fail(f"{where}.twin",
                      f'unknown method label "{m.twin}"; labels: {", ".join(labels)}')
@@ -284,6 +285,9 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
             if p not in labels or p == m.label:
                 top.fail(f"{where}.parts[{j}]", f'unknown method label "{p}"; labels: '
                                                 f'{", ".join(x for x in labels if x != m.label)}')
+            if methods[labels.index(p)].method == "superposition":
+                top.fail(f"{where}.parts[{j}]", f'"{p}" is itself a superposition; list its '
+                                                "parts instead")
     if not any(m.report for m in methods):
         top.fail("methods", "every method has report = false: nothing would be tabulated")
     top.close()
