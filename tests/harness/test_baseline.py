@@ -1,0 +1,34 @@
+"""The committed baseline (results/baseline.csv) matches a fresh run of this commit.
+
+The quick test re-runs the five cheaper Chapter 4 scenarios (a few seconds); the slow test
+runs `podbench regress` on the whole study, as the nightly workflow does."""
+
+from pathlib import Path
+
+import pytest
+
+from podbench import cli
+from podbench.harness.regress import compare, read_table
+from podbench.harness.report import summary_table
+from podbench.harness.runner import run_study
+
+ROOT = Path(__file__).resolve().parents[2]
+CH4 = ROOT / "scenarios" / "chapter4"
+QUICK = ["beam_free_displacement", "beam_free_velocity", "truss_free_displacement",
+         "truss_free_velocity", "truss_forced"]
+
+
+def test_quick_scenarios_reproduce_the_committed_baseline(tmp_path):
+    base = read_table(ROOT / "results" / "baseline.csv")
+    base = base[base.scenario.isin(QUICK)]
+    assert len(base) > 0
+    new = summary_table(run_study([CH4 / f"{n}.toml" for n in QUICK], cache_dir=tmp_path))
+    cmp = compare(new, base)
+    assert not cmp.failed, cmp.report(0.01, 1e-6)
+    assert not cmp.better and not cmp.added, "baseline is stale: podbench regress --update"
+
+
+@pytest.mark.slow
+def test_whole_study_regress_passes(monkeypatch, capsys):
+    monkeypatch.chdir(ROOT)
+    assert cli.main(["regress", "-q", "--no-cache"]) == 0, capsys.readouterr().out
