@@ -35,10 +35,24 @@ Format (units inch, lbf, second)::
     twin = "ML"                          # optional: label of the coupled twin (see README)
     report = true                        # optional: false = used only as another's twin
 
+    [sweep]                              # optional: axes of `podbench sweep` (ignored by run)
+    noise = [0.0, 0.01, 0.05]            # relative noise levels (default [0.0])
+    n_modes = [3, 4]                     # k for every method (default: each method's own)
+    seeds = [0, 1, 2]                    # noise seeds (default [0])
+    solvers = ["ls", "tls"]              # deconvolution solvers (default: each method's own);
+                                         # or tables {solver = "tls", options = {rcond = 1e-2},
+                                         #            label = "tls-1e-2"}
+    noise_on = ["W", "F"]                # training quantities that get noise (W, F, w0, v0)
+    coupled_train = "first"              # MDS/ML with k modes: "first" k training cases or "all"
+
 The excitation tables are those of :func:`podbench.excitations.excitation_from_dict`;
 ``force`` is one table or an array of tables (summed). A ``reference`` names a structure of
 the scenario's ``structures`` list or any other loadable structure (the beams' profiles are
 computed on ``lti_beam``, §4.1.1).
+
+The ``[sweep]`` table is read by ``podbench sweep`` (:mod:`podbench.harness.sweep`, which
+defines the noise model and the meaning of each axis); :func:`apply_overrides` derives the
+scenario of one sweep point.
 
 A ``claims.toml`` file in a scenario folder is not a scenario: it holds the dissertation's
 claims that ``podbench run`` checks against the measured table (see
@@ -47,6 +61,7 @@ claims that ``podbench run`` checks against the measured table (see
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -55,6 +70,7 @@ from pathlib import Path
 
 import tomllib
 
+from .deconvolution import available_solvers
 from .errors import ScenarioFileError, StructureFileError
 from .fem._spec import Table
 
@@ -62,7 +78,11 @@ __all__ = [
     "Scenario",
     "Case",
     "MethodSpec",
+    "Sweep",
+    "SolverChoice",
     "load_scenario",
+    "apply_overrides",
+    "method_solver",
     "find_scenarios",
     "BUILTIN_METHODS",
     "CLAIMS_FILE",
@@ -74,6 +94,13 @@ BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
 CLAIMS_FILE = "claims.toml"
 _EXCITATION_KEYS = ("initial_displacement", "initial_velocity", "force")
 ENGINES = ("newmark", "exudyn")
+NOISE_QUANTITIES = ("W", "F", "w0", "v0")
+"""Training quantities a sweep may add noise to (displacements, forces, initial profiles)."""
+COUPLED_TRAIN = ("first", "all")
+SOLVER_METHODS = ("SL", "ML", "MR")
+"""Built-in methods that deconvolve, i.e. take a ``solver`` option."""
+COUPLED_METHODS = ("MDS", "ML")
+"""Built-in methods whose number of modes is tied to their number of training sets."""
 
 
 @dataclass(frozen=True)
@@ -107,6 +134,34 @@ class MethodSpec:
     twin: str | None = None
     report: bool = True
     parts: tuple[str, ...] = ()
+    base_label: str = ""
+    """The label in the scenario file when a sweep renamed this entry (else "")."""
+    solver_label: str = ""
+    """The sweep's solver label this entry was expanded for (else "")."""
+
+
+@dataclass(frozen=True)
+class SolverChoice:
+    """One entry of ``sweep.solvers``: a solver name, its options and the label shown."""
+
+    label: str
+    solver: str
+    options: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """The ``[sweep]`` table: axes of ``podbench sweep`` (see :mod:`podbench.harness.sweep`).
+
+    ``n_modes`` and ``solvers`` are None when the table leaves the methods' own values.
+    """
+
+    noise: tuple[float, ...] = (0.0,)
+    n_modes: tuple[int, ...] | None = None
+    seeds: tuple[int, ...] = (0,)
+    solvers: tuple[SolverChoice, ...] | None = None
+    noise_on: tuple[str, ...] = ("W", "F")
+    coupled_train: str = "first"
 
 
 @dataclass(frozen=True)
@@ -126,6 +181,7 @@ class Scenario:
     methods: tuple[MethodSpec, ...]
     path: Path
     digest: str
+    sweep: Sweep | None = None
 
     @property
     def folder(self) -> Path:
@@ -290,13 +346,155 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
                                                 "parts instead")
     if not any(m.report for m in methods):
         top.fail("methods", "every method has report = false: nothing would be tabulated")
+    sweep_t = top.table("sweep")
+    sweep = None if sweep_t is None else _parse_sweep(sweep_t)
     top.close()
     return Scenario(
         name=name, title=title, source=source, description=description.strip(),
         structures=tuple(structures), n_samples=n_samples, dt=dt, engine=engine,
         targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
-        digest=digest,
+        digest=digest, sweep=sweep,
     )
+
+
+def _unique(t: Table, key: str, values) -> None:
+    seen = []
+    for v in values:
+        if v in seen:
+            t.fail(key, f"{v!r} is listed twice")
+        seen.append(v)
+
+
+def _parse_sweep(t: Table) -> Sweep:
+    noise = tuple(t.numbers("noise", [0.0], nonnegative=True))
+    _unique(t, "noise", noise)
+    n_modes = t.integers("n_modes", None, minimum=1)
+    if n_modes is not None:
+        _unique(t, "n_modes", n_modes)
+        n_modes = tuple(n_modes)
+    seeds = tuple(t.integers("seeds", [0], minimum=0))
+    _unique(t, "seeds", seeds)
+    noise_on = t.strings("noise_on", ["W", "F"])
+    if not noise_on:
+        t.fail("noise_on", f"expected a non-empty array of {', '.join(NOISE_QUANTITIES)}")
+    for i, q in enumerate(noise_on):
+        if q not in NOISE_QUANTITIES:
+            t.fail(f"noise_on[{i}]", f'unknown quantity "{q}"; expected one of '
+                                     f'{", ".join(NOISE_QUANTITIES)}')
+    _unique(t, "noise_on", noise_on)
+    coupled_train = t.string("coupled_train", "first", choices=COUPLED_TRAIN)
+    solvers = None
+    raw = t.raw("solvers", None)
+    if raw is not None:
+        if not isinstance(raw, list) or not raw:
+            t.fail("solvers", f"expected a non-empty array of solver names or tables, got {raw!r}")
+        known = available_solvers()
+        solvers = []
+        for i, item in enumerate(raw):
+            where = f"solvers[{i}]"
+            if isinstance(item, str):
+                name, options, label = item, {}, item
+            elif isinstance(item, dict):
+                st = Table(item, file=t.file, prefix=t.field(where))
+                name = st.string("solver")
+                options = st.raw("options", {})
+                if not isinstance(options, dict):
+                    st.fail("options", f"expected a table of solver keyword options, got "
+                                       f"{options!r}")
+                label = st.string("label", name)
+                st.close()
+            else:
+                t.fail(where, f"expected a solver name or a table with `solver`, got {item!r}")
+            if name not in known:
+                t.fail(where, f'unknown solver "{name}"; solvers: {", ".join(known)}')
+            solvers.append(SolverChoice(label=label, solver=name, options=dict(options)))
+        _unique(t, "solvers (labels)", [c.label for c in solvers])
+        solvers = tuple(solvers)
+    t.close()
+    return Sweep(noise=noise, n_modes=n_modes, seeds=seeds, solvers=solvers,
+                 noise_on=tuple(noise_on), coupled_train=coupled_train)
+
+
+def _uses_solver(spec: MethodSpec, by_label: dict) -> bool:
+    if spec.method == "superposition":
+        return any(_uses_solver(by_label[p], by_label) for p in spec.parts)
+    return spec.method in SOLVER_METHODS
+
+
+def method_solver(spec: MethodSpec, scenario: Scenario) -> str:
+    """The solver label a method runs with: the sweep's label if the entry was expanded for
+    one, else its ``options.solver`` (default ``"ls"``) for SL, ML and MR, "" for a method
+    that does not deconvolve (POVR, MDS, a user's class; a superposition shows its parts')."""
+    if spec.solver_label:
+        return spec.solver_label
+    if spec.method == "superposition":
+        names = [method_solver(scenario.method(p), scenario) for p in spec.parts]
+        names = list(dict.fromkeys(n for n in names if n))
+        return "+".join(names)
+    if spec.method in SOLVER_METHODS:
+        return str(spec.options.get("solver", "ls"))
+    return ""
+
+
+def apply_overrides(scenario: Scenario, *, n_modes: int | None = None, solvers=None,
+                    coupled_train: str = "first") -> Scenario:
+    """The scenario of one sweep point.
+
+    ``n_modes`` (k) replaces every method's ``n_modes`` (a superposition's parts included;
+    a user's class receives it as the ``n_modes=`` keyword). MDS and ML identify a k × k
+    matrix from their training sets (Eqs. 3.26, 3.48), so k is tied to the number of sets:
+    with ``coupled_train = "first"`` they train on their first k cases (the square system of
+    the dissertation; with fewer than k cases the fit fails and the row says so), with
+    ``"all"`` on all of them (a least-squares fit when there are more cases than modes).
+
+    ``solvers`` (a sequence of :class:`SolverChoice`) expands every method that deconvolves
+    (SL, ML, MR, and a superposition with such a part) into one entry per solver, labelled
+    ``"<label> [<solver label>]"`` with ``base_label`` and ``solver_label`` set; the
+    ``solver`` option is replaced and ``solver_options`` replaced by the choice's options.
+    Twins and parts follow their own solver. Other methods are kept once.
+    """
+    methods = list(scenario.methods)
+    if n_modes is not None:
+        out = []
+        for m in methods:
+            if m.method == "superposition":
+                out.append(m)
+                continue
+            train = m.train
+            if m.method in COUPLED_METHODS and coupled_train == "first" and len(train) >= n_modes:
+                train = train[:n_modes]
+            out.append(dataclasses.replace(m, n_modes=n_modes, train=train))
+        methods = out
+    if solvers:
+        by_label = {m.label: m for m in methods}
+        uses = {m.label: _uses_solver(m, by_label) for m in methods}
+
+        def renamed(label: str, choice: SolverChoice) -> str:
+            return f"{label} [{choice.label}]" if uses[label] else label
+
+        out = []
+        for m in methods:
+            if not uses[m.label]:
+                out.append(m)
+                continue
+            for c in solvers:
+                opts = dict(m.options)
+                if m.method != "superposition":
+                    opts["solver"] = c.solver
+                    opts.pop("solver_options", None)
+                    if c.options:
+                        opts["solver_options"] = dict(c.options)
+                out.append(dataclasses.replace(
+                    m, label=renamed(m.label, c), options=opts,
+                    twin=None if m.twin is None else renamed(m.twin, c),
+                    parts=tuple(renamed(p, c) for p in m.parts),
+                    base_label=m.base_label or m.label, solver_label=c.label))
+        labels = [m.label for m in out]
+        if len(set(labels)) != len(labels):
+            raise ScenarioFileError(f"{_display(scenario.path)}: the solver labels make two "
+                                    f"method labels equal: {labels}")
+        methods = out
+    return dataclasses.replace(scenario, methods=tuple(methods))
 
 
 def find_scenarios(paths) -> list[Path]:

@@ -5,10 +5,16 @@ The unit of work is one (scenario, structure) pair; units are independent, so ``
 runs them in separate processes (spawned, one BLAS thread each) and the result does not
 depend on ``jobs``: rows are sorted by scenario file, structure (scenario order), method
 (scenario order) and target (scenario order).
+
+``run_unit`` also runs one point of a sweep (:mod:`podbench.harness.sweep`): ``overrides``
+derives the point's scenario (:func:`podbench.scenarios.apply_overrides`) and ``noise``
+(:class:`NoiseSpec`) adds measurement noise to the training data only (:func:`noisy`).
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import sys
 import time
@@ -25,12 +31,12 @@ from ..dynamics import simulate
 from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
 from ..excitations import excitation_from_dict
 from ..fem import load_structure
-from ..scenarios import Scenario, load_scenario
+from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from .adapters import UserAdapter, all_cases, make_adapter
 from .cache import TruthCache, structure_fingerprint
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 
-__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS"]
+__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS[:5],
            "subspace_error", *NORM_COLUMNS, "status")
@@ -50,6 +56,54 @@ class UnitResult:
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class NoiseSpec:
+    """Measurement noise on the training data of one sweep point.
+
+    ``level`` is relative: each quantity named in ``on`` (``"W"``, ``"F"``, ``"w0"``,
+    ``"v0"``) of each training response gets independent Gaussian noise of standard deviation
+    ``level × RMS`` of that quantity (a quantity that is identically zero stays zero).
+    ``seed`` selects the realization (see :func:`noisy`).
+    """
+
+    level: float
+    seed: int = 0
+    on: tuple[str, ...] = ("W", "F")
+
+
+def noise_generator(seed: int, *key: str) -> np.random.Generator:
+    """The generator of one noise stream: ``SeedSequence`` entropy ``[seed, h_0 … h_7]``
+    with ``h`` the eight 32-bit words of SHA-256 of the JSON list ``key``. Never the global
+    RNG; identical on every machine, process and thread."""
+    digest = hashlib.sha256(json.dumps(list(key)).encode("utf-8")).digest()
+    words = [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 32, 4)]
+    return np.random.default_rng(np.random.SeedSequence([int(seed), *words]))
+
+
+def noisy(response: Response, noise: NoiseSpec, *key: str) -> Response:
+    """``response`` with relative Gaussian noise on the quantities ``noise.on``.
+
+    The standard normal draws of quantity ``Q`` come from ``noise_generator(noise.seed,
+    *key, Q)`` and are scaled by ``noise.level × RMS(Q)``: the same seed gives the same
+    pattern at every level (common random numbers, so levels, solvers and mode counts are
+    compared on the same realization). The harness uses ``key = (scenario, structure,
+    case)`` with the unit's structure name also for its linear twin, so the nonlinear and
+    the linear data of a case carry the same pattern. Level 0 returns ``response`` itself.
+    """
+    if noise.level == 0:
+        return response
+    arrays = {}
+    for q in ("W", "F", "w0", "v0"):
+        a = np.asarray(getattr(response, q), dtype=float)
+        if q in noise.on:
+            rms = float(np.sqrt(np.mean(a**2))) if a.size else 0.0
+            z = noise_generator(noise.seed, *key, q).standard_normal(a.shape)
+            a = a + (noise.level * rms) * z
+        arrays[q] = a
+    return Response(t=response.t, dt=response.dt, structure=response.structure,
+                    engine=response.engine, label=response.label, **arrays)
 
 
 def _structure_search(scenario: Scenario) -> list[Path]:
@@ -77,11 +131,26 @@ def _references(case) -> set[str]:
 class _Truth:
     """Truth responses of one structure (and its linear twin), simulated or cached."""
 
-    def __init__(self, scenario: Scenario, structure, cache: TruthCache, engine: str):
+    def __init__(self, scenario: Scenario, structure, cache: TruthCache, engine: str,
+                 noise: NoiseSpec | None = None):
         self.scenario, self.structure, self.cache, self.engine = scenario, structure, cache, engine
+        self.noise = noise
         self._refs: dict = {}
         self._store: dict = {}
+        self._noisy: dict = {}
         self.simulated = 0
+
+    def train(self, case_name: str, linear: bool = False) -> Response:
+        """A training response: the truth, with the sweep's noise if any (targets stay
+        noise-free: a prediction is compared with the clean truth)."""
+        clean = self.get(case_name, linear)
+        if self.noise is None or self.noise.level == 0:
+            return clean
+        key = (case_name, linear)
+        if key not in self._noisy:
+            self._noisy[key] = noisy(clean, self.noise, self.scenario.name,
+                                     self.structure.name, case_name)
+        return self._noisy[key]
 
     def _reference(self, name: str):
         if name not in self._refs:
@@ -137,9 +206,10 @@ class _Truth:
 def _fit(spec, scenario: Scenario, truth: _Truth, linear: bool, basis=None):
     adapter = make_adapter(spec, scenario)
     if spec.method == "superposition":
-        trains = [[truth.get(c, linear) for c in scenario.method(p).train] for p in spec.parts]
+        trains = [[truth.train(c, linear) for c in scenario.method(p).train]
+                  for p in spec.parts]
         return adapter.fit(trains, basis=basis)
-    return adapter.fit([truth.get(c, linear) for c in spec.train], basis=basis)
+    return adapter.fit([truth.train(c, linear) for c in spec.train], basis=basis)
 
 
 _EXPECTED = (PodbenchError, np.linalg.LinAlgError)
@@ -151,7 +221,8 @@ def _failure(exc: BaseException) -> str:
 
 
 def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | None = None,
-             keep_series: bool = True) -> UnitResult:
+             keep_series: bool = True, *, overrides: dict | None = None,
+             noise: NoiseSpec | None = None) -> UnitResult:
     """Run every method of a scenario on one structure.
 
     Truth for every case the methods and targets need is simulated (or read from the cache in
@@ -160,12 +231,20 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     declared coupled twin and, for a nonlinear structure, the linear twin.
     A method that fails (ill-conditioned data, too few data sets, ...) gets a row with NaN
     errors and the reason in ``status``; an error in the scenario itself raises.
+
+    Sweep points: ``overrides`` (keywords of :func:`podbench.scenarios.apply_overrides`:
+    ``n_modes``, ``solvers``, ``coupled_train``) derives the point's scenario, and each row
+    then also has a ``solver`` entry and the file's label as ``method``; ``noise`` adds
+    :class:`NoiseSpec` noise to every training response (twins and linear twins included),
+    never to the targets. Without them the behaviour is that of ``podbench run``.
     """
     t_start = time.perf_counter()
     scenario = load_scenario(scenario_path)
+    if overrides is not None:
+        scenario = apply_overrides(scenario, **overrides)
     structure = resolve_structure(structure_entry, scenario)
     cache = TruthCache(cache_dir)
-    truth = _Truth(scenario, structure, cache, engine or scenario.engine)
+    truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise)
     nonlinear = not structure.is_linear
     res = UnitResult(scenario=scenario.name, structure=structure.name)
 
@@ -183,6 +262,9 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
     for spec in scenario.reported_methods():
         base = {"scenario": scenario.name, "structure": structure.name, "method": spec.label}
+        if overrides is not None:
+            base["method"] = spec.base_label or spec.label
+            base["solver"] = method_solver(spec, scenario)
         try:
             adapter = _fit(spec, scenario, truth, False)
             preds = {t: adapter.predict(truth.get(t)) for t in scenario.targets}
