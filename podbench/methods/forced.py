@@ -19,11 +19,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..deconvolution import (
-    block_convolution_matrix,
-    convolution_matrix,
+    convolution_product,
     convolve,
     convolve_kernel,
-    solve,
+    deconvolve,
 )
 from ..errors import IllConditionedError, InputError
 from .base import (
@@ -47,9 +46,11 @@ from .base import (
 __all__ = ["SingleLoad", "MultipleLoad"]
 
 
-def _relative_residual(A, X, B) -> float:
+def _relative_residual(Qs, X, B, dt) -> float:
+    """``‖A X − B‖ / ‖B‖`` with ``A`` the convolution matrix of ``Qs`` (never formed)."""
+    AX = convolution_product(Qs, X, dt)
     nb = np.linalg.norm(B)
-    return float(np.linalg.norm(A @ X - B) / nb) if nb > 0 else float(np.linalg.norm(A @ X))
+    return float(np.linalg.norm(AX - B) / nb) if nb > 0 else float(np.linalg.norm(AX))
 
 
 class SingleLoad(PODMethod):
@@ -142,10 +143,9 @@ class SingleLoad(PODMethod):
         kernel = np.zeros((k, k, n))
         num = 0.0
         for i in range(k):
-            A = convolution_matrix(Q[i], dt)
-            c = solve(A, Vh[i], self.solver, **options)
+            c = deconvolve([Q[i : i + 1]], Vh[i], dt, self.solver, **options)
             kernel[i, i] = c
-            num += float(np.sum((A @ c - Vh[i]) ** 2))
+            num += float(np.sum((convolution_product([Q[i : i + 1]], c, dt) - Vh[i]) ** 2))
         nv = np.linalg.norm(Vh)
         self.modes_ = U
         self.povs_ = povs
@@ -281,9 +281,8 @@ class MultipleLoad(PODMethod):
                 f"condition number of their modal-force histories is {cond:.3g} > max_cond = "
                 f"{max_cond:g}; use linearly independent loads"
             )
-        A = block_convolution_matrix(Qs, dt)
         B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
-        Cbar = solve(A, B, self.solver, **options)
+        Cbar = deconvolve(Qs, B, dt, self.solver, **options)
         kernel = np.empty((k, k, n))
         for i in range(k):
             kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
@@ -293,7 +292,7 @@ class MultipleLoad(PODMethod):
         self.Cbar_ = Cbar
         self.kernel_ = kernel
         self.condition_number_ = cond
-        self.fit_residual_ = _relative_residual(A, Cbar, B)
+        self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
         self.dt_ = dt
         self.n_modes_ = k
         return self

@@ -48,7 +48,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_choice
-from ..deconvolution import convolution_matrix, convolve, solve
+from ..deconvolution import convolution_product, convolve, deconvolve
 from ..errors import DimensionError, IllConditionedError, InputError
 from .base import (
     PODMethod,
@@ -230,9 +230,8 @@ class MixedResponse(PODMethod):
                 )
             yb = Vh[1, i] - r_bd[i] * Vh[0, i]
             rhs = (Vh[2, i] - r_cd[i] * Vh[0, i]) - R[i] * yb
-            A = convolution_matrix(g, dt)
-            c = solve(A, rhs, self.solver, **options)
-            res2 += float(np.sum((A @ c - rhs) ** 2))
+            c = deconvolve([g[None]], rhs, dt, self.solver, **options)
+            res2 += float(np.sum((convolution_product([g[None]], c, dt) - rhs) ** 2))
             rhs2 += float(np.sum(rhs**2))
             kernel[i, i] = c
             V[i] = (yb - convolve(c, qba, dt)) / den[i]
