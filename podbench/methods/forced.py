@@ -70,7 +70,10 @@ class SingleLoad(PODMethod):
         Cumulative energy fraction (Eq. 2.3, σ-based) when ``n_modes`` is None (0.99).
     solver : str
         Deconvolution solver name (:func:`podbench.deconvolution.available_solvers`):
-        ``"ls"`` (default, Eq. 3.76) or ``"tls"`` (Eqs. 3.78–3.80).
+        ``"ls"`` (default, Eq. 3.76) or ``"tls"`` (Eqs. 3.78–3.80), dense; or a structured
+        solver that never forms the convolution matrix: ``"block"`` (exact, equals ``"ls"``
+        for forces that start with zeros), ``"fft"`` or ``"cgls"`` (Tikhonov-regularized,
+        for noisy data).
     solver_options : dict, optional
         Keyword options of the solver (e.g. ``{"rcond": 1e-3}`` or
         ``{"noise_level": 1e-4}`` for ``"tls"``).
@@ -198,7 +201,8 @@ class MultipleLoad(PODMethod):
         ``k``; default the number of load cases (or ``basis.shape[1]``). Must not exceed it;
         more load cases than modes give an over-determined system (an extension).
     solver : str
-        ``"ls"`` (default) or ``"tls"``, see :mod:`podbench.deconvolution`.
+        ``"ls"`` (default) or ``"tls"`` (dense); ``"block"`` (exact, as many load cases as
+        modes), ``"fft"``, ``"cgls"`` (structured); see :mod:`podbench.deconvolution`.
     solver_options : dict, optional
         Keyword options of the solver.
     max_cond : float

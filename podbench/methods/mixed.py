@@ -85,7 +85,8 @@ class MixedResponse(PODMethod):
     energy : float
         Cumulative energy fraction (Eq. 2.3, σ-based) when ``n_modes`` is None (0.99).
     solver : str
-        Deconvolution solver, ``"ls"`` (default) or ``"tls"``.
+        Deconvolution solver, ``"ls"`` (default) or ``"tls"`` (dense); ``"block"``,
+        ``"fft"``, ``"cgls"`` (structured); see :mod:`podbench.deconvolution`.
     solver_options : dict, optional
         Keyword options of the solver.
     velocity_scaling : {"ratio", "finite_difference"}
