@@ -49,8 +49,8 @@ class Comparison:
         if self.worse:
             lines.append(f"WORSE ({len(self.worse)}):")
             for key, col, b, n in self.worse:
-                rel = "" if not (b and math.isfinite(b) and math.isfinite(n)) else \
-                    f"  ({(n - b) / abs(b):+.2%})"
+                meaningful = math.isfinite(b) and math.isfinite(n) and abs(b) > 1e3 * atol
+                rel = f"  ({(n - b) / abs(b):+.2%})" if meaningful else ""
                 lines.append(f"  {k(key)}: {col} {b:.6g} -> {n:.6g}{rel}")
         for key, b, n in self.status:
             lines.append(f"  {k(key)}: status {b!r} -> {n!r}")
