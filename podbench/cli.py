@@ -1,4 +1,4 @@
-"""Command line: ``podbench run | regress | list``.
+"""Command line: ``podbench run | regress | sweep | list``.
 
 Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
 missing path, a malformed scenario/structure/claims file, an unknown name), reported on one
@@ -10,12 +10,14 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import textwrap
 import time
 from pathlib import Path
 
 DEFAULT_SCENARIOS = Path("scenarios") / "chapter4"
 DEFAULT_BASELINE = Path("results") / "baseline.csv"
 DEFAULT_CACHE = Path(".podbench_cache")
+DEFAULT_SWEEPS = Path("scenarios") / "sweeps"
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
@@ -83,6 +85,61 @@ def _parser() -> argparse.ArgumentParser:
                    help="write this run's table as the new baseline (deliberately) and exit 0")
     g.add_argument("--table", default=None, metavar="CSV",
                    help="compare this existing summary.csv instead of re-running")
+
+    w = sub.add_parser(
+        "sweep", help="run scenarios over noise levels, mode counts, seeds and solvers",
+        description=textwrap.fill(
+                    "Run every point of the scenarios' [sweep] axes — noise levels × mode "
+                    "counts × seeds (× deconvolution solvers) × structures × methods — and "
+                    "write DIR/<scenario name>/sweep.csv (one row per point, method and "
+                    "target; columns as summary.csv plus noise, modes, seed, solver) and "
+                    "sweep.md (median and max over seeds). Noise is relative: Gaussian with "
+                    "standard deviation = level × RMS of each training matrix (W and F unless "
+                    "the file's noise_on says otherwise), seeded by (seed, scenario, "
+                    "structure, case); targets are noise-free. The --noise/--n-modes/--seeds/"
+                    "--solvers options replace the file's axes. The table is identical "
+                    "whether the points run serially, in --jobs local processes or on a Dask "
+                    "cluster (--scheduler).", width=88),
+        epilog=_EPILOG + """
+Examples:
+  podbench sweep                                   # scenarios/sweeps/*.toml, 1 process
+  podbench sweep scenarios/sweeps/beam_forced_noise.toml --jobs 2
+  podbench sweep scenarios/chapter4/beam_forced.toml --noise 0,0.01 --seeds 0-4 --solvers ls,tls
+  podbench sweep --scheduler tcp://10.0.0.5:8786   # needs pip install 'podbench[dask]'
+
+[sweep] table of a scenario file (every field optional):
+  noise = [0.0, 0.01, 0.05]   seeds = [0, 1, 2]   n_modes = [3, 4]
+  solvers = ["ls", "tls"]     noise_on = ["W", "F"]   coupled_train = "first"
+n_modes replaces every method's k; MDS and ML (k = number of training sets) train on their
+first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    w.add_argument("paths", nargs="*", metavar="PATH",
+                   help=f"scenario files or folders of them (default: {DEFAULT_SWEEPS})")
+    w.add_argument("-j", "--jobs", type=int, default=1, metavar="N",
+                   help="local worker processes (default 1; the table does not depend on N)")
+    w.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the points on a Dask distributed cluster, e.g. "
+                        "tcp://host:8786 (workers need podbench and the same project folder "
+                        "at the same path); replaces --jobs")
+    w.add_argument("--noise", default=None, metavar="LIST",
+                   help="relative noise levels, comma-separated (e.g. 0,0.01,0.05)")
+    w.add_argument("--n-modes", default=None, metavar="LIST",
+                   help="mode counts k, comma-separated (e.g. 3,4,5)")
+    w.add_argument("--seeds", default=None, metavar="LIST",
+                   help="noise seeds: comma-separated integers and ranges (e.g. 0-4 or 0,3,7)")
+    w.add_argument("--solvers", default=None, metavar="LIST",
+                   help="deconvolution solvers for SL, ML and MR, comma-separated (e.g. ls,tls; "
+                        "podbench list shows them)")
+    w.add_argument("-o", "--out", default="results", metavar="DIR",
+                   help="output root: each scenario writes DIR/<scenario name>/sweep.csv and "
+                        "sweep.md (default results)")
+    w.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
+                   help=f"truth-data cache folder (default {DEFAULT_CACHE}); noise is added "
+                        "after loading, so sweep and run share entries")
+    w.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
+    w.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
+                   help="override the scenarios' integration engine")
+    w.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
     sub.add_parser("list", help="list structures, scenarios, methods and solvers",
                    description="List the structures found (structures/ and PODBENCH_STRUCTURES), "
@@ -213,6 +270,79 @@ def cmd_list(args) -> int:
     return 0
 
 
+def _list_arg(text, name: str, kind):
+    """Parse a comma-separated option (``--noise 0,0.01``; ``--seeds 0-4``)."""
+    if text is None:
+        return None
+    out = []
+    for item in text.split(","):
+        item = item.strip()
+        try:
+            if kind is int and "-" in item[1:]:
+                lo, hi = item.split("-", 1)
+                lo, hi = int(lo), int(hi)
+                if hi < lo:
+                    raise ValueError
+                out.extend(range(lo, hi + 1))
+            elif kind is str:
+                if not item:
+                    raise ValueError
+                out.append(item)
+            else:
+                out.append(kind(item))
+        except ValueError:
+            what = {float: "numbers", int: "integers or ranges a-b", str: "names"}[kind]
+            raise _Usage(f"--{name}: cannot read {item!r} in {text!r} (expected a "
+                         f"comma-separated list of {what})") from None
+    return out
+
+
+def cmd_sweep(args) -> int:
+    from .deconvolution import available_solvers
+    from .harness.sweep import run_sweep, write_sweep
+    from .scenarios import SolverChoice, find_scenarios
+
+    if args.jobs < 1:
+        raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
+    if args.scheduler is not None and args.jobs != 1:
+        raise _Usage("--jobs and --scheduler: give one (the Dask cluster sets the parallelism)")
+    axes = {"noise": _list_arg(args.noise, "noise", float),
+            "n_modes": _list_arg(args.n_modes, "n-modes", int),
+            "seeds": _list_arg(args.seeds, "seeds", int)}
+    solvers = _list_arg(args.solvers, "solvers", str)
+    if solvers is not None:
+        for name in solvers:
+            if name not in available_solvers():
+                raise _Usage(f"--solvers: unknown solver {name!r}; solvers: "
+                             f"{', '.join(available_solvers())}")
+        axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
+    paths = args.paths
+    if not paths:
+        if not DEFAULT_SWEEPS.is_dir():
+            raise _Usage(f"{DEFAULT_SWEEPS}: no such folder (run podbench from the project "
+                         "folder, or give scenario paths)")
+        paths = [DEFAULT_SWEEPS]
+    files = find_scenarios(paths)
+    say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    t0 = time.perf_counter()
+    scenarios, df = run_sweep(files, jobs=args.jobs, scheduler=args.scheduler,
+                              cache_dir=None if args.no_cache else args.cache,
+                              engine=args.engine, progress=say, **axes)
+    secs = time.perf_counter() - t0
+    where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} process(es)"
+    print(f"{len(df)} rows from {df.attrs.get('tasks', 0)} points in {secs:.1f} s on {where} "
+          f"({df.attrs.get('simulated', 0)} responses simulated, "
+          f"{df.attrs.get('cached', 0)} from the cache)")
+    for name, sc in scenarios.items():
+        csv, _ = write_sweep(df[df["scenario"] == name].reset_index(drop=True),
+                             Path(args.out) / name, sc)
+        print(f"  {name} -> {csv} and sweep.md")
+    failed = df[df.status != "ok"]
+    if len(failed):
+        print(f"note: {len(failed)} rows have a failed method or twin (see sweep.md)")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
@@ -222,7 +352,8 @@ def main(argv=None) -> int:
     from .errors import PodbenchError
 
     try:
-        return {"run": cmd_run, "regress": cmd_regress, "list": cmd_list}[args.command](args)
+        return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
+                "list": cmd_list}[args.command](args)
     except (_Usage, PodbenchError) as exc:
         msg = " ".join(str(exc).split())
         print(f"podbench {args.command}: error: {msg}", file=sys.stderr)

@@ -1,0 +1,372 @@
+"""Sweeps: every scenario point over noise levels × mode counts × seeds × structures × methods
+(× deconvolution solvers), serially, in local processes, or on a Dask distributed cluster.
+
+Axes come from a scenario's ``[sweep]`` table (:class:`podbench.scenarios.Sweep`) or from the
+command line (``podbench sweep --noise … --n-modes … --seeds … --solvers …``, which replace
+the file's axes). One **task** is one (scenario, structure, noise level, k, seed) point; it
+runs every method of the scenario (each solver of the ``solvers`` axis as its own entry)
+through :func:`podbench.harness.runner.run_unit` and returns its rows. Tasks are
+independent pure functions of their arguments, so the table is identical whatever executes
+them (``jobs = 1``, ``jobs = N`` local processes, or a Dask scheduler) and whatever order
+they finish in.
+
+Noise model (:class:`podbench.harness.runner.NoiseSpec`): Gaussian, standard deviation
+``level × RMS`` of each training matrix, added after the truth is loaded from the cache (so
+the cache stays valid), by default to the training displacements ``W`` and forces ``F``
+(``noise_on`` adds the initial profiles ``w0``/``v0`` on request). Targets are never noisy:
+each prediction is made from the target's exact excitation and compared with the noise-free
+truth, so the error is the identification error caused by noisy training data. The draws
+are seeded by ``(seed, scenario, structure, case, quantity)`` through ``SeedSequence``; the
+same seed gives the same pattern at every level, for every method, solver and k. A
+noise-free point does not depend on the seed: it is computed once and its rows are repeated
+for every seed (so the table stays rectangular).
+
+Axis ``n_modes`` (k) replaces the methods' ``n_modes``; for MDS and ML, whose k is the
+number of training sets, ``coupled_train`` says whether they train on their first k cases
+(default, the dissertation's square system) or on all of them
+(:func:`podbench.scenarios.apply_overrides`). Axis ``solvers`` runs every deconvolving
+method (SL, ML, MR) once per solver; POVR and MDS (nothing to deconvolve) are run once
+and have an empty ``solver``.
+
+Output (:func:`write_sweep`): ``sweep.csv`` with :data:`SWEEP_COLUMNS`, rows in task order
+(structure, noise, k, seed, as listed) then method and target (scenario order), numbers in
+``%.6g``; ``sweep.md`` with the median (max) of ``total_error`` over the seeds.
+
+Dask: the workers must see the same project folder (scenario files and structures at the same
+absolute paths, e.g. a shared file system) and have podbench installed (``pip install
+podbench[dask]``); the cache folder, if given, should be shared too (otherwise each worker
+simulates the truth it needs). A worker whose scenario file differs from the client's
+refuses the task.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError, PodbenchError, ScenarioFileError
+from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
+from .metrics import ERROR_COLUMNS, NORM_COLUMNS
+from .report import atomic_write_text, table_csv
+from .runner import NoiseSpec, resolve_structure, run_unit
+
+__all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", "sweep_table",
+           "sweep_markdown", "write_sweep", "sweep_axes"]
+
+SWEEP_COLUMNS = ("scenario", "structure", "method", "solver", "target", "noise", "modes",
+                 "seed", "n_modes", *ERROR_COLUMNS[:5], "subspace_error", *NORM_COLUMNS,
+                 "status")
+"""Columns of ``sweep.csv``: ``noise`` (relative level), ``modes`` (the k axis; −1 when not
+swept), ``seed``, ``solver`` (the solver label; empty for a method that does not
+deconvolve) and ``n_modes`` (the k actually used, −1 for a failed fit), then the columns of
+``summary.csv``."""
+
+
+@dataclass(frozen=True)
+class SweepTask:
+    """One sweep point: plain values, so it travels to processes and Dask workers."""
+
+    index: int
+    scenario_path: str
+    digest: str
+    structure: str
+    noise: float
+    modes: int | None
+    seed: int
+    solvers: tuple[SolverChoice, ...] | None
+    noise_on: tuple[str, ...]
+    coupled_train: str
+    cache_dir: str | None
+    engine: str | None
+    first_seed: int
+    """The sweep's first seed: a noise-free point is computed for it only."""
+
+
+def sweep_axes(scenario: Scenario, *, noise=None, n_modes=None, seeds=None,
+               solvers=None) -> Sweep:
+    """The scenario's ``[sweep]`` axes (defaults without the table), each replaced by the
+    given value when not None (the command line's ``--noise`` etc.)."""
+    base = scenario.sweep or Sweep()
+    out = Sweep(
+        noise=base.noise if noise is None else tuple(float(x) for x in noise),
+        n_modes=base.n_modes if n_modes is None else tuple(int(x) for x in n_modes),
+        seeds=base.seeds if seeds is None else tuple(int(x) for x in seeds),
+        solvers=base.solvers if solvers is None else tuple(solvers),
+        noise_on=base.noise_on, coupled_train=base.coupled_train,
+    )
+    for name, vals in (("noise", out.noise), ("n_modes", out.n_modes or ()),
+                       ("seeds", out.seeds)):
+        if len(set(vals)) != len(vals):
+            raise InputError(f"sweep axis `{name}`: a value is listed twice: {list(vals)}")
+    if any(not (math.isfinite(x) and x >= 0) for x in out.noise):
+        raise InputError(f"sweep axis `noise`: expected finite levels >= 0, got {list(out.noise)}")
+    if any(k < 1 for k in out.n_modes or ()):
+        raise InputError(f"sweep axis `n_modes`: expected integers >= 1, got {list(out.n_modes)}")
+    if any(s < 0 for s in out.seeds):
+        raise InputError(f"sweep axis `seeds`: expected integers >= 0, got {list(out.seeds)}")
+    if out.solvers is not None:
+        labels = [c.label for c in out.solvers]
+        if len(set(labels)) != len(labels):
+            raise InputError(f"sweep axis `solvers`: a label is listed twice: {labels}")
+    return out
+
+
+def plan_sweep(paths, *, cache_dir=None, engine=None, **axes) -> tuple[dict, list[SweepTask]]:
+    """Validate the scenario files and list their tasks in table order.
+
+    Returns ``({name: Scenario}, tasks)``; ``axes`` are :func:`sweep_axes` replacements.
+    Raises :class:`ScenarioFileError` / :class:`InputError` on bad input, before any work.
+    """
+    scenarios: dict[str, Scenario] = {}
+    tasks: list[SweepTask] = []
+    cache = None if cache_dir is None else str(Path(cache_dir).resolve())
+    for p in paths:
+        sc = load_scenario(p)
+        if sc.name in scenarios:
+            raise ScenarioFileError(f"{p}: a second scenario named {sc.name!r}")
+        scenarios[sc.name] = sc
+        ax = sweep_axes(sc, **axes)
+        for entry in sc.structures:
+            resolve_structure(entry, sc)  # unknown names fail here, in the parent
+            for level in ax.noise:
+                for k in ax.n_modes or (None,):
+                    for seed in ax.seeds:
+                        tasks.append(SweepTask(
+                            index=len(tasks), scenario_path=str(sc.path), digest=sc.digest,
+                            structure=entry, noise=level, modes=k, seed=seed,
+                            solvers=ax.solvers, noise_on=ax.noise_on,
+                            coupled_train=ax.coupled_train, cache_dir=cache, engine=engine,
+                            first_seed=ax.seeds[0]))
+    return scenarios, tasks
+
+
+def _computed(task: SweepTask) -> bool:
+    """Whether the task is computed (a noise-free point only for the first seed)."""
+    return task.noise > 0 or task.seed == task.first_seed
+
+
+def _noise_free_source(task: SweepTask) -> tuple:
+    return (task.scenario_path, task.structure, task.modes)
+
+
+def run_task(task: SweepTask) -> dict:
+    """Run one sweep point; returns ``{"index", "rows", "seconds", "simulated", "cached"}``
+    with rows carrying :data:`SWEEP_COLUMNS`."""
+    t0 = time.perf_counter()
+    sc = load_scenario(task.scenario_path)
+    if sc.digest != task.digest:
+        raise ScenarioFileError(
+            f"{task.scenario_path}: this file differs from the one the sweep was planned with "
+            "(edited during the run, or a Dask worker with another checkout)")
+    overrides = {"n_modes": task.modes, "solvers": task.solvers,
+                 "coupled_train": task.coupled_train}
+    noise = NoiseSpec(level=float(task.noise), seed=int(task.seed), on=tuple(task.noise_on))
+    res = run_unit(task.scenario_path, task.structure, task.cache_dir, task.engine, False,
+                   overrides=overrides, noise=noise)
+    modes = -1 if task.modes is None else int(task.modes)
+    rows = [{**r, "noise": float(task.noise), "modes": modes, "seed": int(task.seed)}
+            for r in res.rows]
+    return {"index": task.index, "rows": rows, "seconds": time.perf_counter() - t0,
+            "simulated": res.simulated, "cached": res.cached}
+
+
+def _task_worker(task: SweepTask) -> dict:
+    try:
+        return run_task(task)
+    except PodbenchError:
+        raise
+    except Exception as exc:  # keep the worker's traceback readable in the parent
+        raise RuntimeError("".join(traceback.format_exception(exc))) from None
+
+
+def _dask_client(address: str, timeout: float):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler needs Dask distributed: pip install 'podbench[dask]' "
+                         "(or pip install 'dask[distributed]')") from None
+    from distributed.comm import parse_address, parse_host_port
+    from distributed.comm.registry import backends
+
+    # Check the address and reach the port first: a Client that fails to connect blocks in
+    # its destructor and prints a traceback at exit.
+    try:
+        scheme, loc = parse_address(address)
+        if scheme not in backends:
+            raise ValueError(f"unknown address scheme {scheme!r} (known: "
+                             f"{', '.join(sorted(backends))})")
+        if scheme == "tcp":
+            host, port = parse_host_port(loc)
+            socket.create_connection((host, port), timeout=timeout).close()
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"cannot connect to the Dask scheduler {address!r}: "
+                         f"{type(exc).__name__}: {exc}") from None
+    try:
+        return Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        raise InputError(f"cannot connect to the Dask scheduler {address!r}: "
+                         f"{type(exc).__name__}: {exc}") from None
+
+
+def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=None,
+              engine: str | None = None, progress=None, connect_timeout: float = 10.0,
+              **axes) -> tuple[dict, pd.DataFrame]:
+    """Run the sweeps of the scenario files ``paths``.
+
+    Parameters
+    ----------
+    jobs : int
+        Local worker processes (spawned, one BLAS thread each); ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of a Dask distributed scheduler (``tcp://host:8786``): every task runs on
+        its workers (module docstring: what the workers need).
+    cache_dir : path, optional
+        Truth-data cache folder (made absolute for the workers).
+    progress : callable, optional
+        Called with one line per finished task.
+    connect_timeout : float
+        Seconds to wait for the scheduler.
+    **axes
+        ``noise``, ``n_modes``, ``seeds``, ``solvers``: replace the files' axes.
+
+    Returns
+    -------
+    ({name: Scenario}, DataFrame)
+        The scenarios and the table of :func:`sweep_table`.
+    """
+    if jobs < 1:
+        raise InputError(f"jobs: expected a positive integer, got {jobs}")
+    scenarios, tasks = plan_sweep(paths, cache_dir=cache_dir, engine=engine, **axes)
+    todo = [t for t in tasks if _computed(t)]
+    say = progress or (lambda *_: None)
+    results: dict[int, dict] = {}
+    t0 = time.perf_counter()
+    names = {t.index: t for t in todo}
+
+    def report(out):
+        t = names[out["index"]]
+        results[t.index] = out
+        done, total = len(results), len(todo)
+        bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
+        k = "own" if t.modes is None else t.modes
+        say(f"[{bar}] {done}/{total}  {Path(t.scenario_path).stem} × {t.structure}, noise "
+            f"{t.noise:g}, k {k}, seed {t.seed}: {out['seconds']:.1f} s "
+            f"(elapsed {time.perf_counter() - t0:.1f} s)")
+
+    if scheduler is not None:
+        client = _dask_client(scheduler, connect_timeout)
+        try:
+            from distributed import as_completed as dask_completed
+
+            futs = client.map(_task_worker, todo, pure=False)
+            try:
+                for fut in dask_completed(futs, loop=client.loop):
+                    report(fut.result())
+            except BaseException:
+                client.cancel(futs)
+                raise
+        finally:
+            client.close()
+    elif jobs <= 1 or len(todo) <= 1:
+        for t in todo:
+            report(run_task(t))
+    else:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
+            futs = [ex.submit(_task_worker, t) for t in todo]
+            try:
+                for f in as_completed(futs):
+                    report(f.result())
+            except BaseException:
+                for f in futs:
+                    f.cancel()
+                raise
+    # table order; a noise-free point's rows are repeated for every seed
+    source = {_noise_free_source(t): t.index for t in todo if t.noise == 0}
+    rows = []
+    for t in tasks:
+        i = t.index if _computed(t) else source[_noise_free_source(t)]
+        rows.extend({**r, "seed": int(t.seed)} for r in results[i]["rows"])
+    df = sweep_table(rows)
+    df.attrs["simulated"] = sum(o["simulated"] for o in results.values())
+    df.attrs["cached"] = sum(o["cached"] for o in results.values())
+    df.attrs["tasks"] = len(todo)
+    return scenarios, df
+
+
+def sweep_table(rows) -> pd.DataFrame:
+    """The rows as a DataFrame with :data:`SWEEP_COLUMNS` in order."""
+    df = pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))
+    for c in ("n_modes", "modes", "seed"):
+        df[c] = df[c].astype(int)
+    df["noise"] = df["noise"].astype(float)
+    df["solver"] = df["solver"].fillna("").astype(str)
+    return df
+
+
+def _cell(errors: np.ndarray, n_failed: int) -> str:
+    ok = errors[np.isfinite(errors)]
+    if ok.size == 0:
+        return "failed" if n_failed else "—"
+    text = f"{np.median(ok):.3g} ({np.max(ok):.3g})"
+    return text + (f" [{n_failed} failed]" if n_failed else "")
+
+
+def sweep_markdown(df: pd.DataFrame, scenario: Scenario) -> str:
+    """Median (max) over seeds of ``total_error``, one row per (structure, method, target,
+    k, solver), one column per noise level."""
+    levels = list(dict.fromkeys(df["noise"]))
+    seeds = list(dict.fromkeys(df["seed"]))
+    out = [f"# podbench sweep: {scenario.name}\n\n",
+           f"{scenario.title}. *{scenario.source}*\n\n" if scenario.source
+           else f"{scenario.title}.\n\n",
+           "Total relative error ‖Ŵ − W‖_F/‖W‖_F of each target: median (max) over seeds "
+           f"{', '.join(map(str, seeds))}. Noise: Gaussian, standard deviation = level × RMS "
+           "of each training matrix; targets noise-free (see podbench.harness.sweep). "
+           "Generated by `podbench sweep` with sweep.csv; do not edit.\n\n"]
+    head = ["structure", "method", "target", "k", "solver", *(f"noise {x:g}" for x in levels)]
+    out.append("| " + " | ".join(head) + " |\n|" + "---|" * len(head) + "\n")
+    keys = ["structure", "method", "target", "modes", "solver"]
+    for key, sub in df.groupby(keys, sort=False):
+        structure, method, target, modes, solver = key
+        if modes < 0:
+            used = sub.loc[sub["n_modes"] >= 0, "n_modes"]
+            k = str(int(used.iloc[0])) if len(used) else "—"
+        else:
+            k = str(int(modes))
+        cells = []
+        for x in levels:
+            g = sub[sub["noise"] == x]
+            cells.append(_cell(g["total_error"].to_numpy(float),
+                               int((g["status"] != "ok").sum())) if len(g) else "—")
+        out.append("| " + " | ".join([structure, method, target, k, solver or "—", *cells])
+                   + " |\n")
+    bad = df[df["status"] != "ok"].drop_duplicates(["structure", "method", "target", "modes",
+                                                     "solver", "status"])
+    if len(bad):
+        out.append("\nFailures:\n\n")
+        for r in bad.to_dict("records"):
+            k = "" if r["modes"] < 0 else f", k {r['modes']}"
+            out.append(f"- {r['structure']} / {r['method']} [{r['solver'] or '—'}] / "
+                       f"{r['target']}{k}: {r['status']}\n")
+    return "".join(out)
+
+
+def write_sweep(df: pd.DataFrame, out_dir, scenario: Scenario) -> tuple[Path, Path]:
+    """Write ``out_dir/sweep.csv`` and ``out_dir/sweep.md`` (each atomically)."""
+    out_dir = Path(out_dir)
+    csv, md = out_dir / "sweep.csv", out_dir / "sweep.md"
+    atomic_write_text(csv, table_csv(df))
+    atomic_write_text(md, sweep_markdown(df, scenario))
+    return csv, md
