@@ -209,7 +209,7 @@ def cmd_run(args) -> int:
     out = Path(args.out) if args.out else _default_out(paths)
     claims = _claims_path(paths)
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
-                                figures=not args.no_figures)
+                                figures=not args.no_figures, jobs=args.jobs)
     n_sim = sum(u.simulated for u in results)
     n_cached = sum(u.cached for u in results)
     print(f"{len(df)} rows from {len(scenarios)} scenarios in {secs:.1f} s "

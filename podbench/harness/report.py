@@ -115,7 +115,7 @@ def _figure(path: Path, scenario, structure: str, target: str, series: dict, lab
     a2.set_ylabel("Percent error of the norm (Eq. 4.2)")
     a2.set_xlabel(f"Time, {unit}")
     a2.grid(True, which="major", alpha=0.3)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.12, right=0.97, top=0.94, bottom=0.09, hspace=0.08)
     fig.savefig(path, dpi=90, metadata={"Software": None})
     plt.close(fig)
 
@@ -156,7 +156,26 @@ def findings_markdown(evaluated, remarks, claims_path) -> str:
     return "".join(out)
 
 
-def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True):
+def _draw_one(task):
+    _figure(*task)
+
+
+def _draw_all(tasks, jobs: int) -> None:
+    """Draw the figures, in ``jobs`` spawned processes when more than one (matplotlib's
+    rendering, not the study, dominates a warm-cache run)."""
+    if jobs <= 1 or len(tasks) < 4:
+        for task in tasks:
+            _figure(*task)
+        return
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
+        list(ex.map(_draw_one, tasks, chunksize=max(1, len(tasks) // (4 * jobs))))
+
+
+def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
+                jobs: int = 1):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically).
 
     Returns the summary DataFrame and the claim verdicts (or None).
@@ -178,12 +197,14 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         if figures:
             fdir = tmp / "figures"
             fdir.mkdir()
+            tasks = []
             for u in results:
                 sc = scenarios[u.scenario]
                 labels = [m.label for m in sc.reported_methods()]
                 for target, series in u.series.items():
-                    _figure(fdir / f"{u.scenario}__{u.structure}__{target}.png", sc,
-                            u.structure, target, series, labels)
+                    tasks.append((fdir / f"{u.scenario}__{u.structure}__{target}.png", sc,
+                                  u.structure, target, series, labels))
+            _draw_all(tasks, jobs)
         old = None
         if out_dir.exists():
             old = out_dir.with_name(f".{out_dir.name}.old")
