@@ -352,14 +352,17 @@ def sweep_markdown(df: pd.DataFrame, scenario: Scenario) -> str:
                                int((g["status"] != "ok").sum())) if len(g) else "—")
         out.append("| " + " | ".join([structure, method, target, k, solver or "—", *cells])
                    + " |\n")
-    bad = df[df["status"] != "ok"].drop_duplicates(["structure", "method", "target", "modes",
-                                                     "solver", "status"])
+    bad = df[df["status"] != "ok"]
     if len(bad):
-        out.append("\nFailures:\n\n")
-        for r in bad.to_dict("records"):
-            k = "" if r["modes"] < 0 else f", k {r['modes']}"
-            out.append(f"- {r['structure']} / {r['method']} [{r['solver'] or '—'}] / "
-                       f"{r['target']}{k}: {r['status']}\n")
+        out.append("\nFailures (the first message of each; the count is over noise levels and "
+                   "seeds):\n\n")
+        sizes = df.groupby(keys, sort=False).size()
+        for key, g in bad.groupby(keys, sort=False):
+            structure, method, target, modes, solver = key
+            k = "" if modes < 0 else f", k {modes}"
+            total = int(sizes[key])
+            out.append(f"- {structure} / {method} [{solver or '—'}] / {target}{k}, {len(g)} of "
+                       f"{total} points: {g['status'].iloc[0]}\n")
     return "".join(out)
 
 

@@ -14,7 +14,7 @@ from podbench import cli
 from podbench.data import Response
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.runner import NoiseSpec, noisy, run_unit
-from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep
+from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep, sweep_markdown
 from podbench.scenarios import apply_overrides, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -192,7 +192,7 @@ def test_ml_error_is_first_order_in_the_noise_level(write_scenario):
 
 def test_mode_axis_and_coupled_training_sets(write_scenario):
     p = sweep_file(write_scenario, "n_modes = [3, 5, 6]")
-    _, df = run_sweep([p])
+    scenarios, df = run_sweep([p])
     got = df.set_index(["method", "modes"])
     assert got.loc[("SL", 3), "n_modes"] == 3 and got.loc[("SL", 5), "n_modes"] == 5
     # "first": ML with k = 3 is ML trained on the first three loads, exactly
@@ -205,6 +205,9 @@ def test_mode_axis_and_coupled_training_sets(write_scenario):
     assert "fewer load cases (5) than modes (6)" in got.loc[("ML", 6), "status"]
     assert got.loc[("SL", 6), "status"].startswith("failed")
     assert np.isnan(got.loc[("ML", 6), "total_error"])
+    md = sweep_markdown(df, scenarios["chain_sweep"])
+    assert "| chain_coupled | ML | f6 | 6 | ls | failed |" in md
+    assert "- chain_coupled / ML [ls] / f6, k 6, 1 of 1 points: failed: InputError" in md
     # "all": least squares over the five loads with three modes, a different fit
     q = sweep_file(write_scenario, 'n_modes = [3]\ncoupled_train = "all"', "chain_all")
     _, df_all = run_sweep([q])
