@@ -350,6 +350,8 @@ def bench_deconv(sizes, dense_budget: float, dense_max_gb: float, quick: bool, l
                     else ("0 (reference)" if solver == ref_name else ""),
                     reference=ref_name if ref is not None else "",
                     error_vs_truth=f"{err:.3g}", note=note))
+    order = {name: i for i, name in enumerate(DENSE + STRUCTURED)}
+    rows.sort(key=lambda r: (("ML", "SL").index(r["case"]), r["n"], order[r["solver"]]))
     return rows
 
 
@@ -470,6 +472,14 @@ def machine() -> str:
             f"(OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')})")
 
 
+def _publish(tmp: str, path: Path) -> None:
+    """Give the temporary file the usual permissions and move it into place atomically."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+    os.replace(tmp, path)
+
+
 def write_csv(rows, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".benchmarks-", suffix=".csv", dir=path.parent)
@@ -478,7 +488,7 @@ def write_csv(rows, path: Path) -> None:
             w = csv.DictWriter(fh, fieldnames=FIELDS)
             w.writeheader()
             w.writerows(rows)
-        os.replace(tmp, path)
+        _publish(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -544,7 +554,7 @@ def write_readme(rows, path: Path, header: str) -> None:
     fd, tmp = tempfile.mkstemp(prefix=".README-", suffix=".md", dir=path.parent)
     with os.fdopen(fd, "w") as fh:
         fh.write(new)
-    os.replace(tmp, path)
+    _publish(tmp, path)
 
 
 def main(argv=None) -> int:
