@@ -670,6 +670,9 @@ def fft_tikhonov(Q_list, B, dt: float, *, reg: float = DEFAULT_TIKHONOV_REG,
                  pad: float = 2.0) -> np.ndarray:
     """Regularized frequency-domain deconvolution of Eq. 3.43 / 3.48 (``"fft"``).
 
+    The dissertation's frequency-domain form ``H(jω) = Y(jω)/X(jω)`` (Eq. 3.68), made
+    matrix-valued and regularized where ``X(jω)`` is small (the failure §3.5 describes).
+
     After dropping the leading zero force samples (as :func:`block_substitution`, exact
     zeros only), the modal forces and POC histories are zero-padded to ``N ≥ pad·n`` samples
     and transformed; per frequency the matrix equation ``Ŷ(ω) = Δt Ĝ(ω) X̂(ω)``
