@@ -90,8 +90,8 @@ TLS_MAX_COLUMNS = 4096
 Measured on the project machine (AMD EPYC, one BLAS thread): the economy SVD (``gesdd``) of a
 square-ish matrix takes 4.6 s at 2000 columns, 15 s at 3000 and 41 s at 4000 (cubic growth;
 about 140 s expected at ML's n = 1000, k = 6, i.e. 6006 columns), with peak memory about
-five matrices of that size. Beyond the limit it raises :class:`InputError` suggesting a
-structured solver; ``max_columns=`` overrides it."""
+seven matrices of that size (237 MB measured at 2000 × 2004). Beyond the limit it raises
+:class:`InputError` suggesting a structured solver; ``max_columns=`` overrides it."""
 
 DENSE_MAX_BYTES = 2**31
 """Largest dense convolution matrix (bytes, 2 GiB) that :func:`deconvolve` builds for a dense
@@ -368,7 +368,7 @@ def truncated_tls(
     if M + r > limit:
         raise InputError(
             f"truncated_tls: [A | B] is {A.shape[0]} × {M + r}, above the dense TLS limit of "
-            f"{limit} columns (an SVD of that size takes about 45 s and 0.6 GB here, growing "
+            f"{limit} columns (an SVD of that size takes about 45 s and 1 GB here, growing "
             f"as the cube); use a structured solver ('block', exact; 'fft' or 'cgls', "
             f"Tikhonov-regularized), fewer samples or modes, or pass max_columns={M + r} to "
             "force the dense SVD"
