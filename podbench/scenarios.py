@@ -64,7 +64,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -73,6 +72,7 @@ import tomllib
 from .deconvolution import available_solvers
 from .errors import ScenarioFileError, StructureFileError
 from .fem._spec import Table
+from .fem.files import _display
 
 __all__ = [
     "Scenario",
@@ -195,14 +195,6 @@ class Scenario:
 
     def reported_methods(self) -> tuple[MethodSpec, ...]:
         return tuple(m for m in self.methods if m.report)
-
-
-def _display(path: Path) -> str:
-    try:
-        rel = os.path.relpath(path)
-    except ValueError:  # pragma: no cover
-        return str(path)
-    return str(path) if rel.startswith("..") else rel
 
 
 def _excitation(t: Table, key: str, *, many: bool):

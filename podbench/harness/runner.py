@@ -16,7 +16,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import sys
 import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -369,7 +368,3 @@ def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None
                     f.cancel()
                 raise
     return [results[i] for i in range(total)]
-
-
-def _eprint(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
