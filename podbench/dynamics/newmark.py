@@ -30,6 +30,11 @@ Conventions
 * Variable mass ``M(t) = M + m(t) e eᵀ``: the effective matrix is the base one (built with the
   constant ``M``) plus the rank-1 term ``m(t_{j+1}) e eᵀ``; it is solved with the
   Sherman–Morrison formula on the base factorization (no refactorization per step).
+* Memory: the structure's matrices and factorizations are sparse above ``DENSE_MAX_DOFS``
+  (O(nnz)); the loads can be given at a few points with a sparse map to the DOFs
+  (``force_map``) and the histories recorded through an output matrix (``record``, e.g. the
+  sensor matrix), so that nothing of size n_dofs × n_samples is allocated: memory is
+  O(nnz + n_samples · (n_loads + n_outputs)).
 * Nonlinear elements: Newton iterations on the residual
   ``r(a) = f − M a − C v(a) − K q(a) − g(q(a), v(a))`` with the tangent
   ``S + dt²/4 K_g + dt/2 C_g`` (``K_g``, ``C_g`` the elements' stiffness and damping). The
@@ -49,7 +54,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg
 from scipy.linalg.lapack import dpotrs as _potrs
 
-from ..errors import ConvergenceError, IllConditionedError, InputError
+from ..errors import ConvergenceError, DimensionError, IllConditionedError, InputError
 from ..fem.structure import Structure
 
 __all__ = ["NewmarkResult", "newmark", "BETA", "GAMMA", "DENSE_MAX_DOFS"]
@@ -65,7 +70,8 @@ larger ones with a sparse LU (``scipy.sparse.linalg.splu``)."""
 
 @dataclass(frozen=True)
 class NewmarkResult:
-    """DOF histories, each (n_dofs, n_samples): displacement (in), velocity (in/s),
+    """Histories, each (n_dofs, n_samples) — or (p, n_samples) with ``record=R``
+    (p × n_dofs), then ``R q``, ``R v``, ``R a`` —: displacement (in), velocity (in/s),
     acceleration (in/s²); ``newton_iterations`` (n_samples,) per step (0 for linear steps)."""
 
     q: np.ndarray
@@ -218,9 +224,10 @@ class _Model:
         return Ma
 
     def mass_matrix(self, j: int) -> sp.spmatrix:
-        M = self.s.M.tolil()
+        M = self.s.M
         if self.vm is not None:
-            M[self.vm.dof, self.vm.dof] += self.m_t[j]
+            d = self.vm.dof
+            M = M + sp.csr_matrix(([self.m_t[j]], ([d], [d])), shape=M.shape)
         return M
 
     def restoring(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -242,6 +249,46 @@ class _Model:
         return B
 
 
+def _as_map(A, name: str, rows: int | None, cols: int):
+    """``A`` as a CSR matrix (sparse input) or a float ndarray of shape (rows, cols);
+    ``rows=None`` accepts any number of rows."""
+    if sp.issparse(A):
+        A = sp.csr_matrix(A, dtype=float)
+        data = A.data
+    else:
+        try:
+            A = np.asarray(A, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"Parameter `{name}`: expected a numeric matrix, got {type(A).__name__}"
+            ) from None
+        data = A
+    expected = f"({'p' if rows is None else rows}, {cols})"
+    if A.ndim != 2 or A.shape[1] != cols or (rows is not None and A.shape[0] != rows):
+        raise DimensionError(f"Parameter `{name}`: expected shape {expected}, got {A.shape}")
+    if not np.all(np.isfinite(data)):
+        raise InputError(f"Parameter `{name}`: contains NaN or Inf")
+    return A
+
+
+class _Recorder:
+    """Stores the state of every sample: the full vectors, or ``R x`` for an output matrix R."""
+
+    def __init__(self, record, n_dofs: int, n: int):
+        self.R = None if record is None else _as_map(record, "record", None, n_dofs)
+        rows = n_dofs if self.R is None else self.R.shape[0]
+        self.q = np.empty((rows, n))
+        self.v = np.empty((rows, n))
+        self.a = np.empty((rows, n))
+
+    def __call__(self, j: int, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> None:
+        R = self.R
+        if R is None:
+            self.q[:, j], self.v[:, j], self.a[:, j] = q, v, a
+        else:
+            self.q[:, j], self.v[:, j], self.a[:, j] = R @ q, R @ v, R @ a
+
+
 def newmark(
     structure: Structure,
     q0: np.ndarray,
@@ -249,6 +296,8 @@ def newmark(
     f: np.ndarray,
     dt: float,
     *,
+    force_map=None,
+    record=None,
     rtol: float = 1e-12,
     max_iter: int = 30,
 ) -> NewmarkResult:
@@ -260,11 +309,21 @@ def newmark(
         Matrices, variable mass, stiffness events and nonlinear elements.
     q0, v0 : (n_dofs,) ndarray
         Initial displacement (in) and velocity (in/s) of every DOF.
-    f : (n_dofs, n_samples) ndarray
-        Load on every DOF at every sample ``t_j = j·dt`` (lbf). ``f[:, 0]`` enters only the
-        initial acceleration; ``f[:, j]`` the equilibrium at ``t_j``.
+    f : (n_dofs, n_samples) ndarray, or (n_loads, n_samples) with ``force_map``
+        Load at every sample ``t_j = j·dt`` (lbf). ``f[:, 0]`` enters only the initial
+        acceleration; ``f[:, j]`` the equilibrium at ``t_j``.
     dt : float
         Time step (s).
+    force_map : (n_dofs, n_loads) sparse or dense matrix, optional
+        The DOF load at sample ``j`` is ``force_map @ f[:, j]``, formed one sample at a time
+        (e.g. ``structure.sensor_matrix().T`` for loads sampled at the sensors, the
+        ``Sᵀ f`` of :meth:`Structure.to_dofs`); no (n_dofs, n_samples) load array is
+        built. ``None``: ``f`` already holds the DOF loads.
+    record : (p, n_dofs) sparse or dense matrix, optional
+        Output matrix ``R``: only ``R q_j``, ``R v_j``, ``R a_j`` are stored at every sample
+        (e.g. ``structure.sensor_matrix()`` for the sensor readings ``W = S q``), so the
+        histories take 3·p·n_samples floats instead of 3·n_dofs·n_samples. ``None`` (the
+        default): the full DOF histories.
     rtol : float
         Newton tolerance (nonlinear structures): the residual must be below ``rtol`` times
         the force scale ``‖ |f| + |M||a| + |C||v| + |K||q| + |g| ‖`` (the size of the terms
@@ -279,49 +338,66 @@ def newmark(
     Returns
     -------
     NewmarkResult
-        ``q``, ``v``, ``a`` of shape (n_dofs, n_samples), column 0 the initial state.
+        ``q``, ``v``, ``a`` of shape (n_dofs, n_samples) — (p, n_samples) with ``record`` —,
+        column 0 the initial state.
+
+    Raises
+    ------
+    DimensionError
+        ``force_map`` or ``record`` of the wrong shape.
+    InputError
+        NaN or Inf in ``force_map`` or ``record``.
 
     Notes
     -----
-    Input validation is done by :func:`podbench.dynamics.simulate`; this function trusts
-    its arguments (shapes, finiteness).
+    Input validation of the structure, initial state and loads is done by
+    :func:`podbench.dynamics.simulate`; this function trusts those arguments (shapes,
+    finiteness).
     """
-    n_dofs, n = f.shape
+    n_dofs = structure.n_dofs
+    n = f.shape[1]
     h = float(dt)
+    if force_map is None:
+        T = None
+    else:
+        T = _as_map(force_map, "force_map", n_dofs, f.shape[0])
+
+    def load(j: int) -> np.ndarray:
+        return f[:, j] if T is None else T @ f[:, j]
+
+    out = _Recorder(record, n_dofs, n)
     model = _Model(structure, n, h)
     bh2, gh = model.bh2, model.gh
-
-    q = np.empty((n_dofs, n))
-    v = np.empty((n_dofs, n))
-    a = np.empty((n_dofs, n))
     iters = np.zeros(n, dtype=np.int64)
-    q[:, 0] = q0
-    v[:, 0] = v0
 
     # initial acceleration: M(0) a0 = f0 − C v0 − K(0) q0 − g(q0, v0)
+    q = np.array(q0, dtype=float)
+    v = np.array(v0, dtype=float)
     K0 = model.stiffness(0)[0]
-    rhs0 = f[:, 0] - K0 @ q0 - model.restoring(q0, v0)
+    rhs0 = load(0) - K0 @ q - model.restoring(q, v)
     if model.has_damping:
-        rhs0 -= model.C @ v0
-    a[:, 0] = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
+        rhs0 -= model.C @ v
+    a = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
+    out(0, q, v, a)
 
     for j in range(n - 1):
         K, absK, solver = model.stiffness(j + 1)
-        qp = q[:, j] + h * v[:, j] + bh2 * a[:, j]  # predictors q̃, ṽ
-        vp = v[:, j] + gh * a[:, j]
+        qp = q + h * v + bh2 * a  # predictors q̃, ṽ
+        vp = v + gh * a
+        fj = load(j + 1)
         if model.nonlinear:
-            a1, iters[j + 1] = _newton(
-                model, j + 1, a[:, j], qp, vp, f[:, j + 1], K, absK, solver, rtol, max_iter
+            a, iters[j + 1] = _newton(
+                model, j + 1, a, qp, vp, fj, K, absK, solver, rtol, max_iter
             )
         else:  # S(t_{j+1}) a = f − C ṽ − K q̃, one solve
-            rhs = f[:, j + 1] - K @ qp
+            rhs = fj - K @ qp
             if model.has_damping:
                 rhs -= model.C @ vp
-            a1 = solver.solve(rhs, model.update(j + 1, qp, vp))
-        a[:, j + 1] = a1
-        q[:, j + 1] = qp + bh2 * a1
-        v[:, j + 1] = vp + gh * a1
-    return NewmarkResult(q=q, v=v, a=a, newton_iterations=iters)
+            a = solver.solve(rhs, model.update(j + 1, qp, vp))
+        q = qp + bh2 * a
+        v = vp + gh * a
+        out(j + 1, q, v, a)
+    return NewmarkResult(q=out.q, v=out.v, a=out.a, newton_iterations=iters)
 
 
 def _newton(model: _Model, j, a, qp, vp, f, K, absK, solver, rtol, max_iter):

@@ -10,10 +10,15 @@ from ..errors import DimensionError, InputError, UnknownNameError
 from ..fem.structure import Structure
 from .newmark import newmark
 
-__all__ = ["simulate", "ENGINES"]
+__all__ = ["simulate", "ENGINES", "DOF_HISTORY_LIMIT"]
 
 ENGINES = ("newmark", "exudyn")
 """Names accepted by ``simulate(engine=...)``."""
+
+DOF_HISTORY_LIMIT = 5_000_000
+"""``simulate(dof_histories=None)`` keeps the full DOF histories ``q``, ``qd`` when
+``n_dofs × n_samples`` is at most this (40 MB per history), otherwise only the sensor
+readings (memory O(nnz + n_sensors · n_samples))."""
 
 
 def _dof_vector(x, structure: Structure, name: str) -> np.ndarray:
@@ -56,6 +61,7 @@ def simulate(
     force=None,
     engine: str = "newmark",
     label: str = "",
+    dof_histories: bool | None = None,
 ) -> Response:
     """Simulate the response of ``structure`` and sample it at its sensors.
 
@@ -87,12 +93,24 @@ def simulate(
         cross-check (requires the ``exudyn`` package).
     label : str
         Stored in the response (e.g. the excitation's name).
+    dof_histories : bool or None
+        ``True``: the response also holds the full DOF histories ``q``, ``qd``
+        (2 · n_dofs · n floats). ``False``: only the sensor readings are recorded while
+        integrating (``W = S q`` at every step, see ``record`` of
+        :func:`~podbench.dynamics.newmark.newmark`), ``q`` and ``qd`` are None, and memory
+        is O(nnz + n_sensors · n) — for large structures (e.g. 100,000 DOFs × 2,000
+        samples, where the DOF histories alone would take 3.2 GB). ``None`` (default):
+        ``True`` when ``n_dofs · n ≤ DOF_HISTORY_LIMIT`` (5e6), else ``False``. ``W`` is the
+        same either way. With ``engine="newmark"`` the force is applied one sample at a
+        time through the sparse sensor-to-DOF map (no n_dofs × n load array); the exudyn
+        engine (a cross-check for small structures) takes the full DOF load array.
 
     Returns
     -------
     Response
         ``t`` (n,), ``W = S q`` and ``F`` (n_sensors, n), ``w0 = S q0``, ``v0 = S v0``,
-        ``q`` and ``qd`` (n_dofs, n), the structure's name, the engine and the label.
+        ``q`` and ``qd`` (n_dofs, n) or None (see ``dof_histories``), the structure's name,
+        the engine and the label.
 
     Raises
     ------
@@ -117,22 +135,37 @@ def simulate(
     if n_samples < 2:
         raise InputError(f"Parameter `n_samples`: must be at least 2, got {n_samples}")
     dt = check_positive(dt, "dt")
+    if dof_histories is None:
+        dof_histories = structure.n_dofs * n_samples <= DOF_HISTORY_LIMIT
+    elif not isinstance(dof_histories, (bool, np.bool_)):
+        raise InputError(
+            f"Parameter `dof_histories`: expected True, False or None, got {dof_histories!r}"
+        )
     q0 = _dof_vector(initial_displacement, structure, "initial_displacement")
     v0 = _dof_vector(initial_velocity, structure, "initial_velocity")
     F = _force_history(force, structure, n_samples, dt)
-    f_dofs = structure.to_dofs(F)
 
     if engine == "newmark":
-        res = newmark(structure, q0, v0, f_dofs, dt)
-        q, qd = res.q, res.v
+        S = structure.sensor_matrix()
+        res = newmark(structure, q0, v0, F, dt, force_map=S.T,
+                      record=None if dof_histories else S)
+        if dof_histories:
+            q, qd = res.q, res.v
+            W = structure.observe(q)
+        else:
+            q = qd = None
+            W = res.q
     else:
         from .exudyn_engine import simulate_exudyn
 
-        q, qd = simulate_exudyn(structure, q0, v0, f_dofs, dt)
+        q, qd = simulate_exudyn(structure, q0, v0, structure.to_dofs(F), dt)
+        W = structure.observe(q)
+        if not dof_histories:
+            q = qd = None
 
     return Response(
         t=np.arange(n_samples) * dt,
-        W=structure.observe(q),
+        W=W,
         F=F,
         w0=structure.observe(q0),
         v0=structure.observe(v0),
