@@ -43,6 +43,23 @@ def _per_item(x, name: str, size: int, what: str) -> np.ndarray:
     return arr
 
 
+def _sensor_dofs(sensors, n: int) -> np.ndarray:
+    if sensors is None:
+        return np.arange(n)
+    arr = np.asarray(sensors)
+    if arr.ndim != 1 or arr.size == 0 or not (
+        np.issubdtype(arr.dtype, np.integer) and arr.dtype != np.bool_
+    ):
+        raise InputError(f"Parameter `sensors`: expected a non-empty list of mass indices "
+                         f"(integers), got {sensors!r}")
+    if arr.min() < 0 or arr.max() >= n:
+        raise InputError(f"Parameter `sensors`: mass indices must lie in [0, {n - 1}], got "
+                         f"range [{arr.min()}, {arr.max()}]")
+    if np.unique(arr).size != arr.size:
+        raise InputError("Parameter `sensors`: repeated mass indices")
+    return arr.astype(np.int64)
+
+
 def chain(
     n: int,
     *,
@@ -52,6 +69,7 @@ def chain(
     boundary: str = "fixed-free",
     rayleigh: tuple[float, float] | None = None,
     dashpots: Sequence[tuple] = (),
+    sensors=None,
     name: str = "chain",
     description: str = "",
     source: str = "",
@@ -77,11 +95,17 @@ def chain(
     dashpots : sequence of (i, c) or (i, j, c)
         Grounded dashpot on mass ``i`` or dashpot between masses ``i`` and ``j`` (0-based),
         ``c`` in lbf·s/in; added to C.
+    sensors : sequence of int, optional
+        Masses (0-based, increasing or not, no repeats) that are sensors; default every mass.
+        A few sensors on a long chain keep ``simulate``'s recorded output small.
 
     Returns
     -------
     Structure
-        ``C`` is None when neither ``rayleigh`` nor ``dashpots`` is given.
+        Sparse (CSR) ``M``, ``K``, ``C``: tridiagonal, 3n − 2 stored entries at most (n for
+        an uncoupled M), so a 100,000-DOF chain takes a few MB. ``C`` is None when neither
+        ``rayleigh`` nor ``dashpots`` is given. Sensor ``i`` sits at ``i + 1`` in
+        (``sensor_positions``).
     """
     n = check_positive(n, "n", integer=True)
     check_choice(boundary, "boundary", ("fixed-free", "fixed-fixed"))
@@ -93,20 +117,18 @@ def chain(
         raise InputError(f"Parameter `mass_coupling`: |μ| must be below 0.5 to keep M "
                          f"positive definite, got {mu!r}")
 
-    K = np.zeros((n, n))
-    K[0, 0] += k[0]
-    for i in range(1, n):
-        K[i - 1, i - 1] += k[i]
-        K[i, i] += k[i]
-        K[i - 1, i] -= k[i]
-        K[i, i - 1] -= k[i]
+    # tridiagonal K: spring i (i ≥ 1) joins masses i−1 and i, spring 0 grounds mass 0
+    diag = k[:n].copy()
+    diag[:-1] += k[1:n]
     if boundary == "fixed-fixed":
-        K[n - 1, n - 1] += k[n]
-    sq = np.sqrt(m)
-    M = np.diag(m)
+        diag[-1] += k[n]
+    off = -k[1:n]
+    K = sp.diags([off, diag, off], [-1, 0, 1], shape=(n, n), format="csr")
+    M = sp.diags(m, 0, shape=(n, n), format="csr")
     if mu and n > 1:
-        off = mu * sq[:-1] * sq[1:]
-        M += np.diag(off, 1) + np.diag(off, -1)
+        sq = np.sqrt(m)
+        coupling = mu * sq[:-1] * sq[1:]
+        M = sp.diags([coupling, m, coupling], [-1, 0, 1], shape=(n, n), format="csr")
 
     C = None
     if rayleigh is not None:
@@ -117,7 +139,8 @@ def chain(
                              ) from None
         alpha = check_positive(alpha, "rayleigh alpha", allow_zero=True)
         beta = check_positive(beta, "rayleigh beta", allow_zero=True)
-        C = alpha * M + beta * K
+        C = (alpha * M + beta * K).tocsr()
+    pots = []
     for d in dashpots:
         d = tuple(d)
         if len(d) not in (2, 3):
@@ -130,20 +153,42 @@ def chain(
         if len(dofs) == 2 and dofs[0] == dofs[1]:
             raise InputError(f"Parameter `dashpots`: a dashpot joins two different masses, "
                              f"got {d!r}")
-        C = np.zeros((n, n)) if C is None else C
-        i = dofs[0]
-        C[i, i] += c
-        if len(dofs) == 2:
-            j = dofs[1]
-            C[j, j] += c
-            C[i, j] -= c
-            C[j, i] -= c
+        pots.append((*(int(i) for i in dofs), c))
+    if pots:
+        # added one at a time onto the Rayleigh part, in the given order (as a dense
+        # C[i, j] += c would), then put in place of the entries they touch
+        acc: dict[tuple[int, int], float] = {}
 
+        def add(i: int, j: int, x: float) -> None:
+            if (i, j) not in acc:
+                acc[(i, j)] = 0.0 if C is None else float(C[i, j])
+            acc[(i, j)] += x
+
+        for *dofs, c in pots:
+            i = dofs[0]
+            add(i, i, c)
+            if len(dofs) == 2:
+                j = dofs[1]
+                add(j, j, c)
+                add(i, j, -c)
+                add(j, i, -c)
+        base = sp.coo_matrix((n, n)) if C is None else C.tocoo()
+        keys = np.array(list(acc), dtype=np.int64)
+        keep = ~np.isin(base.row.astype(np.int64) * n + base.col, keys[:, 0] * n + keys[:, 1])
+        C = sp.csr_matrix(
+            (np.concatenate([base.data[keep], list(acc.values())]),
+             (np.concatenate([base.row[keep], keys[:, 0]]),
+              np.concatenate([base.col[keep], keys[:, 1]]))),
+            shape=(n, n),
+        )
+    if C is not None:
+        C = C.tocsr()
+        C.eliminate_zeros()
+
+    sensors = _sensor_dofs(sensors, n)
     return Structure(
-        name=name, M=sp.csr_matrix(M), K=sp.csr_matrix(K),
-        C=None if C is None else sp.csr_matrix(C), sensor_dofs=np.arange(n),
-        sensor_positions=np.arange(1.0, n + 1.0), sensor_labels=tuple(f"mass{i}" for i in
-                                                                     range(n)),
+        name=name, M=M, K=K, C=C, sensor_dofs=sensors,
+        sensor_positions=sensors + 1.0, sensor_labels=tuple(f"mass{i}" for i in sensors),
         dof_labels=tuple(f"mass{i}" for i in range(n)), description=description,
         source=source,
         metadata={"masses": m, "springs": k, "mass_coupling": mu, "boundary": boundary,

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.sparse as sp
 
 from podbench.errors import DimensionError, InputError
 from podbench.fem import load_structure
@@ -85,3 +86,99 @@ def test_shipped_chain_files():
     assert coupled.C.toarray()[2, 3] == pytest.approx(-0.03)
     a, b = load_structure("chain_coupled"), load_structure("chain_coupled")
     np.testing.assert_array_equal(a.C.toarray(), b.C.toarray())
+
+
+def _dense_chain(n, m, k, mu=0.0, boundary="fixed-free", rayleigh=None, dashpots=()):
+    """Independent reference: the dense n × n assembly (podbench's builder before it went
+    sparse), spring by spring and dashpot by dashpot."""
+    m = np.broadcast_to(np.asarray(m, dtype=float), (n,))
+    k = np.broadcast_to(np.asarray(k, dtype=float), (n if boundary == "fixed-free" else n + 1,))
+    K = np.zeros((n, n))
+    K[0, 0] += k[0]
+    for i in range(1, n):
+        K[i - 1, i - 1] += k[i]
+        K[i, i] += k[i]
+        K[i - 1, i] -= k[i]
+        K[i, i - 1] -= k[i]
+    if boundary == "fixed-fixed":
+        K[n - 1, n - 1] += k[n]
+    sq = np.sqrt(m)
+    M = np.diag(m)
+    if mu and n > 1:
+        off = mu * sq[:-1] * sq[1:]
+        M += np.diag(off, 1) + np.diag(off, -1)
+    C = None if rayleigh is None else rayleigh[0] * M + rayleigh[1] * K
+    for *dofs, c in dashpots:
+        C = np.zeros((n, n)) if C is None else C
+        i = dofs[0]
+        C[i, i] += c
+        if len(dofs) == 2:
+            j = dofs[1]
+            C[j, j] += c
+            C[i, j] -= c
+            C[j, i] -= c
+    return M, K, C
+
+
+CHAIN_VARIANTS = [
+    dict(n=1),
+    dict(n=2, boundary="fixed-fixed"),
+    dict(n=7, mu=0.25, rayleigh=(0.3, 0.01)),
+    dict(n=6, boundary="fixed-fixed", mu=-0.2, dashpots=[(0, 0.5), (1, 3, 0.2), (3, 0.7)]),
+    dict(n=5, rayleigh=(0.1, 3e-4), dashpots=[(2, 0.4), (2, 4, 0.3), (4, 2, 0.1)]),
+    dict(n=4, rayleigh=(0.0, 0.0)),
+    dict(n=3, dashpots=[(0, 1, 0.0)]),
+    dict(n=40, mu=0.1, rayleigh=(0.05, 1e-3), dashpots=[(39, 2.0)]),
+]
+
+
+@pytest.mark.parametrize("variant", CHAIN_VARIANTS)
+def test_sparse_chain_equals_dense_assembly(variant):
+    n = variant["n"]
+    rng = np.random.default_rng(n)
+    m = rng.uniform(0.5, 2.0, n)
+    k = rng.uniform(100.0, 500.0, n if variant.get("boundary", "fixed-free") == "fixed-free"
+                    else n + 1)
+    s = chain(n, masses=m, springs=k, mass_coupling=variant.get("mu", 0.0),
+              boundary=variant.get("boundary", "fixed-free"), rayleigh=variant.get("rayleigh"),
+              dashpots=variant.get("dashpots", ()))
+    M, K, C = _dense_chain(n, m, k, variant.get("mu", 0.0),
+                           variant.get("boundary", "fixed-free"), variant.get("rayleigh"),
+                           variant.get("dashpots", ()))
+    for name, sparse, dense in (("M", s.M, M), ("K", s.K, K), ("C", s.C, C)):
+        if dense is None:
+            assert sparse is None, name
+            continue
+        assert sp.isspmatrix_csr(sparse), name
+        np.testing.assert_array_equal(sparse.toarray(), dense, err_msg=name)
+        assert sparse.nnz == np.count_nonzero(dense), name  # no stored zeros
+
+
+def test_100k_dof_chain_is_sparse_and_tridiagonal():
+    n = 100_000
+    s = chain(n, masses=2.0, springs=1e4, mass_coupling=0.25, rayleigh=(1e-3, 1e-6),
+              dashpots=[(n - 1, 0.5)], sensors=np.linspace(n - 1, 0, 10).astype(int))
+    assert s.n_dofs == n and s.n_sensors == 10
+    for A in (s.M, s.K, s.C):
+        assert sp.isspmatrix_csr(A) and A.nnz == 3 * n - 2
+    assert chain(n).M.nnz == n  # uncoupled: diagonal
+    # the tridiagonal entries: free end 1e4, interior 2e4, coupling μ·m
+    np.testing.assert_array_equal(s.K.diagonal()[[0, 1, n - 1]], [2e4, 2e4, 1e4])
+    np.testing.assert_array_equal(s.K.diagonal(1), -1e4)
+    np.testing.assert_allclose(s.M.diagonal(-1), 0.25 * 2.0, rtol=1e-15)
+    assert s.C[n - 1, n - 1] == pytest.approx(1e-3 * 2.0 + 1e-6 * 1e4 + 0.5, rel=1e-15)
+    # the sensors read their masses
+    q = np.arange(n, dtype=float)
+    np.testing.assert_array_equal(s.observe(q), s.sensor_dofs)
+    assert s.sensor_labels[0] == f"mass{n - 1}" and s.sensor_positions[0] == float(n)
+
+
+def test_chain_sensors_option():
+    s = chain(6, masses=1.0, springs=100.0, sensors=[5, 2])
+    assert s.n_sensors == 2 and list(s.sensor_dofs) == [5, 2]
+    assert s.sensor_labels == ("mass5", "mass2")
+    np.testing.assert_array_equal(s.sensor_positions, [6.0, 3.0])
+    for bad, match in (([6], r"\[0, 5\]"), ([1, 1], "repeated"), ([], "non-empty"),
+                       ([0.5], "integers"), ([True], "integers")):
+        with pytest.raises(InputError, match=match):
+            chain(6, sensors=bad)
