@@ -19,6 +19,11 @@ Options:
                          900); predicted from the cube of the matrix size and the first dense
                          measurement.
 ``--dense-max-gb G``     skip a dense solve whose matrix exceeds G GiB (default 2).
+``--newmark-max-gb G``   skip a Newmark storage mode whose n_dofs × n_samples history
+                         arrays exceed G GiB (default 2).
+``--no-merge``           with ``--only``, the other groups' rows of ``--out`` are kept
+                         (merged, and shown in the README table under the earlier run's
+                         header) unless this is given.
 
 Every measurement runs in a fresh process (``multiprocessing`` spawn, one BLAS thread):
 wall time of the call, and peak memory as the growth of the resident set size over the
@@ -185,35 +190,47 @@ def _pod_task(m: int, n: int, k: int, method: str):
             "w_bytes": W.nbytes}
 
 
+NEWMARK_STORAGE = ("previous", "full", "sensors")
+"""How a Newmark benchmark run stores its data: ``previous`` — simulate as it was before
+issue 5's recording option (the sensor force expanded to an n_dofs × n_samples DOF load array,
+q, v, a kept at every DOF and sample); ``full`` — ``simulate(dof_histories=True)`` (per-step
+force, full q, v, a); ``sensors`` — ``simulate(dof_histories=False)`` (only W = S q)."""
+NEWMARK_HISTORY_ARRAYS = {"previous": 4, "full": 3, "sensors": 0}
+"""n_dofs × n_samples float arrays each storage mode allocates (for the skip rule)."""
+
+
 def _chain_structure(n_dofs: int, variable_mass: bool):
-    """A sparse fixed-free chain (unit masses, 1e4 lbf/in springs, light Rayleigh damping),
-    10 sensors; optionally a sinusoidally varying tip mass (a rank-1 update)."""
+    """``podbench.fem.chain``: fixed-free, unit masses, 1e4 lbf/in springs, light Rayleigh
+    damping, 10 sensors from the tip to the root; optionally a sinusoidally varying tip mass
+    (a rank-1 update)."""
+    from dataclasses import replace
+
     import numpy as np
-    import scipy.sparse as sp
 
-    from podbench.fem.structure import Structure, VariableMass
+    from podbench.fem import VariableMass, chain
 
-    kk = 1.0e4
-    main = np.full(n_dofs, 2 * kk)
-    main[-1] = kk
-    K = sp.diags([main, np.full(n_dofs - 1, -kk), np.full(n_dofs - 1, -kk)], [0, 1, -1],
-                 format="csr")
-    M = sp.identity(n_dofs, format="csr")
-    C = 1e-3 * M + 1e-6 * K
-    sensors = np.linspace(n_dofs - 1, 0, 10).astype(np.int64)
-    vm = None
+    s = chain(n_dofs, masses=1.0, springs=1.0e4, rayleigh=(1e-3, 1e-6),
+              sensors=np.linspace(n_dofs - 1, 0, 10).astype(np.int64), name=f"chain{n_dofs}")
     if variable_mass:
         vm = VariableMass(dof=n_dofs - 1, law=lambda t: 0.5 + 0.25 * np.sin(200.0 * t),
                           description="0.5 + 0.25 sin(200 t) lbf·s²/in at the tip")
-    return Structure(name=f"chain{n_dofs}", M=M, K=K, C=C, sensor_dofs=sensors,
-                     variable_mass=vm)
+        s = replace(s, variable_mass=vm)
+    return s
 
 
-def _newmark_task(n_dofs: int, n_samples: int, variable_mass: bool):
+def _chain_build_task(n_dofs: int):
+    from podbench.fem import chain
+
+    s, t, peak = _measure(lambda: chain(n_dofs, masses=1.0, springs=1.0e4,
+                                        rayleigh=(1e-3, 1e-6)))
+    return {"time_s": t, "peak": peak, "nnz": s.M.nnz + s.K.nnz + s.C.nnz}
+
+
+def _newmark_task(n_dofs: int, n_samples: int, variable_mass: bool, storage: str):
     import numpy as np
     import scipy.sparse.linalg as spla
 
-    from podbench.dynamics import simulate
+    from podbench.dynamics import newmark, simulate
 
     s = _chain_structure(n_dofs, variable_mass)
     calls = {"splu": 0}
@@ -223,20 +240,32 @@ def _newmark_task(n_dofs: int, n_samples: int, variable_mass: bool):
         calls["splu"] += 1
         return original(*args, **kwargs)
 
+    force = np.zeros((s.n_sensors, n_samples))
+    force[0, 1:6] = 100.0  # lbf on the tip (sensor 0 is the last DOF), from sample 1
+    zeros = np.zeros(s.n_dofs)
+
+    def previous():  # simulate before the recording option: DOF loads, q, v, a everywhere
+        res = newmark(s, zeros, zeros, s.to_dofs(force), DT)
+        return s.observe(res.q)
+
+    run = {
+        "previous": previous,
+        "full": lambda: simulate(s, n_samples=n_samples, dt=DT, force=force,
+                                 dof_histories=True).W,
+        "sensors": lambda: simulate(s, n_samples=n_samples, dt=DT, force=force,
+                                    dof_histories=False).W,
+    }[storage]
     spla.splu = counting_splu  # newmark calls scipy.sparse.linalg.splu at run time
     try:
-        force = np.zeros((s.n_sensors, n_samples))
-        force[0, 1:6] = 100.0  # lbf on the tip (sensor 0 is the last DOF), from sample 1
-        r, t, peak = _measure(lambda: simulate(s, n_samples=n_samples, dt=DT, force=force),
-                              max_repeat=1)
+        W, t, peak = _measure(run, max_repeat=1)
     finally:
         spla.splu = original
     nnz = s.M.nnz + s.K.nnz + s.C.nnz
-    return {"time_s": t, "peak": peak, "nnz": nnz, "factorizations": calls["splu"],
-            "tip_max": float(np.abs(r.W[0]).max()), "history_bytes": 4 * 8 * n_dofs * n_samples}
+    return {"time_s": t, "peak": peak, "nnz": nnz, "factorizations": calls["splu"], "W": W}
 
 
-_TASKS = {"deconv": _deconv_task, "pod": _pod_task, "newmark": _newmark_task}
+_TASKS = {"deconv": _deconv_task, "pod": _pod_task, "newmark": _newmark_task,
+          "chain": _chain_build_task}
 
 
 def _child(task: str, args: tuple, queue) -> None:
@@ -401,38 +430,84 @@ def bench_pod(quick: bool, log):
     return rows
 
 
-def bench_newmark(quick: bool, log):
-    """Sparse chains: a 2-sample run isolates matrices + factorization (memory per nonzero),
-    a 200-sample run shows the stored histories (q, v, a at every DOF and sample)."""
+def bench_newmark(quick: bool, max_gb: float, log):
+    """Sparse chains built by ``podbench.fem.chain``: the build itself, then Newmark with the
+    three storage modes of ``NEWMARK_STORAGE``; 2-sample runs isolate the set-up
+    (matrices and factorizations, memory per nonzero)."""
     rows = []
     sizes = (10_000,) if quick else (10_000, 100_000)
+    for n_dofs in sizes:
+        log(f"  chain build, {n_dofs} DOFs ...")
+        status, out = _run("chain", (n_dofs,), 600)
+        if status != "ok":
+            rows.append(_row(group="newmark", case="chain build", m=n_dofs, solver="sparse",
+                             status=status, note=out.splitlines()[0]))
+            continue
+        dense_gib = 8.0 * n_dofs * n_dofs / 2**30
+        note = (f"podbench.fem.chain with Rayleigh C; nnz(M)+nnz(K)+nnz(C) = {out['nnz']}; "
+                f"{out['peak'] / out['nnz']:.0f} bytes per nonzero (with the 2 × {n_dofs} "
+                f"DOF/sensor label strings); one dense n × n matrix would be "
+                f"{dense_gib:.3g} GiB")
+        rows.append(_row(group="newmark", case="chain build", m=n_dofs, solver="sparse",
+                         status="ok", time_s=f"{out['time_s']:.4g}",
+                         peak_mb=_mb(out["peak"]), note=note))
+        log(f"    {out['time_s']:.3g} s, {_mb(out['peak'])} MB")
     for variable_mass in (False, True):
+        case = "chain, tip mass m(t)" if variable_mass else "chain, LTI"
         for n_dofs in sizes:
-            for n_samples in (2, 200):
-                case = "chain, tip mass m(t)" if variable_mass else "chain, LTI"
-                log(f"  Newmark {case} {n_dofs} DOFs × {n_samples} samples ...")
-                status, out = _run("newmark", (n_dofs, n_samples, variable_mass), 3600)
-                if status != "ok":
-                    rows.append(_row(group="newmark", case=case, n=n_samples, m=n_dofs,
-                                     solver="newmark", status=status,
-                                     note=out.splitlines()[0]))
-                    log(f"    {status}: {out.splitlines()[0]}")
-                    continue
-                per_step = out["time_s"] / (n_samples - 1) * 1e3
-                arrays = out["peak"] / (8.0 * n_dofs * n_samples)
-                note = (f"nnz(M)+nnz(K)+nnz(C) = {out['nnz']}; sparse LU factorizations: "
-                        f"{out['factorizations']}; peak = {out['peak'] / out['nnz']:.0f} "
-                        "bytes per nonzero")
-                if n_samples > 2:
-                    note += (f" = {arrays:.2g} n_dofs × n_samples float arrays; "
-                             f"{per_step:.3g} ms per step")
-                else:
-                    note += " (set-up: matrices and factorizations, one step)"
-                rows.append(_row(group="newmark", case=case, n=n_samples, m=n_dofs,
-                                 solver="newmark (splu)", status="ok",
-                                 time_s=f"{out['time_s']:.4g}", peak_mb=_mb(out["peak"]),
-                                 note=note))
-                log(f"    {out['time_s']:.3g} s, {_mb(out['peak'])} MB; {note}")
+            for n_samples in (2, 200, 2000):
+                modes = ("sensors",) if n_samples == 2 else NEWMARK_STORAGE
+                results, skipped = {}, {}
+                for storage in modes:
+                    arrays = NEWMARK_HISTORY_ARRAYS[storage]
+                    need = arrays * 8.0 * n_dofs * n_samples
+                    if need > max_gb * 2**30:
+                        skipped[storage] = (f"skipped: {arrays} n_dofs × n_samples float "
+                                            f"arrays = {need / 2**30:.2g} GiB > {max_gb:g} "
+                                            "GiB (--newmark-max-gb)")
+                        log(f"  Newmark {case} {n_dofs} × {n_samples} {storage}: "
+                            f"{skipped[storage]}")
+                        continue
+                    log(f"  Newmark {case} {n_dofs} DOFs × {n_samples} samples, {storage} ...")
+                    status, out = _run("newmark", (n_dofs, n_samples, variable_mass, storage),
+                                       3600)
+                    if status != "ok":
+                        skipped[storage] = out.splitlines()[0]
+                        log(f"    {status}: {skipped[storage]}")
+                        continue
+                    results[storage] = out
+                    log(f"    {out['time_s']:.3g} s, {_mb(out['peak'])} MB")
+                base = results.get("previous")
+                for storage in modes:
+                    if storage in skipped:
+                        status = "skipped" if skipped[storage].startswith("skipped") else "error"
+                        rows.append(_row(group="newmark", case=case, n=n_samples, m=n_dofs,
+                                         solver=storage, status=status, note=skipped[storage]))
+                        continue
+                    out = results[storage]
+                    note = (f"nnz = {out['nnz']}; sparse LU factorizations: "
+                            f"{out['factorizations']}; peak = {out['peak'] / out['nnz']:.0f} "
+                            "bytes per nonzero")
+                    if n_samples == 2:
+                        note += " (set-up: matrices and factorizations, one step)"
+                    else:
+                        per_step = out["time_s"] / (n_samples - 1) * 1e3
+                        note += f"; {per_step:.3g} ms per step"
+                    if base is None and storage == "sensors" and n_samples > 2:
+                        # q, v, a of `previous` and `full` (its DOF load array is mostly
+                        # untouched zero pages and hardly counts in the resident peak)
+                        est = NEWMARK_HISTORY_ARRAYS["full"] * 8.0 * n_dofs * n_samples
+                        note += (f"; q, v, a at every DOF (`previous`, `full`) would take "
+                                 f"{est / 2**30:.2g} GiB, {est / out['peak']:.0f} × this peak")
+                    cmp = base is not None and storage != "previous"
+                    rows.append(_row(
+                        group="newmark", case=case, n=n_samples, m=n_dofs, solver=storage,
+                        status="ok", time_s=f"{out['time_s']:.4g}", peak_mb=_mb(out["peak"]),
+                        baseline="previous" if cmp else "",
+                        baseline_time_s=f"{base['time_s']:.4g}" if cmp else "",
+                        speedup=f"{base['time_s'] / out['time_s']:.3g}" if cmp else "",
+                        max_rel_diff=f"{_rel(out['W'], base['W']):.1e}" if cmp else "",
+                        reference="previous" if cmp else "", note=note))
     return rows
 
 
@@ -530,16 +605,47 @@ def table(rows) -> str:
         out.append("")
     nm = [r for r in rows if r["group"] == "newmark"]
     if nm:
-        out += ["**Newmark on a sparse chain** (`podbench.simulate`, tridiagonal K, Rayleigh "
-                "damping, 10 sensors)", "",
-                "| case | DOFs | samples | time (s) | peak memory (MB) | note |",
-                "|---|---|---|---|---|---|"]
+        prev = {(r["case"], str(r["m"]), str(r["n"])): r for r in nm
+                if r["solver"] == "previous" and r["status"] == "ok"}
+
+        def mem_ratio(r):
+            b = prev.get((r["case"], str(r["m"]), str(r["n"])))
+            if b is None or r["solver"] == "previous" or r["status"] != "ok":
+                return ""
+            return f"{float(b['peak_mb']) / float(r['peak_mb']):.3g}"
+
+        out += ["**Newmark on a sparse chain** (`podbench.fem.chain`: tridiagonal M = I, K, "
+                "Rayleigh C, 10 sensors; storage `previous` = the DOF load array and q, v, a "
+                "at every DOF and sample as before, `full` = `simulate(dof_histories=True)`, "
+                "`sensors` = `simulate(dof_histories=False)`, only W = S q recorded)", "",
+                "| case | DOFs | samples | storage | time (s) | peak memory (MB) | memory: "
+                "previous / this | time: previous / this | W vs previous (rel.) | note |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
         for r in nm:
             t = r["time_s"] if r["status"] == "ok" else r["status"]
-            out.append(f"| {r['case']} | {r['m']} | {r['n']} | {t} | {r['peak_mb']} | "
-                       f"{r['note']} |")
+            out.append(f"| {r['case']} | {r['m']} | {r['n']} | {r['solver']} | {t} | "
+                       f"{r['peak_mb']} | {mem_ratio(r)} | {r['speedup']} | "
+                       f"{r['max_rel_diff']} | {r['note']} |")
         out.append("")
     return "\n".join(out).rstrip()
+
+
+GROUPS = ("deconv", "pod", "newmark")
+
+
+def read_csv(path: Path) -> list[dict]:
+    """Rows of an earlier results file (missing columns read as "")."""
+    with open(path, newline="") as fh:
+        return [{f: r.get(f) or "" for f in FIELDS} for r in csv.DictReader(fh)]
+
+
+def _previous_header(path: Path) -> str:
+    """The first line of the results block of an earlier README ("Measured ... on: ...")."""
+    start = "<!-- results:start -->"
+    if not path.exists() or start not in (text := path.read_text()):
+        return ""
+    lines = text.split(start, 1)[1].strip().splitlines()
+    return lines[0] if lines and lines[0].startswith("Measured") else ""
 
 
 def write_readme(rows, path: Path, header: str) -> None:
@@ -560,13 +666,15 @@ def write_readme(rows, path: Path, header: str) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes only")
-    ap.add_argument("--only", nargs="+", choices=("deconv", "pod", "newmark"),
-                    default=("deconv", "pod", "newmark"))
+    ap.add_argument("--only", nargs="+", choices=GROUPS, default=GROUPS)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "benchmarks.csv")
+    ap.add_argument("--no-merge", action="store_true",
+                    help="with --only: do not keep the other groups' rows of --out")
     ap.add_argument("--readme", type=Path, default=ROOT / "benchmarks" / "README.md")
     ap.add_argument("--no-readme", action="store_true")
     ap.add_argument("--dense-budget", type=float, default=900.0)
     ap.add_argument("--dense-max-gb", type=float, default=2.0)
+    ap.add_argument("--newmark-max-gb", type=float, default=2.0)
     args = ap.parse_args(argv)
 
     def log(msg):
@@ -583,14 +691,26 @@ def main(argv=None) -> int:
         rows += bench_pod(args.quick, log)
     if "newmark" in args.only:
         log("Newmark on a large sparse chain:")
-        rows += bench_newmark(args.quick, log)
+        rows += bench_newmark(args.quick, args.newmark_max_gb, log)
+    kept = []
+    if set(args.only) != set(GROUPS) and not args.no_merge and args.out.exists():
+        kept = [r for r in read_csv(args.out) if r["group"] not in args.only]
+        log(f"kept {len(kept)} rows of the other groups from {args.out}")
+    rows = sorted(kept + rows, key=lambda r: GROUPS.index(r["group"]))  # stable
     write_csv(rows, args.out)
     log(f"wrote {args.out} ({len(rows)} rows) in {time.perf_counter() - started:.0f} s")
     if not args.no_readme:
         stamp = _dt.datetime.now().strftime("%Y-%m-%d")
         mode = "--quick" if args.quick else "full run"
-        header = (f"Measured {stamp} ({mode}, `python benchmarks/run.py"
-                  f"{' --quick' if args.quick else ''}`) on: {machine()}.")
+        command = "python benchmarks/run.py" + (" --quick" if args.quick else "")
+        if set(args.only) != set(GROUPS):
+            command += " --only " + " ".join(args.only)
+        header = f"Measured {stamp} ({mode}, `{command}`) on: {machine()}."
+        previous = _previous_header(args.readme) if kept else ""
+        if previous:
+            groups = ", ".join(sorted({r["group"] for r in kept}, key=GROUPS.index))
+            header = (f"{previous}\n\n{header.replace('Measured', 'Re-measured', 1)} "
+                      f"Rows of {groups} are from the run above.")
         write_readme(rows, args.readme, header)
         log(f"updated {args.readme}")
     return 0
