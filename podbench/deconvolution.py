@@ -38,6 +38,9 @@ Structured (never form ``A``):
 ``"cgls"``  :func:`cgls_fft`, Tikhonov-regularized least squares on the exact system by
             conjugate gradients with FFT products and a circulant preconditioner; ``reg=0``
             is plain least squares (also over-determined ML).
+
+The Tikhonov parameter of ``"fft"`` and ``"cgls"`` is chosen by generalized
+cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regularization`).
 """
 
 from __future__ import annotations
