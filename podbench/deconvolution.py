@@ -672,16 +672,15 @@ iteration limit; the dense least squares itself truncates at ``eps·σ_1``); at 
 every direction is damped by at least a factor 2."""
 
 
-def _circulant_spectrum(G: np.ndarray, Y: np.ndarray, dt: float, N: int):
-    """Per-frequency SVD of the circulant embedding (length ``N``) of Eq. 3.48.
+def _circulant_spectrum(Gh: np.ndarray, Yh: np.ndarray, N: int):
+    """Per-frequency SVD of the circulant embedding (length ``N``) of Eq. 3.48, from the
+    transforms ``Gh = Δt·rfft(G, N)`` (F, n_cases, k) and ``Yh = rfft(Y, N)`` (F, n_cases, r).
 
     Returns the rfft weights ``w`` (F,) (2 for frequencies standing for a conjugate pair, 1
     for 0 and N/2), the singular values ``s`` (F, q) of ``Δt Ĝ(ω)``, the squared data
     coefficients ``b2`` (F, q) along the left singular vectors (summed over the columns of
     ``Y``) and the squared data norm ``perp`` (F,) outside their span.
     """
-    Gh = dt * scipy.fft.rfft(G, N, axis=0)
-    Yh = scipy.fft.rfft(Y, N, axis=0)
     U, s, _ = np.linalg.svd(Gh, full_matrices=False)
     beta = np.conj(U).transpose(0, 2, 1) @ Yh
     b2 = np.sum(np.abs(beta) ** 2, axis=2)
@@ -691,6 +690,17 @@ def _circulant_spectrum(G: np.ndarray, Y: np.ndarray, dt: float, N: int):
     if N % 2 == 0:
         w[-1] = 1.0
     return w, s, b2, perp
+
+
+def _embedding(G: np.ndarray, pad) -> tuple[int, int, int]:
+    """Validate ``pad`` (>= 1) and return ``(d, m, N)``: the leading zero force samples ``d``,
+    the samples ``m = n − d`` after the shift and the transform length ``N ≥ pad·m``."""
+    pad = check_positive(pad, "pad")
+    if pad < 1:
+        raise InputError(f"Parameter `pad`: must be >= 1, got {pad!r}")
+    d = _first_sample(G, 0.0)
+    m = G.shape[0] - d
+    return d, m, scipy.fft.next_fast_len(max(int(np.ceil(pad * m)), 1), real=True)
 
 
 def _gcv_function(w, s, b2, perp, N: int, n_cases: int):
@@ -748,19 +758,16 @@ def gcv_regularization(Q_list, B, dt: float, *, pad: float = 2.0,
         :func:`cgls_fft`).
     """
     G, Y, dt, _, _ = _structured_system(Q_list, B, dt)
-    pad = check_positive(pad, "pad")
-    if pad < 1:
-        raise InputError(f"Parameter `pad`: must be >= 1, got {pad!r}")
+    d, _, N = _embedding(G, pad)
     try:
         lo, hi = (float(b) for b in bounds)
     except (TypeError, ValueError):
         raise InputError(f"Parameter `bounds`: expected two numbers, got {bounds!r}") from None
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
         raise InputError(f"Parameter `bounds`: expected 0 < lo < hi, got {bounds!r}")
-    d = _first_sample(G, 0.0)
-    m = G.shape[0] - d
-    N = scipy.fft.next_fast_len(max(int(np.ceil(pad * m)), 1), real=True)
-    return _gcv_minimize(*_circulant_spectrum(G[d:], Y[d:], dt, N), N, G.shape[1], lo, hi)
+    spectrum = _circulant_spectrum(dt * scipy.fft.rfft(G[d:], N, axis=0),
+                                   scipy.fft.rfft(Y[d:], N, axis=0), N)
+    return _gcv_minimize(*spectrum, N, G.shape[1], lo, hi)
 
 
 def _gcv_minimize(w, s, b2, perp, N, n_cases, lo=GCV_BOUNDS[0], hi=GCV_BOUNDS[1]) -> float:
@@ -782,13 +789,13 @@ def _gcv_minimize(w, s, b2, perp, N, n_cases, lo=GCV_BOUNDS[0], hi=GCV_BOUNDS[1]
     return float(10.0**x)
 
 
-def _tikhonov_reg(reg, what: str):
-    """Validate ``reg``: ``"gcv"`` or a number (> 0 for ``"fft"``, >= 0 for ``"cgls"``)."""
+def _tikhonov_reg(reg, allow_zero: bool):
+    """Validate ``reg``: ``"gcv"`` or a number (> 0, or >= 0 if ``allow_zero``)."""
     if isinstance(reg, str):
         if reg != "gcv":
             raise InputError(f"Parameter `reg`: expected a number or \"gcv\", got {reg!r}")
         return reg
-    return check_positive(reg, "reg", allow_zero=(what == "cgls"))
+    return check_positive(reg, "reg", allow_zero=allow_zero)
 
 
 def _spectral_norm(Gh: np.ndarray) -> float:
@@ -838,19 +845,14 @@ def fft_tikhonov(Q_list, B, dt: float, *, reg: float | str = DEFAULT_TIKHONOV_RE
     (k·n,) or (k·n, r) ndarray
     """
     G, Y, dt, vector, _ = _structured_system(Q_list, B, dt)
-    reg = _tikhonov_reg(reg, "fft")
-    pad = check_positive(pad, "pad")
-    if pad < 1:
-        raise InputError(f"Parameter `pad`: must be >= 1, got {pad!r}")
+    reg = _tikhonov_reg(reg, allow_zero=False)
     n, _, k = G.shape
     r = Y.shape[2]
-    d = _first_sample(G, 0.0)
-    m = n - d
-    N = scipy.fft.next_fast_len(max(int(np.ceil(pad * m)), 1), real=True)
-    if reg == "gcv":
-        reg = _gcv_minimize(*_circulant_spectrum(G[d:], Y[d:], dt, N), N, G.shape[1])
+    d, m, N = _embedding(G, pad)
     Gh = dt * scipy.fft.rfft(G[d:], N, axis=0)  # (F, n_cases, k)
     Yh = scipy.fft.rfft(Y[d:], N, axis=0)  # (F, n_cases, r)
+    if reg == "gcv":
+        reg = _gcv_minimize(*_circulant_spectrum(Gh, Yh, N), N, G.shape[1])
     lam2 = (reg * _spectral_norm(Gh)) ** 2
     GH = np.conj(Gh).transpose(0, 2, 1)
     Xh = np.linalg.solve(GH @ Gh + lam2 * np.eye(k), GH @ Yh)
@@ -909,7 +911,7 @@ def cgls_fft(
     (k·n,) or (k·n, r) ndarray
     """
     G, Y, dt, vector, _ = _structured_system(Q_list, B, dt)
-    reg = _tikhonov_reg(reg, "cgls")
+    reg = _tikhonov_reg(reg, allow_zero=True)
     tol = check_positive(tol, "tol")
     n, n_cases, k = G.shape
     r = Y.shape[2]
@@ -990,9 +992,9 @@ def cgls_fft(
         return X
 
     if reg == "gcv":
-        X, _ = _gcv_exact(solve, lambda X: float(np.sum((Y - A(X)) ** 2)),
-                          *_circulant_spectrum(G, Y, dt, N), N, n_cases, n,
-                          min(TRIAL_ITER, max_iter))
+        spectrum = _circulant_spectrum(Gh, scipy.fft.rfft(Y, N, axis=0), N)
+        X = _gcv_exact(solve, lambda X: float(np.sum((Y - A(X)) ** 2)), *spectrum, N, n_cases,
+                       n, min(TRIAL_ITER, max_iter))
     else:
         X = solve(reg)
     return _unstack(np.concatenate([X, np.zeros((n_full - n, k, r))]), vector)
@@ -1004,7 +1006,7 @@ circulant estimate itself has the full ``max_iter``). Measured on pulse loads: 1
 iterations at reg = 1e-2 (docs/methods.md)."""
 
 
-def _gcv_exact(solve, rss, w, s, b2, perp, N, n_cases, n, trial_iter=None):
+def _gcv_exact(solve, rss, w, s, b2, perp, N, n_cases, n, trial_iter):
     """GCV on the exact triangular system for :func:`cgls_fft`.
 
     ``V(λ) = ‖B − A X_λ‖² / (n·n_cases − t(λ))²`` with ``X_λ`` the conjugate-gradient
@@ -1017,11 +1019,10 @@ def _gcv_exact(solve, rss, w, s, b2, perp, N, n_cases, n, trial_iter=None):
     :data:`TRIAL_ITER` iterations ends the descent: λ that small is out of the solver's reach
     at acceptable cost), within two decades of ``reg_c`` and :data:`GCV_BOUNDS`. The best
     trial is taken, with no finer search: each trial is a solve, and the prediction error is
-    flat within half a decade of the optimum. Returns ``(X, reg)``."""
+    flat within half a decade of the optimum. Returns its solution ``X``."""
     lo, hi = GCV_BOUNDS
     smax = float(s.max())
     n_data = n * n_cases
-    trial_iter = TRIAL_ITER if trial_iter is None else trial_iter
 
     def trace(reg):
         phi = s**2 / (s**2 + (reg * smax) ** 2)
@@ -1029,9 +1030,9 @@ def _gcv_exact(solve, rss, w, s, b2, perp, N, n_cases, n, trial_iter=None):
 
     cache: dict[float, tuple[float, np.ndarray]] = {}
 
-    def V(reg, X0=None, limit=None):
+    def V(reg, X0=None):
         if reg not in cache:
-            X = solve(reg, X0) if limit is None else solve(reg, X0, limit)
+            X = solve(reg, X0, trial_iter)
             dof = n_data - trace(reg)
             cache[reg] = (rss(X) / dof**2 if dof > 0 else np.inf, X)
         return cache[reg]
@@ -1043,7 +1044,7 @@ def _gcv_exact(solve, rss, w, s, b2, perp, N, n_cases, n, trial_iter=None):
     for g in [reg_c] + [reg_c * f for f in steps]:
         g = float(min(g, hi))
         try:
-            best_v, X0 = V(g, None, trial_iter)
+            best_v, X0 = V(g)
             start = g
             break
         except ConvergenceError:
@@ -1061,14 +1062,13 @@ def _gcv_exact(solve, rss, w, s, b2, perp, N, n_cases, n, trial_iter=None):
             if not lo <= g <= hi:
                 break
             try:
-                v, X_prev = V(g, X_prev, trial_iter)
+                v, X_prev = V(g, X_prev)
             except ConvergenceError:
                 break
             if v >= best_v:
                 break
             best_v = v
-    best = min(cache, key=lambda r: cache[r][0])
-    return cache[best][1], best
+    return min(cache.values(), key=lambda c: c[0])[1]
 
 
 # ----------------------------------------------------------------------- registry
