@@ -10,11 +10,13 @@ Quick tour::
     w0 = pb.excitations.static_displacement(s, [(24.0, 1.0)])
     r = pb.simulate(s, n_samples=500, dt=1e-4, initial_displacement=w0)
     from podbench.methods import POVR
-    W_hat = POVR(n_modes=3).fit(r.W, r.W[:, 0]).predict(r.W[:, 0])
+    model = POVR(n_modes=3).fit(r)                    # a Response is a record (W, F, w0, v0, dt)
+    W_hat = model.predict(pb.Record(W=r.W, w0=0.5 * r.w0))   # the response to half of w0
 """
 
 from . import deconvolution, errors, excitations, methods, pod
 from .data import Response, displacement_norm, norm_percent_error
+from .records import Record
 from .dynamics import simulate
 from .fem import list_structures, load_structure
 from .fem.structure import Structure
@@ -22,6 +24,7 @@ from .fem.structure import Structure
 __version__ = "0.1.0"
 
 __all__ = [
+    "Record",
     "Response",
     "Structure",
     "deconvolution",

@@ -247,7 +247,7 @@ def cmd_regress(args) -> int:
 def cmd_list(args) -> int:
     from .deconvolution import available_solvers
     from .fem import list_structures
-    from .harness.adapters import KIND
+    from .methods import BUILTIN_METHODS
     from .scenarios import find_scenarios, load_scenario
 
     print("structures:")
@@ -262,12 +262,24 @@ def cmd_list(args) -> int:
     else:
         print("  (folder not found: run podbench from the project folder)")
     print("methods:")
-    for name, kind in KIND.items():
-        print(f"  {name} ({kind})")
+    for name, cls in BUILTIN_METHODS.items():
+        est = cls()
+        twin = est.coupled_twin()
+        what = "coupled" if est.coupled else f"diagonal; coupled twin {_twin_name(twin)}"
+        print(f"  {name}: {cls.__name__} ({est.excitation_kind}; {what})")
     print("  superposition (sum of other methods; MR's coupled twin)")
-    print("  module:Class or file.py:Class (your own; see podbench.harness.adapters)")
+    print("  module:Class or file.py:Class (your own; see podbench.methods.PODMethod)")
     print("deconvolution solvers: " + ", ".join(available_solvers()))
     return 0
+
+
+def _twin_name(est) -> str:
+    parts = getattr(est, "parts", None)
+    if parts:
+        return " + ".join(_twin_name(p) for p in parts)
+    if getattr(est, "excitation", None):
+        return f"{est.abbreviation} ({est.excitation})"
+    return est.abbreviation
 
 
 def _list_arg(text, name: str, kind):

@@ -14,8 +14,10 @@ import numpy as np
 
 from ._validation import as_finite_array
 from .errors import DimensionError
+from .records import Record, as_record, is_record
 
-__all__ = ["Response", "displacement_norm", "norm_percent_error"]
+__all__ = ["Record", "Response", "as_record", "displacement_norm", "is_record",
+           "norm_percent_error"]
 
 
 def displacement_norm(W: np.ndarray) -> np.ndarray:
@@ -126,3 +128,4 @@ class Response:
         ax.set_xlabel("Time, ms")
         ax.set_ylabel("Displacement norm, in")
         return ax
+

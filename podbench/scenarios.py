@@ -63,6 +63,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import inspect
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -89,7 +90,8 @@ __all__ = [
 ]
 
 BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
-"""Method names a scenario may use without a ``module:Class`` path."""
+"""Method names a scenario may use without a ``module:Class`` path (the classes are
+:data:`podbench.methods.BUILTIN_METHODS`)."""
 
 CLAIMS_FILE = "claims.toml"
 _EXCITATION_KEYS = ("initial_displacement", "initial_velocity", "force")
@@ -97,10 +99,6 @@ ENGINES = ("newmark", "exudyn")
 NOISE_QUANTITIES = ("W", "F", "w0", "v0")
 """Training quantities a sweep may add noise to (displacements, forces, initial profiles)."""
 COUPLED_TRAIN = ("first", "all")
-SOLVER_METHODS = ("SL", "ML", "MR")
-"""Built-in methods that deconvolve, i.e. take a ``solver`` option."""
-COUPLED_METHODS = ("MDS", "ML")
-"""Built-in methods whose number of modes is tied to their number of training sets."""
 
 
 @dataclass(frozen=True)
@@ -338,6 +336,7 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
                                                 "parts instead")
     if not any(m.report for m in methods):
         top.fail("methods", "every method has report = false: nothing would be tabulated")
+    _check_method_options(top, methods, path.parent)
     sweep_t = top.table("sweep")
     sweep = None if sweep_t is None else _parse_sweep(sweep_t)
     top.close()
@@ -347,6 +346,28 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
         targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
         digest=digest, sweep=sweep,
     )
+
+
+def _check_method_options(top: Table, methods, folder: Path) -> None:
+    """Bind every entry's ``options`` (and ``n_modes``) to its class's constructor and
+    validate the values, before any simulation: the class is imported, an unknown option,
+    a bad value or a missing user file fails naming ``methods[i].<field>``."""
+    from .harness.estimators import check_method_entry
+
+    by_label = {m.label: m for m in methods}
+    for i, m in enumerate(methods):
+        problem = check_method_entry(m, by_label.__getitem__, folder)
+        if problem is not None:
+            field, message = problem
+            if m.method == "superposition":
+                field = "parts"
+            top.fail(f"methods[{i}].{field}", message)
+
+
+def _method_class(spec: MethodSpec, scenario: Scenario):
+    from .harness.estimators import method_class
+
+    return method_class(spec.method, scenario.folder)
 
 
 def _unique(t: Table, key: str, values) -> None:
@@ -407,24 +428,37 @@ def _parse_sweep(t: Table) -> Sweep:
                  noise_on=tuple(noise_on), coupled_train=coupled_train)
 
 
-def _uses_solver(spec: MethodSpec, by_label: dict) -> bool:
+def _takes_option(spec: MethodSpec, scenario: Scenario, name: str) -> bool:
+    """True if the entry's class has a constructor option ``name``."""
+    from .harness.estimators import option_names
+
+    return name in option_names(_method_class(spec, scenario))[0]
+
+
+def _uses_solver(spec: MethodSpec, scenario: Scenario) -> bool:
+    """True for an entry that deconvolves (its class takes a ``solver`` option), or a
+    superposition with such a part."""
     if spec.method == "superposition":
-        return any(_uses_solver(by_label[p], by_label) for p in spec.parts)
-    return spec.method in SOLVER_METHODS
+        return any(_uses_solver(scenario.method(p), scenario) for p in spec.parts)
+    return _takes_option(spec, scenario, "solver")
 
 
 def method_solver(spec: MethodSpec, scenario: Scenario) -> str:
     """The solver label a method runs with: the sweep's label if the entry was expanded for
-    one, else its ``options.solver`` (default ``"ls"``) for SL, ML and MR, "" for a method
-    that does not deconvolve (POVR, MDS, a user's class; a superposition shows its parts')."""
+    one, else its ``options.solver`` (or its class's default) for a class that takes a
+    ``solver`` option (SL, ML, MR), "" for one that does not deconvolve (POVR, MDS; a
+    superposition shows its parts')."""
     if spec.solver_label:
         return spec.solver_label
     if spec.method == "superposition":
         names = [method_solver(scenario.method(p), scenario) for p in spec.parts]
         names = list(dict.fromkeys(n for n in names if n))
         return "+".join(names)
-    if spec.method in SOLVER_METHODS:
-        return str(spec.options.get("solver", "ls"))
+    if _uses_solver(spec, scenario):
+        solver = spec.options.get("solver")
+        if solver is None:  # the class's default
+            solver = inspect.signature(_method_class(spec, scenario)).parameters["solver"].default
+        return str(getattr(solver, "name", solver))
     return ""
 
 
@@ -453,13 +487,14 @@ def apply_overrides(scenario: Scenario, *, n_modes: int | None = None, solvers=N
                 out.append(m)
                 continue
             train = m.train
-            if m.method in COUPLED_METHODS and coupled_train == "first" and len(train) >= n_modes:
+            per_mode = getattr(_method_class(m, scenario), "records_per_mode", False)
+            if per_mode and coupled_train == "first" and len(train) >= n_modes:
                 train = train[:n_modes]
             out.append(dataclasses.replace(m, n_modes=n_modes, train=train))
         methods = out
     if solvers:
-        by_label = {m.label: m for m in methods}
-        uses = {m.label: _uses_solver(m, by_label) for m in methods}
+        current = dataclasses.replace(scenario, methods=tuple(methods))
+        uses = {m.label: _uses_solver(m, current) for m in methods}
 
         def renamed(label: str, choice: SolverChoice) -> str:
             return f"{label} [{choice.label}]" if uses[label] else label

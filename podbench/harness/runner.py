@@ -31,8 +31,8 @@ from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
 from ..excitations import excitation_from_dict
 from ..fem import load_structure
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
-from .adapters import UserAdapter, all_cases, make_adapter
 from .cache import TruthCache, structure_fingerprint
+from .estimators import all_cases, build_estimator, is_user_method, training_records
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 
 __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy"]
@@ -40,8 +40,6 @@ __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS[:5],
            "subspace_error", *NORM_COLUMNS, "status")
 """Columns of ``summary.csv`` in order."""
-
-COUPLED = ("MDS", "ML")
 
 
 @dataclass
@@ -203,12 +201,11 @@ class _Truth:
 
 
 def _fit(spec, scenario: Scenario, truth: _Truth, linear: bool, basis=None):
-    adapter = make_adapter(spec, scenario)
-    if spec.method == "superposition":
-        trains = [[truth.train(c, linear) for c in scenario.method(p).train]
-                  for p in spec.parts]
-        return adapter.fit(trains, basis=basis)
-    return adapter.fit([truth.train(c, linear) for c in spec.train], basis=basis)
+    """A fresh estimator of ``spec`` fitted on its training cases (of the linear twin of the
+    structure if ``linear``), in ``basis`` if given."""
+    est = build_estimator(spec, scenario.method, scenario.folder)
+    train = training_records(spec, scenario.method, lambda c: truth.train(c, linear))
+    return est.fit(train, basis=basis)
 
 
 _EXPECTED = (PodbenchError, np.linalg.LinAlgError)
@@ -249,7 +246,7 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
     needed = set(scenario.targets)
     for m in scenario.methods:
-        needed |= all_cases(m, scenario)
+        needed |= all_cases(m, scenario.method)
     for c in sorted(needed):
         truth.get(c)
         if nonlinear:
@@ -265,31 +262,34 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             base["method"] = spec.base_label or spec.label
             base["solver"] = method_solver(spec, scenario)
         try:
-            adapter = _fit(spec, scenario, truth, False)
-            preds = {t: adapter.predict(truth.get(t)) for t in scenario.targets}
+            est = _fit(spec, scenario, truth, False)
+            preds = {t: np.asarray(est.predict(truth.get(t)), dtype=float)
+                     for t in scenario.targets}
         except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
-            if not isinstance(exc, _EXPECTED) and ":" not in spec.method:
+            if not isinstance(exc, _EXPECTED) and not is_user_method(spec.method):
                 raise
             status = _failure(exc)
             for t in scenario.targets:
                 res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
                                  **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
             continue
-        U = adapter.modes_
+        U = getattr(est, "modes_", None)
         U = None if U is None else np.asarray(U, dtype=float)
         status = "ok"
-        coupled = spec.method in COUPLED
+        coupled = bool(getattr(est, "coupled", False))
         twin_spec = spec if coupled else (scenario.method(spec.twin) if spec.twin else None)
         W_twin = W_lin = W_twin_lin = None
-        if twin_spec is not None and U is not None and not isinstance(adapter, UserAdapter):
+        if twin_spec is not None and U is not None:
             try:
-                tw = adapter if coupled else _fit(twin_spec, scenario, truth, False, basis=U)
+                tw = est if coupled else _fit(twin_spec, scenario, truth, False, basis=U)
                 W_twin = {t: tw.predict(truth.get(t)) for t in scenario.targets}
                 if nonlinear:
                     twl = _fit(twin_spec, scenario, truth, True, basis=U)
                     W_twin_lin = {t: twl.predict(truth.get(t, True)) for t in scenario.targets}
                     W_lin = {t: truth.get(t, True).W for t in scenario.targets}
-            except _EXPECTED as exc:
+            except Exception as exc:  # noqa: BLE001 - a user's twin may raise anything
+                if not isinstance(exc, _EXPECTED) and not is_user_method(twin_spec.method):
+                    raise
                 status = "twin " + _failure(exc)
                 W_twin = W_lin = W_twin_lin = None
         for t in scenario.targets:

@@ -10,14 +10,24 @@ Class                   Abbreviation    Excitation             NDS   Assumption 
 :class:`MixedResponse`  MR              both                   3     diagonal C, Φ11, Φ12
 ======================  ==============  =====================  ====  ===========================
 
-Every method is an estimator: keyword-only hyperparameters, ``fit(...) -> self``,
-``predict(...) -> (m, n)`` displacement matrix; fitted state ends in ``_``. Every ``fit``
-accepts ``basis=`` (an orthonormal ``m × k`` basis used instead of the POMs).
+Every method is an estimator (:class:`PODMethod`): keyword-only hyperparameters,
+``fit(records, *, basis=None) -> self`` over records (``W, F, w0, v0, dt``:
+:class:`podbench.Record` or :class:`podbench.Response`), ``predict(record) -> (m, n)``
+displacement matrix; fitted state ends in ``_``; ``basis=`` replaces the POMs by a given
+orthonormal ``m × k`` basis. The dissertation's array forms (``POVR().fit(W, x0)``,
+``MultipleLoad().fit([W…], [F…], dt=…)``) remain as thin wrappers.
 """
 
 from .base import PODMethod
 from .forced import MultipleLoad, SingleLoad
 from .free import MDS, POVR
 from .mixed import MixedResponse
+from .superposition import Superposition
 
-__all__ = ["PODMethod", "POVR", "MDS", "SingleLoad", "MultipleLoad", "MixedResponse"]
+BUILTIN_METHODS = {"POVR": POVR, "MDS": MDS, "SL": SingleLoad, "ML": MultipleLoad,
+                   "MR": MixedResponse}
+"""The names a scenario file may give as ``method`` (besides ``superposition`` and a user's
+``module:Class``), with their classes."""
+
+__all__ = ["PODMethod", "POVR", "MDS", "SingleLoad", "MultipleLoad", "MixedResponse",
+           "Superposition", "BUILTIN_METHODS"]

@@ -23,30 +23,68 @@ from .._validation import as_finite_array, check_choice, check_positive
 from ..deconvolution import available_solvers
 from ..errors import DimensionError, InputError, NotFittedError
 from ..pod import check_orthonormal, n_modes_for_energy, numerical_rank, snapshot_svd
+from ..records import Record, as_record, is_record
 
-__all__ = ["PODMethod"]
+__all__ = ["PODMethod", "is_record_input"]
 
 
 class PODMethod:
-    """Base class of the POD-based identification methods (POVR, MDS, SL, ML, MR).
+    """Base class of the identification methods (POVR, MDS, SL, ML, MR, superpositions, peers).
 
-    Subclasses define ``__init__`` with keyword-only hyperparameters, ``fit`` and
-    ``predict``. The base class provides :meth:`get_params`, :meth:`set_params`, a
-    ``repr`` listing the hyperparameters and the fitted-state check.
+    The contract (scikit-learn's, over records instead of feature matrices):
+
+    * ``__init__`` takes keyword-only hyperparameters and stores them unchanged; nothing is
+      validated there, so :func:`sklearn.base.clone` works;
+    * :meth:`get_params` / :meth:`set_params` read the constructor's signature (nested
+      ``solver__reg`` names reach a solver object given as a hyperparameter);
+    * :meth:`_validate_params` checks the hyperparameters without data (``fit`` calls it;
+      the scenario loader calls it when a file is read, so a bad option fails before any
+      simulation);
+    * ``fit(records, *, basis=None)`` takes a record or a sequence of records (objects with
+      ``W, F, w0, v0, dt``: :class:`~podbench.data.Record`, :class:`~podbench.data.Response`)
+      and returns ``self``; learned state ends in ``_``; ``modes_`` is the ``m × k``
+      orthonormal basis the method predicts in;
+    * ``predict(record)`` returns the ``(m, n)`` displacement prediction for the excitation
+      in ``record`` (the fields the method uses: :meth:`required_fields`), and raises
+      :class:`~podbench.errors.NotFittedError` before ``fit``.
+
+    Each class declares what it needs: :attr:`excitation_kind` (``"free"``, ``"forced"`` or
+    ``"mixed"``), :attr:`coupled` (identifies full modal matrices: it is its own coupled
+    twin), :attr:`n_records` (how many training records it takes), :attr:`records_per_mode`
+    (``k`` is bounded by the number of records) and :meth:`coupled_twin` (the unfitted
+    coupled method whose error, in the same basis, isolates the diagonal assumption).
+    The array-level signatures of the dissertation (``POVR().fit(W, x0)``,
+    ``MultipleLoad().fit([W…], [F…], dt=…)``) remain as thin wrappers.
     """
 
     #: Short name used in tables (e.g. "POVR").
     abbreviation = ""
+    #: "free" (initial conditions), "forced" (loads from rest) or "mixed" (both).
+    excitation_kind = ""
+    #: True when the method identifies full (coupled) modal matrices (MDS, ML).
+    coupled = False
+    #: (minimum, maximum or None) number of training records.
+    n_records: tuple[int, int | None] = (1, None)
+    #: True when ``k`` may not exceed the number of training records (MDS, ML).
+    records_per_mode = False
 
     # ------------------------------------------------------------------ parameters
     @classmethod
-    def _param_names(cls) -> list[str]:
+    def _get_param_names(cls) -> list[str]:
         sig = inspect.signature(cls.__init__)
-        return [p.name for p in sig.parameters.values() if p.kind == p.KEYWORD_ONLY]
+        return [p.name for p in sig.parameters.values()
+                if p.name != "self" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
 
-    def get_params(self) -> dict:
-        """Hyperparameters as given to the constructor."""
-        return {name: getattr(self, name) for name in self._param_names()}
+    def get_params(self, deep: bool = True) -> dict:
+        """Hyperparameters as given to the constructor (``deep``: also ``name__param`` of
+        a hyperparameter that has ``get_params`` itself, e.g. a solver object)."""
+        out = {}
+        for name in self._get_param_names():
+            value = getattr(self, name)
+            if deep and hasattr(value, "get_params") and not isinstance(value, type):
+                out.update({f"{name}__{k}": v for k, v in value.get_params().items()})
+            out[name] = value
+        return out
 
     def set_params(self, **params) -> PODMethod:
         """Set hyperparameters (validated at the next ``fit``); returns ``self``.
@@ -56,19 +94,47 @@ class PODMethod:
         TypeError
             An unknown hyperparameter name.
         """
-        valid = self._param_names()
+        valid = self._get_param_names()
+        nested: dict[str, dict] = {}
         for name, value in params.items():
-            if name not in valid:
+            head, sep, rest = name.partition("__")
+            if head not in valid:
                 raise TypeError(
-                    f"{type(self).__name__}.set_params: unknown parameter {name!r} "
+                    f"{type(self).__name__}.set_params: unknown parameter {head!r} "
                     f"(valid: {', '.join(valid)})"
                 )
-            setattr(self, name, value)
+            if sep:
+                nested.setdefault(head, {})[rest] = value
+            else:
+                setattr(self, name, value)
+        for head, sub in nested.items():
+            inner = getattr(self, head)
+            if not hasattr(inner, "set_params"):
+                raise TypeError(f"{type(self).__name__}.set_params: parameter {head!r} "
+                                f"({inner!r}) has no parameters of its own")
+            inner.set_params(**sub)
         return self
 
     def __repr__(self) -> str:
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params(deep=False).items())
         return f"{type(self).__name__}({args})"
+
+    def _validate_params(self) -> None:
+        """Check the hyperparameters without data; raise InputError naming the parameter."""
+
+    # ------------------------------------------------------------------ declarations
+    def required_fields(self) -> tuple[str, ...]:
+        """The record fields ``fit`` reads from every training record (``predict`` reads
+        the same fields but ``W`` and ``dt``)."""
+        return ("W",)
+
+    def coupled_twin(self) -> PODMethod | None:
+        """An unfitted estimator of the coupled twin (None if the method has none).
+
+        A coupled method is its own twin (a fresh copy is returned)."""
+        if self.coupled:
+            return type(self)(**self.get_params(deep=False))
+        return None
 
     # ------------------------------------------------------------------ fitted state
     def _check_is_fitted(self) -> None:
@@ -83,6 +149,92 @@ class PODMethod:
         """Number of sensors ``m`` seen in ``fit``."""
         self._check_is_fitted()
         return self.modes_.shape[0]
+
+    # ------------------------------------------------------------------ records
+    def _training_records(self, records, name: str = "records") -> list[Record]:
+        """The training records as a list, checked against the class declarations: their
+        number (:attr:`n_records`), one shape, the fields the method needs, one ``dt``."""
+        if is_record(records):
+            recs = [as_record(records, name)]
+        elif isinstance(records, (Sequence, np.ndarray)) and not isinstance(records, str) \
+                and len(records) and all(is_record(r) for r in records):
+            recs = [as_record(r, f"{name}[{j}]") for j, r in enumerate(records)]
+        else:
+            raise InputError(
+                f"Parameter `{name}`: expected a record or a sequence of records (objects with "
+                f"W, F, w0, v0, dt such as podbench.Record), got {type(records).__name__}"
+            )
+        lo, hi = self.n_records
+        if len(recs) < lo or (hi is not None and len(recs) > hi):
+            want = f"exactly {lo}" if lo == hi else (f"at least {lo}" if hi is None
+                                                      else f"{lo} to {hi}")
+            raise InputError(
+                f"Parameter `{name}`: {type(self).__name__} takes {want} training record"
+                f"{'' if want.endswith(' 1') else 's'}, got {len(recs)}"
+            )
+        shape = recs[0].W.shape
+        for j, r in enumerate(recs[1:], start=1):
+            if r.W.shape != shape:
+                raise DimensionError(
+                    f"Parameter `{name}[{j}].W`: shape {r.W.shape} differs from "
+                    f"`{name}[0].W` {shape}; all records need the same sensors and sample count"
+                )
+        for field_name in self.required_fields():
+            for j, r in enumerate(recs):
+                if getattr(r, field_name) is None:
+                    raise InputError(
+                        f"Parameter `{name}[{j}].{field_name}`: {type(self).__name__} needs "
+                        f"{_FIELD_WORDS[field_name]} of every training record"
+                    )
+        if "dt" in self.required_fields():
+            dt0 = recs[0].dt
+            for j, r in enumerate(recs[1:], start=1):
+                if not np.isclose(r.dt, dt0, rtol=1e-12, atol=0.0):
+                    raise DimensionError(
+                        f"Parameter `{name}[{j}].dt`: {r.dt:g} s differs from `{name}[0].dt` = "
+                        f"{dt0:g} s; all training records need one sampling interval"
+                    )
+        return recs
+
+    def _target_record(self, record, name: str = "record", *, fields: bool = True) -> Record:
+        """A record to predict from: the fields the method needs (unless ``fields`` is
+        False), its ``dt`` equal to the training one (when the method has one)."""
+        rec = as_record(record, name)
+        for field_name in self.required_fields() if fields else ():
+            if field_name in ("W", "dt"):
+                continue
+            if getattr(rec, field_name) is None:
+                raise InputError(
+                    f"Parameter `{name}.{field_name}`: {type(self).__name__} predicts from "
+                    f"{_FIELD_WORDS[field_name]}; the record has none"
+                )
+        dt_fit = getattr(self, "dt_", None)
+        if dt_fit is not None and rec.dt is not None and \
+                not np.isclose(rec.dt, dt_fit, rtol=1e-12, atol=0.0):
+            raise DimensionError(
+                f"Parameter `{name}.dt`: {rec.dt:g} s differs from the training records' "
+                f"{dt_fit:g} s (the identified kernel is sampled at the training interval)"
+            )
+        return rec
+
+
+_FIELD_WORDS = {
+    "W": "the displacements W (in)",
+    "F": "the force matrix F (lbf)",
+    "w0": "the initial displacement w0 (in)",
+    "v0": "the initial velocity v0 (in/s)",
+    "dt": "the sampling interval dt (s)",
+}
+
+
+def is_record_input(data) -> bool:
+    """True if ``data`` is a record or a non-empty sequence of records (the record form of
+    ``fit``), False for arrays (the dissertation's array form)."""
+    if is_record(data):
+        return True
+    if isinstance(data, (list, tuple)) and data and all(is_record(r) for r in data):
+        return True
+    return False
 
 
 # ---------------------------------------------------------------------- checks
@@ -223,19 +375,39 @@ def check_max_cond(max_cond) -> float:
     return max_cond
 
 
-def check_solver(solver, solver_options) -> dict:
-    """Known solver name; options as a dict (validated by the solver itself)."""
-    if not isinstance(solver, str):
-        raise InputError(f"Parameter `solver`: expected a name, got {solver!r}")
-    check_choice(solver, "solver", available_solvers())
-    if solver_options is None:
-        return {}
-    if not isinstance(solver_options, dict):
+def make_method_solver(solver, solver_options):
+    """The solver object of a method's ``solver`` / ``solver_options`` hyperparameters.
+
+    ``solver`` is a built-in name (:func:`podbench.deconvolution.available_solvers`), a
+    ``"module:Class"`` name, or a solver instance (then ``solver_options`` must be empty).
+    Raises InputError naming ``solver`` or ``solver_options``.
+    """
+    from .. import deconvolution as dc
+
+    if solver_options is not None and not isinstance(solver_options, dict):
         raise InputError(
             f"Parameter `solver_options`: expected a dict of keyword options, got "
             f"{type(solver_options).__name__}"
         )
-    return dict(solver_options)
+    if hasattr(dc, "make_solver"):
+        return dc.make_solver(solver, solver_options)
+    # TODO(merge): pre-subpackage fallback, removed when podbench.deconvolution has solvers
+    if not isinstance(solver, str):
+        raise InputError(f"Parameter `solver`: expected a name, got {solver!r}")
+    check_choice(solver, "solver", available_solvers())
+    return (solver, dict(solver_options or {}))
+
+
+def solve_deconvolution(solver, Q_list, B, dt: float):
+    """Solve Eq. 3.43/3.48 with a solver object of :func:`make_method_solver`; returns
+    ``(X, info)`` with the solver's diagnostics (a dict of JSON-able scalars)."""
+    from .. import deconvolution as dc
+
+    if isinstance(solver, tuple):  # TODO(merge): fallback, see make_method_solver
+        name, options = solver
+        return dc.deconvolve(Q_list, B, dt, name, **options), {"solver": name}
+    res = dc.deconvolve(Q_list, B, dt, solver, return_info=True)
+    return res.X, dict(res.info)
 
 
 def select_basis(W: np.ndarray, n_modes, basis, *, energy: float | None = None):

@@ -18,13 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..deconvolution import (
-    convolution_product,
-    convolve,
-    convolve_kernel,
-    deconvolve,
-)
+from ..deconvolution import convolution_product, convolve, convolve_kernel
 from ..errors import IllConditionedError, InputError
+from ..records import is_record
 from .base import (
     PODMethod,
     as_int_list,
@@ -37,10 +33,12 @@ from .base import (
     check_n_modes,
     check_new_force,
     check_snapshots,
-    check_solver,
     check_tol,
+    is_record_input,
+    make_method_solver,
     modal_share_too_small,
     select_basis,
+    solve_deconvolution,
 )
 
 __all__ = ["SingleLoad", "MultipleLoad"]
@@ -53,7 +51,23 @@ def _relative_residual(Qs, X, B, dt) -> float:
     return float(np.linalg.norm(AX - B) / nb) if nb > 0 else float(np.linalg.norm(AX))
 
 
-class SingleLoad(PODMethod):
+def _no_arrays_beside_records(**given) -> None:
+    for name, value in given.items():
+        if value is not None:
+            raise InputError(f"Parameter `{name}`: give it in the records (their {name}), "
+                             "not beside them")
+
+
+class _ForcedMethod(PODMethod):
+    """What SL and ML share: the new force of a record, the solver diagnostics."""
+
+    def _new_force(self, record):
+        if is_record(record):
+            return self._target_record(record).F
+        return record
+
+
+class SingleLoad(_ForcedMethod):
     """Single-load method (§3.3.1, Eqs. 3.43–3.45).
 
     Assumes ``C(t)`` diagonal in the POM basis (identity-proportional mass, light
@@ -104,17 +118,35 @@ class SingleLoad(PODMethod):
         self.solver_options = solver_options
         self.tol = tol
 
-    def fit(self, W, F, *, dt, basis=None) -> SingleLoad:
+    excitation_kind = "forced"
+    n_records = (1, 1)
+
+    def _validate_params(self) -> None:
+        check_n_modes(self.n_modes)
+        check_energy(self.energy)
+        make_method_solver(self.solver, self.solver_options)
+        check_tol(self.tol)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", "F", "dt")
+
+    def coupled_twin(self) -> MultipleLoad:
+        """ML with the same solver (the full kernel ``C(t)`` instead of its diagonal)."""
+        return MultipleLoad(n_modes=self.n_modes, solver=self.solver,
+                            solver_options=self.solver_options)
+
+    def fit(self, records, F=None, *, dt=None, basis=None) -> SingleLoad:
         """Identify the diagonal kernel from one forced response that starts at rest.
 
         Parameters
         ----------
-        W : (m, n) array_like
-            Displacements (in).
-        F : (m, n) array_like
-            Forces at the same sensors and times (lbf).
-        dt : float
-            Sampling interval (s).
+        records : record, or (m, n) array_like
+            The training record (``W`` in in, ``F`` in lbf at the same sensors and times,
+            ``dt`` in s), or its displacements ``W`` (array form).
+        F : (m, n) array_like, optional
+            Array form only: the forces (lbf).
+        dt : float, optional
+            Array form only: the sampling interval (s).
         basis : (m, k) array_like, optional
             Orthonormal basis to use instead of the POMs of ``W``.
 
@@ -122,13 +154,22 @@ class SingleLoad(PODMethod):
         -------
         self
         """
+        self._validate_params()
+        if is_record_input(records):
+            _no_arrays_beside_records(F=F, dt=dt)
+            rec = self._training_records(records)[0]
+            W, F, dt = rec.W, rec.F, rec.dt
+        else:
+            dt = check_dt(dt)
+            W = check_snapshots(records)
+            F = check_force(F, W, "F")
+        return self._fit(W, F, dt, basis)
+
+    def _fit(self, W, F, dt, basis) -> SingleLoad:
         n_modes = check_n_modes(self.n_modes)
         energy = check_energy(self.energy)
-        options = check_solver(self.solver, self.solver_options)
+        solver = make_method_solver(self.solver, self.solver_options)
         tol = check_tol(self.tol)
-        dt = check_dt(dt)
-        W = check_snapshots(W)
-        F = check_force(F, W, "F")
         U, povs, pocs = select_basis(W, n_modes, basis, energy=energy)
         k, n = U.shape[1], W.shape[1]
         Vh = U.T @ W
@@ -145,11 +186,15 @@ class SingleLoad(PODMethod):
             )
         kernel = np.zeros((k, k, n))
         num = 0.0
+        infos = []
         for i in range(k):
-            c = deconvolve([Q[i : i + 1]], Vh[i], dt, self.solver, **options)
+            c, info = solve_deconvolution(solver, [Q[i : i + 1]], Vh[i], dt)
             kernel[i, i] = c
+            infos.append(info)
             num += float(np.sum((convolution_product([Q[i : i + 1]], c, dt) - Vh[i]) ** 2))
         nv = np.linalg.norm(Vh)
+        self.solver_ = solver
+        self.solver_info_ = infos
         self.modes_ = U
         self.povs_ = povs
         self.pocs_ = pocs
@@ -159,13 +204,15 @@ class SingleLoad(PODMethod):
         self.n_modes_ = k
         return self
 
-    def predict(self, F_new) -> np.ndarray:
+    def predict(self, record) -> np.ndarray:
         """Response to a new load (Eqs. 3.44–3.45).
 
         Parameters
         ----------
-        F_new : (m, n') array_like
-            Forces (lbf) with ``n' <= n`` samples, column 0 at ``t = 0``.
+        record : record, or (m, n') array_like
+            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
+            training one), or the force matrix itself; ``n' <= n`` samples, column 0 at
+            ``t = 0``.
 
         Returns
         -------
@@ -174,14 +221,14 @@ class SingleLoad(PODMethod):
         """
         self._check_is_fitted()
         m, k, n = self.modes_.shape[0], self.n_modes_, self.kernel_.shape[2]
-        F = check_new_force(F_new, m, n, "F_new")
+        F = check_new_force(self._new_force(record), m, n, "F_new")
         q = self.modes_.T @ F
         idx = np.arange(k)
         v = convolve(self.kernel_[idx, idx], q, self.dt_)
         return self.modes_ @ v
 
 
-class MultipleLoad(PODMethod):
+class MultipleLoad(_ForcedMethod):
     """Multiple-load method (§3.3.2, Eqs. 3.46–3.49).
 
     With the POMs ``U`` (``m × k``) of the first load case, every case ``j`` gives scaled POC
@@ -237,30 +284,52 @@ class MultipleLoad(PODMethod):
         self.solver_options = solver_options
         self.max_cond = max_cond
 
-    def fit(self, W, F, *, dt, basis=None) -> MultipleLoad:
+    excitation_kind = "forced"
+    coupled = True
+    records_per_mode = True
+
+    def _validate_params(self) -> None:
+        check_n_modes(self.n_modes)
+        make_method_solver(self.solver, self.solver_options)
+        check_max_cond(self.max_cond)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", "F", "dt")
+
+    def fit(self, records, F=None, *, dt=None, basis=None) -> MultipleLoad:
         """Identify the full kernel ``C(t)`` from several forced responses that start at rest.
 
         Parameters
         ----------
-        W : sequence of (m, n) array_like
-            Displacements of each load case (in).
-        F : sequence of (m, n) array_like
-            Forces of each load case at the same sensors and times (lbf).
-        dt : float
-            Sampling interval (s).
+        records : sequence of records, or sequence of (m, n) array_like
+            The training records (``W`` in in, ``F`` in lbf, one ``dt`` in s), or their
+            displacements (array form), all of one shape.
+        F : sequence of (m, n) array_like, optional
+            Array form only: the forces of each load case (lbf).
+        dt : float, optional
+            Array form only: the sampling interval (s).
         basis : (m, k) array_like, optional
-            Orthonormal basis to use instead of the POMs of ``W[0]``.
+            Orthonormal basis to use instead of the POMs of the first record.
 
         Returns
         -------
         self
         """
+        self._validate_params()
+        if is_record_input(records):
+            _no_arrays_beside_records(F=F, dt=dt)
+            recs = self._training_records(records)
+            Ws, Fs, dt = [r.W for r in recs], [r.F for r in recs], recs[0].dt
+        else:
+            dt = check_dt(dt)
+            Ws = check_datasets(records)
+            Fs = check_forces(F, Ws)
+        return self._fit(Ws, Fs, dt, basis)
+
+    def _fit(self, Ws, Fs, dt, basis) -> MultipleLoad:
         n_modes = check_n_modes(self.n_modes)
-        options = check_solver(self.solver, self.solver_options)
+        solver = make_method_solver(self.solver, self.solver_options)
         max_cond = check_max_cond(self.max_cond)
-        dt = check_dt(dt)
-        Ws = check_datasets(W)
-        Fs = check_forces(F, Ws)
         n_sets = len(Ws)
         n = Ws[0].shape[1]
         if basis is not None:
@@ -286,10 +355,12 @@ class MultipleLoad(PODMethod):
                 f"{max_cond:g}; use linearly independent loads"
             )
         B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
-        Cbar = deconvolve(Qs, B, dt, self.solver, **options)
+        Cbar, info = solve_deconvolution(solver, Qs, B, dt)
         kernel = np.empty((k, k, n))
         for i in range(k):
             kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
+        self.solver_ = solver
+        self.solver_info_ = info
         self.modes_ = U
         self.povs_ = povs
         self.pocs_ = pocs
@@ -301,13 +372,15 @@ class MultipleLoad(PODMethod):
         self.n_modes_ = k
         return self
 
-    def predict(self, F_new) -> np.ndarray:
+    def predict(self, record) -> np.ndarray:
         """Response to a new load (Eq. 3.49 and Eq. 3.45).
 
         Parameters
         ----------
-        F_new : (m, n') array_like
-            Forces (lbf) with ``n' <= n`` samples, column 0 at ``t = 0``.
+        record : record, or (m, n') array_like
+            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
+            training one), or the force matrix itself; ``n' <= n`` samples, column 0 at
+            ``t = 0``.
 
         Returns
         -------
@@ -316,6 +389,6 @@ class MultipleLoad(PODMethod):
         """
         self._check_is_fitted()
         m, n = self.modes_.shape[0], self.kernel_.shape[2]
-        F = check_new_force(F_new, m, n, "F_new")
+        F = check_new_force(self._new_force(record), m, n, "F_new")
         v = convolve_kernel(self.kernel_, self.modes_.T @ F, self.dt_)
         return self.modes_ @ v

@@ -10,6 +10,7 @@ import numpy as np
 
 from .._validation import check_choice
 from ..errors import IllConditionedError, InputError
+from ..records import Record, is_record
 from .base import (
     PODMethod,
     as_int_list,
@@ -21,6 +22,7 @@ from .base import (
     check_profiles,
     check_snapshots,
     check_tol,
+    is_record_input,
     modal_share_too_small,
     select_basis,
 )
@@ -28,11 +30,22 @@ from .base import (
 __all__ = ["POVR", "MDS"]
 
 _EXCITATIONS = ("displacement", "velocity")
+_X0 = {"displacement": "w0", "velocity": "v0"}  # the record field each excitation reads
 # (noun, symbol, what of the POC is divided by) per excitation, for messages
 _WORD = {
     "displacement": ("displacement", "w0", "value"),
     "velocity": ("velocity", "v0", "derivative"),
 }
+
+
+def _first_column_w0(records, excitation: str) -> list:
+    """The records as a list; for displacements a record without ``w0`` gets ``W[:, 0]``
+    (the response's first sample is its initial displacement)."""
+    recs = [records] if is_record(records) else list(records)
+    if excitation != "displacement":
+        return recs
+    return [Record(W=r.W, w0=np.asarray(r.W, dtype=float)[:, 0])
+            if getattr(r, "w0", None) is None else r for r in recs]
 
 
 class POVR(PODMethod):
@@ -96,16 +109,34 @@ class POVR(PODMethod):
         self.energy = energy
         self.tol = tol
 
-    def fit(self, W, x0=None, *, basis=None) -> POVR:
+    excitation_kind = "free"
+    n_records = (1, 1)
+
+    def _validate_params(self) -> None:
+        check_choice(self.excitation, "excitation", _EXCITATIONS)
+        check_n_modes(self.n_modes)
+        check_energy(self.energy)
+        check_tol(self.tol)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
+
+    def coupled_twin(self) -> MDS:
+        """MDS for the same excitation (Φ11 / Φ12 without the diagonal assumption)."""
+        return MDS(excitation=self.excitation, n_modes=self.n_modes)
+
+    def fit(self, records, x0=None, *, basis=None) -> POVR:
         """Identify the model from one free response.
 
         Parameters
         ----------
-        W : (m, n) array_like
-            Snapshot matrix of the response (in), column 0 at ``t = 0``.
+        records : record, or (m, n) array_like
+            The training record (``W`` in in, and ``w0`` in in or ``v0`` in in/s by
+            ``excitation``; a displacement record without ``w0`` uses ``W[:, 0]``), or its
+            snapshot matrix ``W`` with column 0 at ``t = 0`` (array form).
         x0 : (m,) array_like, optional
-            Its initial displacement ``w0`` (in; default ``W[:, 0]``) or initial velocity
-            ``ẇ0`` (in/s; required for ``excitation="velocity"``).
+            Array form only: the initial displacement ``w0`` (in; default ``W[:, 0]``) or
+            initial velocity ``ẇ0`` (in/s; required for ``excitation="velocity"``).
         basis : (m, k) array_like, optional
             Orthonormal basis to use instead of the POMs of ``W``.
 
@@ -113,20 +144,29 @@ class POVR(PODMethod):
         -------
         self
         """
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
+        self._validate_params()
+        if is_record_input(records):
+            if x0 is not None:
+                raise InputError("Parameter `x0`: give the initial profile in the record "
+                                 "(its w0 or v0), not beside it")
+            rec = self._training_records(_first_column_w0(records, self.excitation))[0]
+            W, x0 = rec.W, getattr(rec, _X0[self.excitation])
+        else:
+            W = check_snapshots(records)
+            if x0 is None:
+                if self.excitation == "velocity":
+                    raise InputError(
+                        "Parameter `x0`: the initial velocity profile v0 (in/s) of the "
+                        "training response is required for excitation='velocity' (Eq. 3.18)"
+                    )
+                x0 = W[:, 0]
+        return self._fit(W, check_profile(x0, W.shape[0], "x0"), basis)
+
+    def _fit(self, W, x0, basis) -> POVR:
         n_modes = check_n_modes(self.n_modes)
         energy = check_energy(self.energy)
         tol = check_tol(self.tol)
-        W = check_snapshots(W)
         word, sym, what = _WORD[self.excitation]
-        if x0 is None:
-            if self.excitation == "velocity":
-                raise InputError(
-                    "Parameter `x0`: the initial velocity profile v0 (in/s) of the training "
-                    "response is required for excitation='velocity' (Eq. 3.18)"
-                )
-            x0 = W[:, 0]
-        x0 = check_profile(x0, W.shape[0], "x0")
         U, povs, pocs = select_basis(W, n_modes, basis, energy=energy)
         scale = float(np.linalg.norm(x0))
         if scale == 0:
@@ -157,25 +197,33 @@ class POVR(PODMethod):
         self.n_modes_ = k
         return self
 
+    def _new_profile(self, record):
+        self._check_is_fitted()
+        if is_record(record):
+            return getattr(self._target_record(record), _X0[self.excitation])
+        return record
+
     def new_povs(self, x0_new) -> np.ndarray:
         """Recalculated POVs ``σ̃_j`` for a new initial profile (Eqs. 3.13 / 3.17), (k,)."""
         self._check_is_fitted()
         x = check_profile(x0_new, self.modes_.shape[0], "x0_new")
         return self.povs_ * (self.modes_.T @ x) / self.initial_coordinates_
 
-    def predict(self, x0_new) -> np.ndarray:
+    def predict(self, record) -> np.ndarray:
         """Response to a new initial displacement (in) or velocity (in/s), Eq. 3.11.
 
         Parameters
         ----------
-        x0_new : (m,) array_like
+        record : record, or (m,) array_like
+            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
+            new initial profile itself.
 
         Returns
         -------
         (m, n) ndarray
             Predicted displacements (in).
         """
-        s_new = self.new_povs(x0_new)
+        s_new = self.new_povs(self._new_profile(record))
         return self.modes_ @ (s_new[:, None] * self.pocs_.T)
 
 
@@ -231,27 +279,52 @@ class MDS(PODMethod):
         self.n_modes = n_modes
         self.max_cond = max_cond
 
-    def fit(self, W, x0=None, *, basis=None) -> MDS:
+    excitation_kind = "free"
+    coupled = True
+    records_per_mode = True
+
+    def _validate_params(self) -> None:
+        check_choice(self.excitation, "excitation", _EXCITATIONS)
+        check_n_modes(self.n_modes)
+        check_max_cond(self.max_cond)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
+
+    def fit(self, records, x0=None, *, basis=None) -> MDS:
         """Identify ``Φ11`` / ``Φ12`` from several free responses.
 
         Parameters
         ----------
-        W : sequence of (m, n) array_like
-            Snapshot matrices of the data sets (in), all of one shape.
+        records : sequence of records, or sequence of (m, n) array_like
+            The training records (``W`` in in; ``w0`` in in or ``v0`` in in/s by
+            ``excitation``; a displacement record without ``w0`` uses ``W[:, 0]``), or
+            their snapshot matrices (array form), all of one shape.
         x0 : sequence of (m,) array_like, optional
-            Their initial displacements (in; default the first columns) or velocities
-            (in/s; required for ``excitation="velocity"``).
+            Array form only: the initial displacements (in; default the first columns) or
+            velocities (in/s; required for ``excitation="velocity"``).
         basis : (m, k) array_like, optional
-            Orthonormal basis to use instead of the POMs of ``W[0]``.
+            Orthonormal basis to use instead of the POMs of the first record.
 
         Returns
         -------
         self
         """
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
+        self._validate_params()
+        if is_record_input(records):
+            if x0 is not None:
+                raise InputError("Parameter `x0`: give the initial profiles in the records "
+                                 "(their w0 or v0), not beside them")
+            recs = self._training_records(_first_column_w0(records, self.excitation))
+            Ws = [r.W for r in recs]
+            x0 = [getattr(r, _X0[self.excitation]) for r in recs]
+        else:
+            Ws = check_datasets(records)
+        return self._fit(Ws, x0, basis)
+
+    def _fit(self, Ws, x0, basis) -> MDS:
         n_modes = check_n_modes(self.n_modes)
         max_cond = check_max_cond(self.max_cond)
-        Ws = check_datasets(W)
         n_sets = len(Ws)
         m, n = Ws[0].shape
         word, sym, _ = _WORD[self.excitation]
@@ -296,12 +369,14 @@ class MDS(PODMethod):
         self.n_modes_ = k
         return self
 
-    def predict(self, x0_new) -> np.ndarray:
+    def predict(self, record) -> np.ndarray:
         """Response to a new initial displacement (in) or velocity (in/s), Eqs. 3.28–3.29.
 
         Parameters
         ----------
-        x0_new : (m,) array_like
+        record : record, or (m,) array_like
+            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
+            new initial profile itself.
 
         Returns
         -------
@@ -309,6 +384,8 @@ class MDS(PODMethod):
             Predicted displacements (in).
         """
         self._check_is_fitted()
-        x = check_profile(x0_new, self.modes_.shape[0], "x0_new")
+        if is_record(record):
+            record = getattr(self._target_record(record), _X0[self.excitation])
+        x = check_profile(record, self.modes_.shape[0], "x0_new")
         v_new = self.Phi_ @ (self.modes_.T @ x)  # n × k
         return self.modes_ @ v_new.T

@@ -48,7 +48,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_choice
-from ..deconvolution import convolution_product, convolve, deconvolve
+from ..deconvolution import convolution_product, convolve
 from ..errors import DimensionError, IllConditionedError, InputError
 from .base import (
     PODMethod,
@@ -61,9 +61,11 @@ from .base import (
     check_new_force,
     check_profile,
     check_profiles,
-    check_solver,
     check_tol,
+    is_record_input,
+    make_method_solver,
     select_basis,
+    solve_deconvolution,
 )
 
 __all__ = ["MixedResponse"]
@@ -141,22 +143,51 @@ class MixedResponse(PODMethod):
         self.velocity_scaling = velocity_scaling
         self.tol = tol
 
-    def fit(self, W, *, w0=None, v0, F, dt, basis=None) -> MixedResponse:
+    excitation_kind = "mixed"
+    n_records = (3, 3)
+
+    def _validate_params(self) -> None:
+        check_n_modes(self.n_modes)
+        check_energy(self.energy)
+        make_method_solver(self.solver, self.solver_options)
+        check_choice(self.velocity_scaling, "velocity_scaling", _SCALINGS)
+        check_tol(self.tol)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", "F", "w0", "v0", "dt")
+
+    def coupled_twin(self):
+        """MDS (displacements) + MDS (velocities) + ML, summed: the coupled counterpart of
+        each of MR's three parts (each needs its own training records, one per mode)."""
+        from .forced import MultipleLoad
+        from .free import MDS
+        from .superposition import Superposition
+
+        return Superposition(parts=(
+            MDS(excitation="displacement", n_modes=self.n_modes),
+            MDS(excitation="velocity", n_modes=self.n_modes),
+            MultipleLoad(n_modes=self.n_modes, solver=self.solver,
+                         solver_options=self.solver_options),
+        ))
+
+    def fit(self, records, *, w0=None, v0=None, F=None, dt=None, basis=None) -> MixedResponse:
         """Identify the model from the three mixed responses ``a``, ``b``, ``c``.
 
         Parameters
         ----------
-        W : sequence of three (m, n) array_like
-            Displacements of cases ``a``, ``b``, ``c`` (in); each starts at its own
-            initial displacement and velocity under its own load.
+        records : sequence of three records, or of three (m, n) array_like
+            Cases ``a``, ``b``, ``c``: each record holds ``W`` (in), its own initial
+            displacement ``w0`` (in) and velocity ``v0`` (in/s), its load ``F`` (lbf, first
+            sample at ``t = 0``) and ``dt`` (s). Array form: the three displacement
+            matrices, with the other quantities as keywords.
         w0 : sequence of three (m,) array_like, optional
-            Initial displacements (in); default the first columns of ``W``.
+            Array form: initial displacements (in); default the first columns of ``W``.
         v0 : sequence of three (m,) array_like
-            Initial velocities (in/s).
+            Array form: initial velocities (in/s).
         F : sequence of three (m, n) array_like
-            Forces at the sensors (lbf), first sample at ``t = 0``.
+            Array form: forces at the sensors (lbf).
         dt : float
-            Sampling interval (s).
+            Array form: sampling interval (s).
         basis : (m, k) array_like, optional
             Orthonormal basis to use instead of the POMs of case ``a``.
 
@@ -164,24 +195,41 @@ class MixedResponse(PODMethod):
         -------
         self
         """
+        self._validate_params()
+        if is_record_input(records):
+            for name, value in (("w0", w0), ("v0", v0), ("F", F), ("dt", dt)):
+                if value is not None:
+                    raise InputError(f"Parameter `{name}`: give it in the records (their "
+                                     f"{name}), not beside them")
+            recs = self._training_records(records)
+            Ws = [r.W for r in recs]
+            w0s, v0s, Fs, dt = [r.w0 for r in recs], [r.v0 for r in recs], \
+                [r.F for r in recs], recs[0].dt
+        else:
+            if v0 is None or F is None:
+                raise InputError("Parameter `v0` and `F`: the initial velocities (in/s) and "
+                                 "forces (lbf) of the three cases are required")
+            dt = check_dt(dt)
+            Ws = check_datasets(records, "W")
+            if len(Ws) != 3:
+                raise InputError(
+                    f"Parameter `W`: MR needs exactly three data sets (cases a, b, c), "
+                    f"got {len(Ws)}"
+                )
+            m = Ws[0].shape[0]
+            if w0 is None:
+                w0 = [Wj[:, 0] for Wj in Ws]
+            w0s = check_profiles(w0, 3, m, "w0")
+            v0s = check_profiles(v0, 3, m, "v0")
+            Fs = check_forces(F, Ws)
+        return self._fit(Ws, w0s, v0s, Fs, dt, basis)
+
+    def _fit(self, Ws, w0s, v0s, Fs, dt, basis) -> MixedResponse:
         n_modes = check_n_modes(self.n_modes)
         energy = check_energy(self.energy)
-        options = check_solver(self.solver, self.solver_options)
-        check_choice(self.velocity_scaling, "velocity_scaling", _SCALINGS)
+        solver = make_method_solver(self.solver, self.solver_options)
         tol = check_tol(self.tol)
-        dt = check_dt(dt)
-        Ws = check_datasets(W)
-        if len(Ws) != 3:
-            raise InputError(
-                f"Parameter `W`: MR needs exactly three data sets (cases a, b, c), "
-                f"got {len(Ws)}"
-            )
         m, n = Ws[0].shape
-        if w0 is None:
-            w0 = [Wj[:, 0] for Wj in Ws]
-        w0s = check_profiles(w0, 3, m, "w0")
-        v0s = check_profiles(v0, 3, m, "v0")
-        Fs = check_forces(F, Ws)
         if self.velocity_scaling == "finite_difference" and n < 2:
             raise DimensionError(
                 "Parameter `W`: velocity_scaling='finite_difference' needs at least 2 samples"
@@ -218,6 +266,7 @@ class MixedResponse(PODMethod):
         D = np.empty((k, n))
         V = np.empty((k, n))
         res2, rhs2 = 0.0, 0.0
+        infos = []
         for i in range(k):
             qa, qb, qc = Q[0, i], Q[1, i], Q[2, i]
             qba = qb - r_bd[i] * qa
@@ -231,7 +280,8 @@ class MixedResponse(PODMethod):
                 )
             yb = Vh[1, i] - r_bd[i] * Vh[0, i]
             rhs = (Vh[2, i] - r_cd[i] * Vh[0, i]) - R[i] * yb
-            c = deconvolve([g[None]], rhs, dt, self.solver, **options)
+            c, info = solve_deconvolution(solver, [g[None]], rhs, dt)
+            infos.append(info)
             res2 += float(np.sum((convolution_product([g[None]], c, dt) - rhs) ** 2))
             rhs2 += float(np.sum(rhs**2))
             kernel[i, i] = c
@@ -251,6 +301,8 @@ class MixedResponse(PODMethod):
             self.pocs_disp_ = np.where(nD > 0, D.T / nD, 0.0)
             self.pocs_vel_ = np.where(nV > 0, V.T / nV, 0.0)
         self.povs_disp_, self.povs_vel_ = nD, nV
+        self.solver_ = solver
+        self.solver_info_ = infos
         self.modes_ = U
         self.povs_ = povs
         self.pocs_ = pocs
@@ -267,11 +319,14 @@ class MixedResponse(PODMethod):
         self.n_modes_ = k
         return self
 
-    def predict(self, *, w0=None, v0=None, F=None) -> np.ndarray:
+    def predict(self, record=None, *, w0=None, v0=None, F=None) -> np.ndarray:
         """Response to any combination of a new initial displacement, velocity and load.
 
         Parameters
         ----------
+        record : record, optional
+            A record with the new ``w0``, ``v0`` and ``F`` (any of them; ``dt``, if given,
+            must equal the training one); or give them as keywords:
         w0 : (m,) array_like, optional
             New initial displacement (in).
         v0 : (m,) array_like, optional
@@ -286,6 +341,12 @@ class MixedResponse(PODMethod):
             Predicted displacements (in), the superposition of the three parts.
         """
         self._check_is_fitted()
+        if record is not None:
+            if w0 is not None or v0 is not None or F is not None:
+                raise InputError("MR.predict: give a record or the keywords w0, v0, F, "
+                                 "not both")
+            rec = self._target_record(record, "record", fields=False)  # any of w0, v0, F
+            w0, v0, F = rec.w0, rec.v0, rec.F
         if w0 is None and v0 is None and F is None:
             raise InputError("MR.predict: give at least one of `w0`, `v0`, `F`")
         U = self.modes_

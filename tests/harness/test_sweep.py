@@ -29,21 +29,21 @@ ECHO = '''
 import numpy as np
 
 class Clean:
-    def __init__(self, **kw):
-        pass
-    def fit_responses(self, train, basis=None):
+    def __init__(self, *, n_modes=None):
+        self.n_modes = n_modes
+    def fit(self, records, *, basis=None):
         return self
-    def predict_response(self, target):
-        return np.array(target.W)
+    def predict(self, record):
+        return np.array(record.W)
 
 class Echo:
-    def __init__(self, **kw):
-        pass
-    def fit_responses(self, train, basis=None):
-        self.W = np.array(train[0].W)
+    def __init__(self, *, n_modes=None):
+        self.n_modes = n_modes
+    def fit(self, records, *, basis=None):
+        self.W_ = np.array(records[0].W)
         return self
-    def predict_response(self, target):
-        return self.W
+    def predict(self, record):
+        return self.W_
 '''
 
 

@@ -270,5 +270,5 @@ def test_mr_predict_needs_an_excitation(mixed):
 
 
 def test_mr_requires_velocities_and_forces(mixed):
-    with pytest.raises(TypeError):
+    with pytest.raises(InputError, match="v0"):
         MixedResponse(n_modes=3).fit(mixed.W, w0=mixed.w0, F=mixed.F, dt=mixed.dt)
