@@ -16,10 +16,10 @@ Quick tour::
 
 from . import deconvolution, errors, excitations, methods, pod
 from .data import Response, displacement_norm, norm_percent_error
-from .records import Record
 from .dynamics import simulate
 from .fem import list_structures, load_structure
 from .fem.structure import Structure
+from .records import Record
 
 __version__ = "0.1.0"
 

@@ -20,7 +20,7 @@ import pandas as pd
 from .claims import evaluate_claims, load_claims
 from .runner import COLUMNS
 
-__all__ = ["summary_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
+__all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
 
 FLOAT_FORMAT = "%.6g"
 """Six significant digits: far above the run-to-run noise of the errors, and stable."""
@@ -32,6 +32,16 @@ def summary_table(results) -> pd.DataFrame:
     df = pd.DataFrame(rows, columns=list(COLUMNS))
     df["n_modes"] = df["n_modes"].astype(int)
     return df
+
+
+def fits_table(results) -> pd.DataFrame:
+    """One row per (scenario, structure, reported method): what its fit measured about
+    itself (:attr:`podbench.methods.PODMethod.diagnostics_`: mode count, fit residual,
+    condition number, the solver's amplification, regularization, iterations, …)."""
+    rows = [f for u in results for f in getattr(u, "fits", [])]
+    df = pd.DataFrame(rows)
+    first = [c for c in ("scenario", "structure", "method", "n_modes", "solver") if c in df]
+    return df[first + sorted(c for c in df.columns if c not in first)]
 
 
 def atomic_write_text(path, text: str) -> None:
@@ -189,6 +199,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
+        (tmp / "fits.csv").write_text(table_csv(fits_table(results)), encoding="utf-8",
+                                      newline="\n")
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
             evaluated = evaluate_claims(claims, df)

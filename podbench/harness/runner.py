@@ -49,6 +49,7 @@ class UnitResult:
     scenario: str
     structure: str
     rows: list = field(default_factory=list)
+    fits: list = field(default_factory=list)  # one dict per reported method: its diagnostics_
     series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
     simulated: int = 0
     cached: int = 0
@@ -273,6 +274,9 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
                 res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
                                  **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
             continue
+        diag = getattr(est, "diagnostics_", None)
+        res.fits.append({**{k: v for k, v in base.items()}, **(diag if isinstance(diag, dict)
+                                                               else {})})
         U = getattr(est, "modes_", None)
         U = None if U is None else np.asarray(U, dtype=float)
         status = "ok"

@@ -21,7 +21,7 @@ import numpy as np
 
 from .._validation import as_finite_array, check_choice, check_positive
 from ..deconvolution import available_solvers
-from ..errors import DimensionError, InputError, NotFittedError
+from ..errors import DimensionError, IllConditionedError, InputError, NotFittedError
 from ..pod import check_orthonormal, n_modes_for_energy, numerical_rank, snapshot_svd
 from ..records import Record, as_record, is_record
 
@@ -143,6 +143,31 @@ class PODMethod:
                 f"This {type(self).__name__} instance is not fitted yet; call `fit` before "
                 "`predict`"
             )
+
+    @property
+    def diagnostics_(self) -> dict:
+        """What the fit measured about itself, as a flat dict of scalars (shown in the
+        harness's ``fits.csv``): ``n_modes``, ``fit_residual`` and ``condition_number``
+        where the method has them, and the deconvolution solver's diagnostics
+        (``solver``, ``solver_amplification``, ``solver_reg``, ``solver_iterations``,
+        ``solver_rank``, …). A method that deconvolves once per mode (SL, MR) reports the
+        largest value over the modes (the sum for ``solver_iterations``)."""
+        self._check_is_fitted()
+        out: dict = {"n_modes": int(self.n_modes_)}
+        for name in ("fit_residual_", "condition_number_"):
+            if hasattr(self, name):
+                out[name[:-1]] = float(getattr(self, name))
+        info = getattr(self, "solver_info_", None)
+        infos = info if isinstance(info, list) else ([info] if info else [])
+        if infos:
+            out["solver"] = str(infos[0].get("solver", ""))
+            keys = sorted({k for i in infos for k in i if k != "solver"})
+            for key in keys:
+                vals = [i[key] for i in infos if isinstance(i.get(key), (int, float))
+                        and not isinstance(i.get(key), bool)]
+                if vals:
+                    out[f"solver_{key}"] = sum(vals) if key == "iterations" else max(vals)
+        return out
 
     @property
     def n_sensors_(self) -> int:
@@ -398,16 +423,60 @@ def make_method_solver(solver, solver_options):
     return (solver, dict(solver_options or {}))
 
 
-def solve_deconvolution(solver, Q_list, B, dt: float):
+def amplification(Q_list, X, B, dt: float) -> float:
+    """``‖A‖‖X‖/‖B‖`` of a deconvolution ``A X ≈ B`` (Eq. 3.43/3.48), with the bound
+    ``‖A‖ ≤ Δt Σ_s ‖G_s‖_F`` of the block-Toeplitz operator (``G_s``: every load case's
+    modal forces at sample ``s``); the measure the ``"block"`` solver's ``max_growth``
+    uses. Near 1 for a well-posed system; huge when the solution amplifies noise or model
+    error (e.g. one record with random forces: its convolution matrix is ill-conditioned)."""
+    G2 = sum(np.sum(np.asarray(q, dtype=float) ** 2, axis=0) for q in Q_list)
+    norm_a = dt * float(np.sum(np.sqrt(G2)))
+    norm_b = float(np.linalg.norm(B))
+    norm_x = float(np.linalg.norm(X))
+    if norm_b == 0:
+        return 0.0 if norm_x == 0 else float("inf")
+    return norm_a * norm_x / norm_b
+
+
+def check_max_growth(max_growth) -> float:
+    max_growth = check_positive(max_growth, "max_growth")
+    if max_growth < 1:
+        raise InputError(f"Parameter `max_growth`: must be >= 1, got {max_growth!r}")
+    return max_growth
+
+
+def solve_deconvolution(solver, Q_list, B, dt: float, max_growth: float = np.inf,
+                        what: str = ""):
     """Solve Eq. 3.43/3.48 with a solver object of :func:`make_method_solver`; returns
-    ``(X, info)`` with the solver's diagnostics (a dict of JSON-able scalars)."""
+    ``(X, info)`` with the solver's diagnostics (a dict of JSON-able scalars) and
+    ``info["amplification"]`` (:func:`amplification`).
+
+    Raises
+    ------
+    IllConditionedError
+        The amplification exceeds ``max_growth``: the solution is dominated by amplified
+        noise or model error, not by the data (``what`` names the system in the message).
+    """
     from .. import deconvolution as dc
 
     if isinstance(solver, tuple):  # TODO(merge): fallback, see make_method_solver
         name, options = solver
-        return dc.deconvolve(Q_list, B, dt, name, **options), {"solver": name}
-    res = dc.deconvolve(Q_list, B, dt, solver, return_info=True)
-    return res.X, dict(res.info)
+        X, info = dc.deconvolve(Q_list, B, dt, name, **options), {"solver": name}
+    else:
+        res = dc.deconvolve(Q_list, B, dt, solver, return_info=True)
+        X, info = res.X, dict(res.info)
+    growth = amplification(Q_list, X, B, dt)
+    info["amplification"] = growth
+    if not growth <= max_growth:
+        name = info.get("solver", "")
+        raise IllConditionedError(
+            f"{what or 'deconvolution'}: solver {name!r} amplified the data by {growth:.3g} "
+            f"(‖A‖‖X‖/‖B‖ > max_growth = {max_growth:g}); the convolution system is "
+            "ill-conditioned for these forces (e.g. random or noisy forces, or a record "
+            "that does not start at rest) and the kernel would be noise. Use a regularized "
+            "solver ('cgls' or 'fft', Tikhonov) or raise max_growth"
+        )
+    return X, info
 
 
 def select_basis(W: np.ndarray, n_modes, basis, *, energy: float | None = None):

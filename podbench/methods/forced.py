@@ -30,6 +30,7 @@ from .base import (
     check_force,
     check_forces,
     check_max_cond,
+    check_max_growth,
     check_n_modes,
     check_new_force,
     check_snapshots,
@@ -95,6 +96,14 @@ class SingleLoad(_ForcedMethod):
         ``fit`` raises :class:`IllConditionedError` if a modal force is too small to
         deconvolve: ``‖q_i‖ <= tol·‖F‖_F`` (default 1e-6; the load is orthogonal to a POM).
 
+    max_growth : float
+        ``fit`` raises :class:`IllConditionedError` when a deconvolution amplifies the data
+        by more than this, ``‖A‖‖X‖/‖B‖ > max_growth`` (default 1e8, the ``"block"``
+        solver's own limit; :func:`~podbench.methods.base.amplification`): the kernel
+        would be amplified noise or model error (e.g. one record with random forces, whose
+        convolution matrix is ill-conditioned). The value reached is
+        ``solver_info_["amplification"]``.
+
     Attributes
     ----------
     modes_ : (m, k) ndarray
@@ -111,12 +120,13 @@ class SingleLoad(_ForcedMethod):
     abbreviation = "SL"
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
-                 tol=1e-6):
+                 tol=1e-6, max_growth=1e8):
         self.n_modes = n_modes
         self.energy = energy
         self.solver = solver
         self.solver_options = solver_options
         self.tol = tol
+        self.max_growth = max_growth
 
     excitation_kind = "forced"
     n_records = (1, 1)
@@ -126,6 +136,7 @@ class SingleLoad(_ForcedMethod):
         check_energy(self.energy)
         make_method_solver(self.solver, self.solver_options)
         check_tol(self.tol)
+        check_max_growth(self.max_growth)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -188,7 +199,8 @@ class SingleLoad(_ForcedMethod):
         num = 0.0
         infos = []
         for i in range(k):
-            c, info = solve_deconvolution(solver, [Q[i : i + 1]], Vh[i], dt)
+            c, info = solve_deconvolution(solver, [Q[i : i + 1]], Vh[i], dt,
+                                          check_max_growth(self.max_growth), f"SL mode {i + 1}")
             kernel[i, i] = c
             infos.append(info)
             num += float(np.sum((convolution_product([Q[i : i + 1]], c, dt) - Vh[i]) ** 2))
@@ -258,6 +270,14 @@ class MultipleLoad(_ForcedMethod):
         ``j`` is the flattened modal-force history ``ʲq`` exceeds ``max_cond``
         (default 1e10).
 
+    max_growth : float
+        ``fit`` raises :class:`IllConditionedError` when a deconvolution amplifies the data
+        by more than this, ``‖A‖‖X‖/‖B‖ > max_growth`` (default 1e8, the ``"block"``
+        solver's own limit; :func:`~podbench.methods.base.amplification`): the kernel
+        would be amplified noise or model error (e.g. one record with random forces, whose
+        convolution matrix is ill-conditioned). The value reached is
+        ``solver_info_["amplification"]``.
+
     Attributes
     ----------
     modes_ : (m, k) ndarray
@@ -278,11 +298,13 @@ class MultipleLoad(_ForcedMethod):
 
     abbreviation = "ML"
 
-    def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10):
+    def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
+                 max_growth=1e8):
         self.n_modes = n_modes
         self.solver = solver
         self.solver_options = solver_options
         self.max_cond = max_cond
+        self.max_growth = max_growth
 
     excitation_kind = "forced"
     coupled = True
@@ -292,6 +314,7 @@ class MultipleLoad(_ForcedMethod):
         check_n_modes(self.n_modes)
         make_method_solver(self.solver, self.solver_options)
         check_max_cond(self.max_cond)
+        check_max_growth(self.max_growth)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -355,7 +378,8 @@ class MultipleLoad(_ForcedMethod):
                 f"{max_cond:g}; use linearly independent loads"
             )
         B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
-        Cbar, info = solve_deconvolution(solver, Qs, B, dt)
+        Cbar, info = solve_deconvolution(solver, Qs, B, dt, check_max_growth(self.max_growth),
+                                         "ML (Eq. 3.48)")
         kernel = np.empty((k, k, n))
         for i in range(k):
             kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T

@@ -57,6 +57,7 @@ from .base import (
     check_dt,
     check_energy,
     check_forces,
+    check_max_growth,
     check_n_modes,
     check_new_force,
     check_profile,
@@ -102,6 +103,14 @@ class MixedResponse(PODMethod):
         cannot be separated), if the combined force is ``<= tol`` times the sum of the
         three modal-force norms, or (finite differences) if ``|V̇(0)| <= tol·|u_iᵀv0_a|``.
 
+    max_growth : float
+        ``fit`` raises :class:`IllConditionedError` when a deconvolution amplifies the data
+        by more than this, ``‖A‖‖X‖/‖B‖ > max_growth`` (default 1e8, the ``"block"``
+        solver's own limit; :func:`~podbench.methods.base.amplification`): the kernel
+        would be amplified noise or model error (e.g. one record with random forces, whose
+        convolution matrix is ill-conditioned). The value reached is
+        ``solver_info_["amplification"]``.
+
     Attributes
     ----------
     modes_ : (m, k) ndarray
@@ -135,13 +144,14 @@ class MixedResponse(PODMethod):
     abbreviation = "MR"
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
-                 velocity_scaling="ratio", tol=1e-6):
+                 velocity_scaling="ratio", tol=1e-6, max_growth=1e8):
         self.n_modes = n_modes
         self.energy = energy
         self.solver = solver
         self.solver_options = solver_options
         self.velocity_scaling = velocity_scaling
         self.tol = tol
+        self.max_growth = max_growth
 
     excitation_kind = "mixed"
     n_records = (3, 3)
@@ -152,6 +162,7 @@ class MixedResponse(PODMethod):
         make_method_solver(self.solver, self.solver_options)
         check_choice(self.velocity_scaling, "velocity_scaling", _SCALINGS)
         check_tol(self.tol)
+        check_max_growth(self.max_growth)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "w0", "v0", "dt")
@@ -280,7 +291,8 @@ class MixedResponse(PODMethod):
                 )
             yb = Vh[1, i] - r_bd[i] * Vh[0, i]
             rhs = (Vh[2, i] - r_cd[i] * Vh[0, i]) - R[i] * yb
-            c, info = solve_deconvolution(solver, [g[None]], rhs, dt)
+            c, info = solve_deconvolution(solver, [g[None]], rhs, dt,
+                                          check_max_growth(self.max_growth), f"MR mode {i + 1}")
             infos.append(info)
             res2 += float(np.sum((convolution_product([g[None]], c, dt) - rhs) ** 2))
             rhs2 += float(np.sum(rhs**2))

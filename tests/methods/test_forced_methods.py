@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from podbench import Record
 from podbench.methods import MultipleLoad, SingleLoad
 
 from ._cases import D, forced_case
@@ -25,6 +26,8 @@ def _sl_case():
         predict_train=lambda model: [(model.predict(fc.F[0]), fc.W[0])],
         predict_new=lambda model: model.predict(fc.F_new),
         bad_param=("solver", "nope"),
+        records=[Record(W=fc.W[0], F=fc.F[0], dt=fc.dt)],
+        target=Record(W=fc.W_new, F=fc.F_new, dt=fc.dt),
     )
 
 
@@ -36,6 +39,8 @@ def _ml_case(solver="ls"):
         predict_train=lambda model: [(model.predict(fc.F[j]), fc.W[j]) for j in range(3)],
         predict_new=lambda model: model.predict(fc.F_new),
         bad_param=("max_cond", 0.5),
+        records=[Record(W=fc.W[j], F=fc.F[j], dt=fc.dt) for j in range(3)],
+        target=Record(W=fc.W_new, F=fc.F_new, dt=fc.dt),
     )
 
 

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from podbench import Record
 from podbench.methods import MDS, POVR
 from podbench.pod import snapshot_svd
 
@@ -17,6 +18,7 @@ from ._contract import MethodContract
 from ._truth import eigenmodes, newmark, rel_err
 
 EXCITATIONS = ("displacement", "velocity")
+X0 = {"displacement": "w0", "velocity": "v0"}
 
 
 def _povr_case(excitation):
@@ -28,6 +30,8 @@ def _povr_case(excitation):
         predict_new=lambda model: model.predict(fc.x0_new),
         bad_param=("excitation", "acceleration") if excitation == "displacement"
         else ("tol", 2.0),
+        records=[Record(W=fc.W[0], **{X0[excitation]: fc.x0[0]})],
+        target=Record(W=np.zeros_like(fc.W[0]), **{X0[excitation]: fc.x0_new}),
     )
 
 
@@ -39,6 +43,8 @@ def _mds_case(excitation):
         predict_train=lambda model: [(model.predict(fc.x0[j]), fc.W[j]) for j in range(3)],
         predict_new=lambda model: model.predict(fc.x0_new),
         bad_param=("max_cond", 0.5),
+        records=[Record(W=fc.W[j], **{X0[excitation]: fc.x0[j]}) for j in range(3)],
+        target=Record(W=np.zeros_like(fc.W[0]), **{X0[excitation]: fc.x0_new}),
     )
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from podbench import Record
 from podbench.deconvolution import convolution_matrix
 from podbench.methods import MixedResponse
 
@@ -27,6 +28,9 @@ def _mr_case(scaling="ratio"):
         ],
         predict_new=lambda model: model.predict(w0=mc.w0_new, v0=mc.v0_new, F=mc.F_new),
         bad_param=("velocity_scaling", "spline"),
+        records=[Record(W=mc.W[j], F=mc.F[j], w0=mc.w0[j], v0=mc.v0[j], dt=mc.dt)
+                 for j in range(3)],
+        target=Record(W=mc.W_all, F=mc.F_new, w0=mc.w0_new, v0=mc.v0_new, dt=mc.dt),
     )
 
 
