@@ -209,37 +209,40 @@ def test_truncation_keeps_tls_bounded_where_pinv_blows_up():
     assert err["tls 1e-2"] < 0.5
 
 
-def test_registry():
-    assert set(dc.available_solvers()) >= {"ls", "tls"}
+def test_solver_table_and_user_dense_solvers():
+    assert dc.available_solvers() == ("ls", "tls", "block", "fft", "cgls")
+    assert dc.get_solver("tls") is dc.TruncatedTLS
     with pytest.raises(UnknownNameError, match="unknown solver 'fft'.*'ls'"):
         dc.solve(np.eye(2), np.ones(2), "fft")
-    with pytest.raises(TypeError):
+    # an unknown option is an InputError naming it, and a TypeError as in Python
+    with pytest.raises(TypeError, match="unknown option 'noise_level' for solver 'ls'"):
         dc.solve(np.eye(2), np.ones(2), "ls", noise_level=1.0)
-    with pytest.raises(InputError, match="already registered"):
-        dc.register_solver("ls", dc.least_squares)
+    assert not hasattr(dc, "register_solver")  # no global table a worker would not see
 
-    def halves(A, B, *, factor=0.5):
-        return factor * np.linalg.solve(A, B)
+    class Halves(dc.DenseSolver):
+        def __init__(self, *, factor=0.5, max_dense_bytes=dc.DENSE_MAX_BYTES):
+            self.factor = factor
+            self.max_dense_bytes = max_dense_bytes
 
-    def wrong_shape(A, B):
-        return np.zeros(1)
+        def _solve_matrix(self, A, B):
+            return self.factor * np.linalg.solve(A, B)
 
-    def nan(A, B):
-        return np.full((A.shape[1],) + np.shape(B)[1:], np.nan)
+    class WrongShape(dc.DenseSolver):
+        def _solve_matrix(self, A, B):
+            return np.zeros(1)
 
-    try:
-        dc.register_solver("test-halves", halves)
-        dc.register_solver("test-wrong", wrong_shape)
-        dc.register_solver("test-nan", nan)
-        np.testing.assert_allclose(dc.solve(2 * np.eye(2), np.ones(2), "test-halves"), 0.25)
-        np.testing.assert_allclose(dc.solve(np.eye(2), np.ones(2), "test-halves", factor=1), 1)
-        with pytest.raises(DimensionError, match="returned shape"):
-            dc.solve(np.eye(2), np.ones(2), "test-wrong")
-        with pytest.raises(IllConditionedError, match="NaN"):
-            dc.solve(np.eye(2), np.ones(2), "test-nan")
-    finally:
-        for name in ("test-halves", "test-wrong", "test-nan"):
-            dc._SOLVERS.pop(name, None)
+    class NaN(dc.DenseSolver):
+        def _solve_matrix(self, A, B):
+            return np.full((A.shape[1], B.shape[1]), np.nan)
+
+    np.testing.assert_allclose(dc.solve(2 * np.eye(2), np.ones(2), Halves()), 0.25)
+    np.testing.assert_allclose(dc.solve(np.eye(2), np.ones(2), Halves, factor=1), 1)
+    res = dc.solve(2 * np.eye(2), np.ones(2), Halves(), return_info=True)
+    assert res.info["solver"] == "Halves" and res.info["residual"] == pytest.approx(0.5)
+    with pytest.raises(DimensionError, match="'WrongShape' returned shape"):
+        dc.solve(np.eye(2), np.ones(2), WrongShape())
+    with pytest.raises(IllConditionedError, match="NaN"):
+        dc.solve(np.eye(2), np.ones(2), NaN())
 
 
 def test_bad_input():

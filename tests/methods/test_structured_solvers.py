@@ -400,20 +400,23 @@ def test_registry_and_bad_input():
         dc.deconvolve([np.ones((1, 3))], np.ones(3), 0.1, "nope")
     Qs, B, dt = _well_conditioned(20, 2)
 
-    def scaled_block(Q_list, B, dt, *, factor=2.0):
-        return factor * dc.block_substitution(Q_list, B, dt)
+    class ScaledBlock(dc.BlockSubstitution):  # a user's solver: a subclass, no registry
+        def __init__(self, *, factor=2.0, leaf=32):
+            super().__init__(leaf=leaf)
+            self.factor = factor
 
-    try:
-        dc.register_solver("test-scaled", scaled_block, structured=True)
-        np.testing.assert_allclose(dc.deconvolve(Qs, B, dt, "test-scaled"),
-                                   2 * dc.deconvolve(Qs, B, dt, "block"))
-        fc = forced_case("ideal")
-        a = SingleLoad(n_modes=2, solver="test-scaled").fit(fc.W[0], fc.F[0], dt=fc.dt)
-        b = SingleLoad(n_modes=2, solver="block").fit(fc.W[0], fc.F[0], dt=fc.dt)
-        np.testing.assert_allclose(a.kernel_, 2 * b.kernel_)
-    finally:
-        dc._STRUCTURED.pop("test-scaled", None)
+        def _solve(self, system):
+            X, info = super()._solve(system)
+            return self.factor * X, info
+
+    res = dc.deconvolve(Qs, B, dt, ScaledBlock(), return_info=True)
+    np.testing.assert_allclose(res.X, 2 * dc.deconvolve(Qs, B, dt, "block"))
+    assert res.info["solver"] == "ScaledBlock" and res.info["shift"] == 0
+    np.testing.assert_allclose(res.info["residual"], np.linalg.norm(
+        dc.block_convolution_matrix(Qs, dt) @ res.X - B) / np.linalg.norm(B), rtol=1e-12)
     with pytest.raises(TypeError):
+        dc.deconvolve(Qs, B, dt, "block", reg=1.0)
+    with pytest.raises(InputError, match="unknown option 'reg' for solver 'block'"):
         dc.deconvolve(Qs, B, dt, "block", reg=1.0)
     for solver, opts, match in (("block", {"zero_tol": -1.0}, "zero_tol"),
                                 ("block", {"leaf": 0}, "leaf"),
