@@ -78,13 +78,10 @@ def _resolve_user_solver(options: dict, base_dir) -> dict:
     solver = options.get("solver")
     if not (isinstance(solver, str) and ":" in solver):
         return options
-    from .. import deconvolution as dc
+    from ..deconvolution import make_solver
 
-    make = getattr(dc, "make_solver", None)
-    if make is None:  # pragma: no cover - before solver objects existed
-        raise InputError(f"Parameter `solver`: unknown solver {solver!r}")
     out = dict(options)
-    out["solver"] = make(solver, out.pop("solver_options", None), base_dir=base_dir)
+    out["solver"] = make_solver(solver, out.pop("solver_options", None), base_dir=base_dir)
     return out
 
 

@@ -19,8 +19,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .._validation import as_finite_array, check_choice, check_positive
-from ..deconvolution import available_solvers
+from .._validation import as_finite_array, check_positive
+from ..deconvolution import deconvolve, make_solver
 from ..errors import DimensionError, IllConditionedError, InputError, NotFittedError
 from ..pod import check_orthonormal, n_modes_for_energy, numerical_rank, snapshot_svd
 from ..records import Record, as_record, is_record
@@ -407,20 +407,12 @@ def make_method_solver(solver, solver_options):
     ``"module:Class"`` name, or a solver instance (then ``solver_options`` must be empty).
     Raises InputError naming ``solver`` or ``solver_options``.
     """
-    from .. import deconvolution as dc
-
     if solver_options is not None and not isinstance(solver_options, dict):
         raise InputError(
             f"Parameter `solver_options`: expected a dict of keyword options, got "
             f"{type(solver_options).__name__}"
         )
-    if hasattr(dc, "make_solver"):
-        return dc.make_solver(solver, solver_options)
-    # TODO(merge): pre-subpackage fallback, removed when podbench.deconvolution has solvers
-    if not isinstance(solver, str):
-        raise InputError(f"Parameter `solver`: expected a name, got {solver!r}")
-    check_choice(solver, "solver", available_solvers())
-    return (solver, dict(solver_options or {}))
+    return make_solver(solver, solver_options)
 
 
 def amplification(Q_list, X, B, dt: float) -> float:
@@ -457,14 +449,8 @@ def solve_deconvolution(solver, Q_list, B, dt: float, max_growth: float = np.inf
         The amplification exceeds ``max_growth``: the solution is dominated by amplified
         noise or model error, not by the data (``what`` names the system in the message).
     """
-    from .. import deconvolution as dc
-
-    if isinstance(solver, tuple):  # TODO(merge): fallback, see make_method_solver
-        name, options = solver
-        X, info = dc.deconvolve(Q_list, B, dt, name, **options), {"solver": name}
-    else:
-        res = dc.deconvolve(Q_list, B, dt, solver, return_info=True)
-        X, info = res.X, dict(res.info)
+    res = deconvolve(Q_list, B, dt, solver, return_info=True)
+    X, info = res.X, dict(res.info)
     growth = amplification(Q_list, X, B, dt)
     info["amplification"] = growth
     if not growth <= max_growth:

@@ -216,11 +216,11 @@ def test_sl_load_orthogonal_to_a_mode():
 
 
 def test_solver_name_and_options(forced):
-    with pytest.raises(InputError, match="`solver`: 'wiener' is not one of"):
+    with pytest.raises(InputError, match="`solver`: unknown solver 'wiener'; built-in: 'ls'"):
         SingleLoad(n_modes=2, solver="wiener").fit(forced.W[0], forced.F[0], dt=forced.dt)
     with pytest.raises(InputError, match="solver_options"):
         SingleLoad(n_modes=2, solver_options=[1]).fit(forced.W[0], forced.F[0], dt=forced.dt)
-    with pytest.raises(TypeError):
+    with pytest.raises(InputError, match="`solver_options`: unknown option 'rcnd'"):
         SingleLoad(n_modes=2, solver_options={"rcnd": 1}).fit(forced.W[0], forced.F[0],
                                                                dt=forced.dt)
     with pytest.raises(InputError, match="at most one truncation rule"):
