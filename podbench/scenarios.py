@@ -70,8 +70,8 @@ from pathlib import Path
 
 import tomllib
 
-from .deconvolution import available_solvers
-from .errors import ScenarioFileError, StructureFileError
+from .deconvolution import make_solver
+from .errors import InputError, ScenarioFileError, StructureFileError
 from .fem._spec import Table
 from .fem.files import _display
 
@@ -338,7 +338,7 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
         top.fail("methods", "every method has report = false: nothing would be tabulated")
     _check_method_options(top, methods, path.parent)
     sweep_t = top.table("sweep")
-    sweep = None if sweep_t is None else _parse_sweep(sweep_t)
+    sweep = None if sweep_t is None else _parse_sweep(sweep_t, path.parent)
     top.close()
     return Scenario(
         name=name, title=title, source=source, description=description.strip(),
@@ -378,7 +378,7 @@ def _unique(t: Table, key: str, values) -> None:
         seen.append(v)
 
 
-def _parse_sweep(t: Table) -> Sweep:
+def _parse_sweep(t: Table, folder: Path) -> Sweep:
     noise = tuple(t.numbers("noise", [0.0], nonnegative=True))
     _unique(t, "noise", noise)
     n_modes = t.integers("n_modes", None, minimum=1)
@@ -401,7 +401,6 @@ def _parse_sweep(t: Table) -> Sweep:
     if raw is not None:
         if not isinstance(raw, list) or not raw:
             t.fail("solvers", f"expected a non-empty array of solver names or tables, got {raw!r}")
-        known = available_solvers()
         solvers = []
         for i, item in enumerate(raw):
             where = f"solvers[{i}]"
@@ -418,8 +417,10 @@ def _parse_sweep(t: Table) -> Sweep:
                 st.close()
             else:
                 t.fail(where, f"expected a solver name or a table with `solver`, got {item!r}")
-            if name not in known:
-                t.fail(where, f'unknown solver "{name}"; solvers: {", ".join(known)}')
+            try:  # bound to the solver's constructor now, before any simulation
+                make_solver(name, options, base_dir=folder)
+            except InputError as exc:
+                t.fail(where, " ".join(str(exc).split()))
             solvers.append(SolverChoice(label=label, solver=name, options=dict(options)))
         _unique(t, "solvers (labels)", [c.label for c in solvers])
         solvers = tuple(solvers)

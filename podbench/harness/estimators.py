@@ -144,12 +144,13 @@ def check_method_entry(spec, method_of, base_dir=None) -> tuple[str, str] | None
             return "method", msg
         m = _PARAM.match(msg)
         name = m.group(1) if m else None
+        solver_options = spec.options.get("solver_options")
         if name == "n_modes" and spec.n_modes is not None and "n_modes" not in spec.options:
             return "n_modes", msg
         if name is not None and name in spec.options:
             return f"options.{name}", msg
-        if name in ("solver", "solver_options") or (name and name.startswith("solver")):
-            return "options", msg
+        if isinstance(solver_options, dict) and name in solver_options:
+            return f"options.solver_options.{name}", msg
         return "options", msg
     return None
 
