@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._threads import single_blas_thread
 from ..data import Response, displacement_norm, norm_percent_error
 from ..dynamics import simulate
 from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
@@ -315,7 +316,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
 def _unit_worker(args):
     try:
-        return run_unit(*args)
+        with single_blas_thread():
+            return run_unit(*args)
     except PodbenchError:
         raise
     except Exception as exc:  # keep the worker's traceback readable in the parent
@@ -352,11 +354,10 @@ def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None
             for p, e in units]
     if jobs <= 1 or total <= 1:
         for i, a in enumerate(args):
-            results[i] = run_unit(*a)
+            with single_blas_thread():
+                results[i] = run_unit(*a)
             report(i, results[i])
     else:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
             futs = {ex.submit(_unit_worker, a): i for i, a in enumerate(args)}
             try:

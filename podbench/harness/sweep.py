@@ -42,7 +42,6 @@ refuses the task.
 from __future__ import annotations
 
 import math
-import os
 import socket
 import time
 import traceback
@@ -54,6 +53,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._threads import single_blas_thread
 from ..errors import InputError, PodbenchError, ScenarioFileError
 from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS
@@ -182,7 +182,8 @@ def run_task(task: SweepTask) -> dict:
 
 def _task_worker(task: SweepTask) -> dict:
     try:
-        return run_task(task)
+        with single_blas_thread():
+            return run_task(task)
     except PodbenchError:
         raise
     except Exception as exc:  # keep the worker's traceback readable in the parent
@@ -279,10 +280,9 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
             client.close()
     elif jobs <= 1 or len(todo) <= 1:
         for t in todo:
-            report(run_task(t))
+            with single_blas_thread():
+                report(run_task(t))
     else:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
             futs = [ex.submit(_task_worker, t) for t in todo]
             try:
