@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from .claims import evaluate_claims, load_claims
+from .executor import execute
 from .runner import COLUMNS
 
 __all__ = ["summary_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
@@ -161,17 +162,9 @@ def _draw_one(task):
 
 
 def _draw_all(tasks, jobs: int) -> None:
-    """Draw the figures, in ``jobs`` spawned processes when more than one (matplotlib's
-    rendering, not the study, dominates a warm-cache run)."""
-    if jobs <= 1 or len(tasks) < 4:
-        for task in tasks:
-            _figure(*task)
-        return
-    from concurrent.futures import ProcessPoolExecutor
-    from multiprocessing import get_context
-
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
-        list(ex.map(_draw_one, tasks, chunksize=max(1, len(tasks) // (4 * jobs))))
+    """Draw the figures, in ``jobs`` spawned processes when more than one and at least four
+    figures (matplotlib's rendering, not the study, dominates a warm-cache run)."""
+    execute(_draw_one, tasks, jobs=jobs if len(tasks) >= 4 else 1)
 
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
