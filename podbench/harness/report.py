@@ -9,14 +9,12 @@ same command on the same commit writes identical tables.
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from .._atomic import atomic_write_text, replace_dir
 from .claims import evaluate_claims, load_claims
 from .executor import execute
 from .runner import COLUMNS
@@ -33,21 +31,6 @@ def summary_table(results) -> pd.DataFrame:
     df = pd.DataFrame(rows, columns=list(COLUMNS))
     df["n_modes"] = df["n_modes"].astype(int)
     return df
-
-
-def atomic_write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def table_csv(df: pd.DataFrame) -> str:
@@ -173,12 +156,9 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
 
     Returns the summary DataFrame and the claim verdicts (or None).
     """
-    out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
     df = summary_table(results)
-    tmp = Path(tempfile.mkdtemp(dir=out_dir.parent, prefix=f".{out_dir.name}.", suffix=".tmp"))
     evaluated = None
-    try:
+    with replace_dir(out_dir) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
@@ -198,16 +178,4 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                     tasks.append((fdir / f"{u.scenario}__{u.structure}__{target}.png", sc,
                                   u.structure, target, series, labels))
             _draw_all(tasks, jobs)
-        old = None
-        if out_dir.exists():
-            old = out_dir.with_name(f".{out_dir.name}.old")
-            if old.exists():
-                shutil.rmtree(old)
-            os.replace(out_dir, old)
-        os.replace(tmp, out_dir)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return df, evaluated

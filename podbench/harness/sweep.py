@@ -49,11 +49,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._atomic import atomic_write_text
 from ..errors import InputError, ScenarioFileError
 from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS
-from .report import atomic_write_text, table_csv
+from .report import table_csv
 from .runner import NoiseSpec, resolve_structure, run_unit
 
 __all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", "sweep_table",
