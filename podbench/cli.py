@@ -377,5 +377,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     sys.exit(main())

@@ -16,13 +16,19 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .._validation import check_positive
+from .._validation import check_choice, check_positive
 from ..errors import InputError
+from .laws import scaled_law
 from .structure import CubicSpring, Structure, VariableMass
 
 __all__ = [
     "G0_IN_PER_S2",
     "density_from_lbm_per_ft3",
+    "bending_stiffness",
+    "tip_stiffness",
+    "beam_mass",
+    "k3_matching_linear",
+    "tip_mass_law",
     "beam_element_matrices",
     "cantilever_beam",
 ]
@@ -38,6 +44,54 @@ def density_from_lbm_per_ft3(rho_lbm_ft3: float) -> float:
     """
     check_positive(rho_lbm_ft3, "rho_lbm_ft3")
     return float(rho_lbm_ft3) / 1728.0 / G0_IN_PER_S2
+
+
+def bending_stiffness(E: float, width: float, depth: float) -> float:
+    """Bending stiffness ``EI = E·width·depth³/12`` (lbf·in²) of a rectangular section bent
+    about the axis along ``width`` (E in psi, width and depth in in)."""
+    return E * width * depth**3 / 12.0
+
+
+def tip_stiffness(*, length: float, width: float, depth: float, E: float) -> float:
+    """Static tip stiffness ``3 EI / L³`` (lbf/in) of a cantilever: the force at the free end
+    per unit tip deflection (Euler–Bernoulli, clamped root)."""
+    return 3.0 * bending_stiffness(E, width, depth) / length**3
+
+
+def beam_mass(*, length: float, width: float, depth: float, density: float) -> float:
+    """Mass ``ρ·width·depth·L`` (lbf·s²/in) of a prismatic beam (density in lbf·s²/in⁴)."""
+    return density * width * depth * length
+
+
+def k3_matching_linear(k_linear: float, w_ref: float) -> float:
+    """Cubic coefficient ``k3 = k_linear / w_ref²`` (lbf/in³) whose force ``k3 w³`` equals the
+    linear force ``k_linear w`` at the deflection ``w = w_ref`` (in).
+
+    The NL beam's cubic spring (Fig. 4.2, not in the text) is stated this way: matched to the
+    beam's own tip stiffness :func:`tip_stiffness` at a chosen tip deflection.
+    """
+    return k_linear / w_ref**2
+
+
+def tip_mass_law(law: str, *, scale: str = "absolute", length: float, width: float,
+                 depth: float, density: float, **params):
+    """The time law ``m(t)`` of a tip mass (the LTV beam, Fig. 4.3).
+
+    Parameters
+    ----------
+    law : {"constant", "sine", "linear"}
+        :func:`podbench.fem.laws.scaled_law` with ``params`` (``value``; ``mean``,
+        ``amplitude``, ``period``, ``phase``; ``initial``, ``final``, ``duration``).
+    scale : {"absolute", "beam_mass"}
+        Masses in ``params`` are in lbf·s²/in (``"absolute"``) or multiples of the beam's
+        mass :func:`beam_mass` (``"beam_mass"``).
+    length, width, depth, density : float
+        The beam (in, lbf·s²/in⁴), for ``scale = "beam_mass"``.
+    """
+    check_choice(scale, "scale", ("absolute", "beam_mass"))
+    factor = (beam_mass(length=length, width=width, depth=depth, density=density)
+              if scale == "beam_mass" else 1.0)
+    return scaled_law(law, factor, **params)
 
 
 def beam_element_matrices(EI: float, rho_A: float, le: float) -> tuple[np.ndarray, np.ndarray]:
@@ -132,7 +186,7 @@ def cantilever_beam(
         density, "density")
     n = check_positive(n_elements, "n_elements", integer=True)
 
-    EI = E * width * depth**3 / 12.0
+    EI = bending_stiffness(E, width, depth)
     rho_A = rho * width * depth
     ke, me = beam_element_matrices(EI, rho_A, length / n)
 
@@ -175,7 +229,7 @@ def cantilever_beam(
     sensor_labels = tuple(f"w@{xi:g}in" for xi in x)
     metadata = {
         "tip_dof": tip,
-        "tip_stiffness": 3.0 * EI / length**3,
+        "tip_stiffness": tip_stiffness(length=length, width=width, depth=depth, E=E),
         "beam_mass": rho_A * length,
         "EI": EI,
         "rho_A": rho_A,

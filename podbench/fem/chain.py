@@ -28,7 +28,14 @@ from .._validation import as_finite_array, check_choice, check_positive
 from ..errors import DimensionError, InputError
 from .structure import Structure
 
-__all__ = ["chain"]
+__all__ = ["chain", "spring_count"]
+
+
+def spring_count(n: int, boundary: str = "fixed-free") -> int:
+    """Springs of a chain of ``n`` masses: ``n`` grounded at the left end (``"fixed-free"``),
+    ``n + 1`` grounded at both ends (``"fixed-fixed"``)."""
+    check_choice(boundary, "boundary", ("fixed-free", "fixed-fixed"))
+    return n if boundary == "fixed-free" else n + 1
 
 
 def _per_item(x, name: str, size: int, what: str) -> np.ndarray:
@@ -110,7 +117,7 @@ def chain(
     n = check_positive(n, "n", integer=True)
     check_choice(boundary, "boundary", ("fixed-free", "fixed-fixed"))
     m = _per_item(masses, "masses", n, f"one per mass, n = {n}")
-    n_springs = n if boundary == "fixed-free" else n + 1
+    n_springs = spring_count(n, boundary)
     k = _per_item(springs, "springs", n_springs, f"{boundary} chain of n = {n} needs {n_springs}")
     mu = float(as_finite_array(mass_coupling, "mass_coupling", ndim=0))
     if not abs(mu) < 0.5:

@@ -22,7 +22,12 @@ Kinds (see ``docs/structures.md`` for every field):
                      (:func:`podbench.fem.chain.chain`)
 ``matrices``         a user's own M, K (C) from .npz/.mat/.mtx/.npy files: ``[matrices]``
 ``python``           ``builder = "module:function"`` (optional ``path = "file.py"`` relative
-                     to the structure file) called with ``[parameters]`` as keyword arguments
+                     to the structure file; :mod:`podbench._userimport`) called with
+                     ``[parameters]`` as keyword arguments
+
+This module reads fields and calls builders; the physics (section stiffness, tip stiffness,
+beam mass, tip-mass laws, the cubic spring matched to the tip stiffness, spring counts)
+lives in the builder modules ``beam.py``, ``truss.py``, ``chain.py`` and ``laws.py``.
 
 Every malformed file raises one :class:`~podbench.errors.StructureFileError` naming the file
 and the field; unknown fields are rejected. Nothing is unpickled.
@@ -30,21 +35,23 @@ and the field; unknown fields are rejected. Nothing is unpickled.
 
 from __future__ import annotations
 
-import hashlib
-import importlib
-import importlib.util
 import inspect
 import os
-import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
+from .._userimport import UserImportError, import_module_or_file
 from ..errors import InputError, StructureFileError, UnknownNameError
 from ._spec import Table, fail
-from .beam import cantilever_beam, density_from_lbm_per_ft3
-from .laws import ConstantLaw, LinearLaw, SineLaw
+from .beam import (
+    cantilever_beam,
+    density_from_lbm_per_ft3,
+    k3_matching_linear,
+    tip_mass_law,
+    tip_stiffness,
+)
 from .structure import Structure
 
 try:
@@ -281,30 +288,30 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
         n_elements=b.integer("n_elements", positive=True),
     )
     b.close()
-    EI = kw["E"] * kw["width"] * kw["depth"] ** 3 / 12.0
-    k_tip = 3.0 * EI / kw["length"] ** 3
-    beam_mass = kw["density"] * kw["width"] * kw["depth"] * kw["length"]
+    beam = {k: kw[k] for k in ("length", "width", "depth")}
 
     tm = top.table("tip_mass")
     if tm is not None:
         law = tm.string("law", choices=("constant", "sine", "linear"))
         scale = tm.string("scale", "absolute", choices=("absolute", "beam_mass"))
-        f = beam_mass if scale == "beam_mass" else 1.0
         if law == "constant":
-            kw["tip_mass"] = ConstantLaw(f * tm.number("value", nonnegative=True))
+            params = {"value": tm.number("value", nonnegative=True)}
         elif law == "sine":
             mean = tm.number("mean", nonnegative=True)
             amp = tm.number("amplitude")
             if abs(amp) > mean:
                 tm.fail("amplitude", f"|amplitude| = {abs(amp)!r} exceeds mean = {mean!r}: "
                                      "the mass would become negative")
-            kw["tip_mass"] = SineLaw(f * mean, f * amp, tm.number("period", positive=True),
-                                     tm.number("phase", 0.0))
+            params = {"mean": mean, "amplitude": amp,
+                      "period": tm.number("period", positive=True),
+                      "phase": tm.number("phase", 0.0)}
         else:
-            kw["tip_mass"] = LinearLaw(f * tm.number("initial", nonnegative=True),
-                                       f * tm.number("final", nonnegative=True),
-                                       tm.number("duration", positive=True))
+            params = {"initial": tm.number("initial", nonnegative=True),
+                      "final": tm.number("final", nonnegative=True),
+                      "duration": tm.number("duration", positive=True)}
         tm.close()
+        kw["tip_mass"] = tip_mass_law(law, scale=scale, density=kw["density"], **beam,
+                                      **params)
 
     ts = top.table("tip_spring")
     if ts is not None:
@@ -312,9 +319,8 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
         if key == "k3":
             kw["tip_k3"] = ts.number("k3", nonnegative=True)
         else:
-            # cubic force k3 w³ equals the linear tip-stiffness force (3EI/L³) w at w = w_ref
             w_ref = ts.number("k3_match_linear_at", positive=True)
-            kw["tip_k3"] = k_tip / w_ref**2
+            kw["tip_k3"] = k3_matching_linear(tip_stiffness(E=kw["E"], **beam), w_ref)
         ts.close()
 
     td = top.table("tip_dashpot")
@@ -369,7 +375,7 @@ def _satellite_truss(top: Table, ctx: SpecContext) -> Structure:
 # ---------------------------------------------------------------------------- chain
 @register_kind("chain")
 def _chain(top: Table, ctx: SpecContext) -> Structure:
-    from .chain import chain
+    from .chain import chain, spring_count
 
     c = top.table("chain", required=True)
     n = c.integer("n", positive=True)
@@ -378,7 +384,7 @@ def _chain(top: Table, ctx: SpecContext) -> Structure:
     if isinstance(masses, list) and len(masses) != n:
         c.fail("masses", f"expected {n} values (one per mass, n = {n}), got {len(masses)}")
     springs = c.numbers("springs", positive=True, scalar_ok=True)
-    n_springs = n if boundary == "fixed-free" else n + 1
+    n_springs = spring_count(n, boundary)
     if isinstance(springs, list) and len(springs) != n_springs:
         c.fail("springs", f"expected {n_springs} values (a {boundary} chain of n = {n} "
                           f"masses), got {len(springs)}")
@@ -510,27 +516,18 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
         params.accept_all()  # the builder's signature checks them below
 
     if rel is not None:
-        file = (ctx.base_dir / rel).resolve()
-        if not file.is_file():
-            top.fail("path", f'no such file "{file}"')
-        digest = hashlib.sha1(str(file).encode("utf-8")).hexdigest()[:12]
-        unique = f"podbench_user_builder_{digest}_{module_name.replace('.', '_')}"
-        module_spec = importlib.util.spec_from_file_location(unique, file)
-        if module_spec is None or module_spec.loader is None:
-            top.fail("path", f'cannot import "{file}" as a Python module')
-        module = importlib.util.module_from_spec(module_spec)
-        sys.modules[unique] = module
+        if not rel.endswith(".py"):
+            top.fail("path", f'expected a Python file "name.py", got "{rel}"')
         try:
-            module_spec.loader.exec_module(module)
-        except Exception as exc:
-            sys.modules.pop(unique, None)
-            top.fail("path", f'importing "{file}" failed: {type(exc).__name__}: {exc}')
+            module = import_module_or_file(rel, ctx.base_dir)
+        except UserImportError as exc:
+            top.fail("path", str(exc))
     else:
         try:
-            module = importlib.import_module(module_name)
-        except ImportError as exc:
-            top.fail("builder", f'cannot import module "{module_name}" ({exc}); give `path` '
-                                "to load a file next to the structure file")
+            module = import_module_or_file(module_name, ctx.base_dir)
+        except UserImportError as exc:
+            top.fail("builder", f"{exc}; or give `path` to load a file next to the "
+                                "structure file")
     func = getattr(module, func_name, None)
     if not callable(func):
         top.fail("builder", f'module "{module_name}" has no function "{func_name}"')

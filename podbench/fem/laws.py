@@ -14,7 +14,7 @@ import numpy as np
 from .._validation import check_positive
 from ..errors import InputError
 
-__all__ = ["ConstantLaw", "SineLaw", "LinearLaw"]
+__all__ = ["ConstantLaw", "SineLaw", "LinearLaw", "scaled_law"]
 
 
 def _finite(x, name: str) -> float:
@@ -97,3 +97,21 @@ class LinearLaw:
     def __str__(self) -> str:
         return (f"m(t) = {self.initial:.6g} + ({self.final:.6g} − {self.initial:.6g})·"
                 f"min(t / {self.duration:.6g} s, 1) lbf·s²/in")
+
+
+def scaled_law(kind: str, factor: float = 1.0, **params):
+    """A law of ``kind`` with its masses multiplied by ``factor``.
+
+    ``"constant"``: ``value``; ``"sine"``: ``mean``, ``amplitude``, ``period``, ``phase``
+    (default 0); ``"linear"``: ``initial``, ``final``, ``duration``. The masses (value, mean,
+    amplitude, initial, final) are scaled, times (period, duration) and the phase are not.
+    """
+    if kind == "constant":
+        return ConstantLaw(factor * params["value"])
+    if kind == "sine":
+        return SineLaw(factor * params["mean"], factor * params["amplitude"], params["period"],
+                       params.get("phase", 0.0))
+    if kind == "linear":
+        return LinearLaw(factor * params["initial"], factor * params["final"],
+                         params["duration"])
+    raise InputError(f'Parameter `kind`: expected "constant", "sine" or "linear", got {kind!r}')

@@ -14,15 +14,16 @@ cannot be read or has the wrong shape is reported and re-simulated.
 from __future__ import annotations
 
 import hashlib
+import io
 import os
 import re
-import tempfile
 import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
+from .._atomic import atomic_write_bytes
 from ..errors import PodbenchWarning
 from ..scenarios import canonical_json
 
@@ -107,14 +108,6 @@ class TruthCache:
     def store(self, key: str, arrays: dict) -> None:
         if self.folder is None:
             return
-        path = self._path(key)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        buf = io.BytesIO()
+        np.savez(buf, **{k: np.asarray(v) for k, v in arrays.items()})
+        atomic_write_bytes(self._path(key), buf.getbuffer())

@@ -9,15 +9,14 @@ same command on the same commit writes identical tables.
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from .._atomic import atomic_write_text, replace_dir
 from .claims import evaluate_claims, load_claims
+from .executor import execute
 from .runner import COLUMNS
 
 __all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
@@ -42,21 +41,6 @@ def fits_table(results) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     first = [c for c in ("scenario", "structure", "method", "n_modes", "solver") if c in df]
     return df[first + sorted(c for c in df.columns if c not in first)]
-
-
-def atomic_write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def table_csv(df: pd.DataFrame) -> str:
@@ -171,17 +155,9 @@ def _draw_one(task):
 
 
 def _draw_all(tasks, jobs: int) -> None:
-    """Draw the figures, in ``jobs`` spawned processes when more than one (matplotlib's
-    rendering, not the study, dominates a warm-cache run)."""
-    if jobs <= 1 or len(tasks) < 4:
-        for task in tasks:
-            _figure(*task)
-        return
-    from concurrent.futures import ProcessPoolExecutor
-    from multiprocessing import get_context
-
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
-        list(ex.map(_draw_one, tasks, chunksize=max(1, len(tasks) // (4 * jobs))))
+    """Draw the figures, in ``jobs`` spawned processes when more than one and at least four
+    figures (matplotlib's rendering, not the study, dominates a warm-cache run)."""
+    execute(_draw_one, tasks, jobs=jobs if len(tasks) >= 4 else 1)
 
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
@@ -190,12 +166,9 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
 
     Returns the summary DataFrame and the claim verdicts (or None).
     """
-    out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
     df = summary_table(results)
-    tmp = Path(tempfile.mkdtemp(dir=out_dir.parent, prefix=f".{out_dir.name}.", suffix=".tmp"))
     evaluated = None
-    try:
+    with replace_dir(out_dir) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
@@ -217,16 +190,4 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                     tasks.append((fdir / f"{u.scenario}__{u.structure}__{target}.png", sc,
                                   u.structure, target, series, labels))
             _draw_all(tasks, jobs)
-        old = None
-        if out_dir.exists():
-            old = out_dir.with_name(f".{out_dir.name}.old")
-            if old.exists():
-                shutil.rmtree(old)
-            os.replace(out_dir, old)
-        os.replace(tmp, out_dir)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return df, evaluated

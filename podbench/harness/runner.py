@@ -17,10 +17,7 @@ import hashlib
 import json
 import os
 import time
-import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +30,7 @@ from ..fem import load_structure
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from .cache import TruthCache, structure_fingerprint
 from .estimators import all_cases, build_estimator, is_user_method, training_records
+from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 
 __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy"]
@@ -318,12 +316,7 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
 
 def _unit_worker(args):
-    try:
-        return run_unit(*args)
-    except PodbenchError:
-        raise
-    except Exception as exc:  # keep the worker's traceback readable in the parent
-        raise RuntimeError("".join(traceback.format_exception(exc))) from None
+    return run_unit(*args)
 
 
 def plan(paths) -> list[tuple[Path, str]]:
@@ -339,36 +332,17 @@ def plan(paths) -> list[tuple[Path, str]]:
 
 def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None,
               progress=None, keep_series: bool = True) -> list[UnitResult]:
-    """Run every unit of the scenario files ``paths``; results in deterministic order."""
+    """Run every unit of the scenario files ``paths`` (in ``jobs`` processes, see
+    :func:`podbench.harness.executor.execute`); results in deterministic order.
+    ``progress`` is called with one line per finished unit."""
     units = plan(paths)
-    total = len(units)
-    results: dict[int, UnitResult] = {}
     say = progress or (lambda *_: None)
-    t0 = time.perf_counter()
 
-    def report(i, r):
-        done = len(results)
+    def report(done, total, elapsed, r):
         bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
         say(f"[{bar}] {done}/{total}  {r.scenario} × {r.structure}: {r.simulated} simulated, "
-            f"{r.cached} from cache, {r.seconds:.1f} s (elapsed {time.perf_counter() - t0:.1f} s)")
+            f"{r.cached} from cache, {r.seconds:.1f} s (elapsed {elapsed:.1f} s)")
 
     args = [(str(p), e, None if cache_dir is None else str(cache_dir), engine, keep_series)
             for p, e in units]
-    if jobs <= 1 or total <= 1:
-        for i, a in enumerate(args):
-            results[i] = run_unit(*a)
-            report(i, results[i])
-    else:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
-            futs = {ex.submit(_unit_worker, a): i for i, a in enumerate(args)}
-            try:
-                for f in as_completed(futs):
-                    results[futs[f]] = f.result()
-                    report(futs[f], results[futs[f]])
-            except BaseException:
-                for f in futs:
-                    f.cancel()
-                raise
-    return [results[i] for i in range(total)]
+    return execute(_unit_worker, args, jobs=jobs, progress=report)

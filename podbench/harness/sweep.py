@@ -42,22 +42,19 @@ refuses the task.
 from __future__ import annotations
 
 import math
-import os
-import socket
 import time
-import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..errors import InputError, PodbenchError, ScenarioFileError
+from .._atomic import atomic_write_text
+from ..errors import InputError, ScenarioFileError
 from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
+from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS
-from .report import atomic_write_text, table_csv
+from .report import table_csv
 from .runner import NoiseSpec, resolve_structure, run_unit
 
 __all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", "sweep_table",
@@ -180,44 +177,6 @@ def run_task(task: SweepTask) -> dict:
             "simulated": res.simulated, "cached": res.cached}
 
 
-def _task_worker(task: SweepTask) -> dict:
-    try:
-        return run_task(task)
-    except PodbenchError:
-        raise
-    except Exception as exc:  # keep the worker's traceback readable in the parent
-        raise RuntimeError("".join(traceback.format_exception(exc))) from None
-
-
-def _dask_client(address: str, timeout: float):
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError("--scheduler needs Dask distributed: pip install 'podbench[dask]' "
-                         "(or pip install 'dask[distributed]')") from None
-    from distributed.comm import parse_address, parse_host_port
-    from distributed.comm.registry import backends
-
-    # Check the address and reach the port first: a Client that fails to connect blocks in
-    # its destructor and prints a traceback at exit.
-    try:
-        scheme, loc = parse_address(address)
-        if scheme not in backends:
-            raise ValueError(f"unknown address scheme {scheme!r} (known: "
-                             f"{', '.join(sorted(backends))})")
-        if scheme == "tcp":
-            host, port = parse_host_port(loc)
-            socket.create_connection((host, port), timeout=timeout).close()
-    except (OSError, ValueError, TypeError) as exc:
-        raise InputError(f"cannot connect to the Dask scheduler {address!r}: "
-                         f"{type(exc).__name__}: {exc}") from None
-    try:
-        return Client(address, timeout=timeout, set_as_default=False)
-    except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        raise InputError(f"cannot connect to the Dask scheduler {address!r}: "
-                         f"{type(exc).__name__}: {exc}") from None
-
-
 def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=None,
               engine: str | None = None, progress=None, connect_timeout: float = 10.0,
               **axes) -> tuple[dict, pd.DataFrame]:
@@ -226,7 +185,8 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
     Parameters
     ----------
     jobs : int
-        Local worker processes (spawned, one BLAS thread each); ignored with ``scheduler``.
+        Local worker processes (:func:`podbench.harness.executor.execute`); ignored with
+        ``scheduler``.
     scheduler : str, optional
         Address of a Dask distributed scheduler (``tcp://host:8786``): every task runs on
         its workers (module docstring: what the workers need).
@@ -249,49 +209,19 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
     scenarios, tasks = plan_sweep(paths, cache_dir=cache_dir, engine=engine, **axes)
     todo = [t for t in tasks if _computed(t)]
     say = progress or (lambda *_: None)
-    results: dict[int, dict] = {}
-    t0 = time.perf_counter()
     names = {t.index: t for t in todo}
 
-    def report(out):
+    def report(done, total, elapsed, out):
         t = names[out["index"]]
-        results[t.index] = out
-        done, total = len(results), len(todo)
         bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
         k = "own" if t.modes is None else t.modes
         say(f"[{bar}] {done}/{total}  {Path(t.scenario_path).stem} × {t.structure}, noise "
             f"{t.noise:g}, k {k}, seed {t.seed}: {out['seconds']:.1f} s "
-            f"(elapsed {time.perf_counter() - t0:.1f} s)")
+            f"(elapsed {elapsed:.1f} s)")
 
-    if scheduler is not None:
-        client = _dask_client(scheduler, connect_timeout)
-        try:
-            from distributed import as_completed as dask_completed
-
-            futs = client.map(_task_worker, todo, pure=False)
-            try:
-                for fut in dask_completed(futs, loop=client.loop):
-                    report(fut.result())
-            except BaseException:
-                client.cancel(futs)
-                raise
-        finally:
-            client.close()
-    elif jobs <= 1 or len(todo) <= 1:
-        for t in todo:
-            report(run_task(t))
-    else:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as ex:
-            futs = [ex.submit(_task_worker, t) for t in todo]
-            try:
-                for f in as_completed(futs):
-                    report(f.result())
-            except BaseException:
-                for f in futs:
-                    f.cancel()
-                raise
+    outs = execute(run_task, todo, jobs=jobs, scheduler=scheduler, progress=report,
+                   connect_timeout=connect_timeout)
+    results = {t.index: out for t, out in zip(todo, outs, strict=True)}
     # table order; a noise-free point's rows are repeated for every seed
     source = {_noise_free_source(t): t.index for t in todo if t.noise == 0}
     rows = []

@@ -141,3 +141,34 @@ def test_tip_mass_laws_from_files(tmp_path, table, expected):
     t = np.linspace(0.0, 0.06, 13)
     np.testing.assert_allclose(s.variable_mass(t), expected(t), rtol=1e-12, atol=1e-15)
     assert np.all(s.variable_mass(t) >= 0)
+
+
+def test_builder_physics_tip_stiffness_beam_mass_and_matched_cubic():
+    """The physics the structure files use: 3EI/L³ is the FE beam's static tip stiffness
+    (Hermite cubics are exact for a tip load), ρbhL its mass, k3 matches it at w_ref."""
+    import numpy as np
+    import scipy.sparse.linalg as spla
+
+    from podbench.fem.beam import (
+        beam_mass,
+        cantilever_beam,
+        k3_matching_linear,
+        tip_mass_law,
+        tip_stiffness,
+    )
+
+    geom = dict(length=24.0, width=1.0, depth=0.75)
+    s = cantilever_beam(E=29.0e6, density=4.5e-4, n_elements=6, **geom)
+    f = np.zeros(s.n_dofs)
+    f[s.metadata["tip_dof"]] = 1.0
+    w_tip = spla.spsolve(s.K.tocsc(), f)[s.metadata["tip_dof"]]
+    k_tip = tip_stiffness(E=29.0e6, **geom)
+    assert 1.0 / w_tip == pytest.approx(k_tip, rel=1e-10)
+    assert k_tip == pytest.approx(3 * 29.0e6 * (1.0 * 0.75**3 / 12) / 24.0**3, rel=1e-15)
+    mass = beam_mass(density=4.5e-4, **geom)
+    assert mass == pytest.approx(4.5e-4 * 1.0 * 0.75 * 24.0, rel=1e-15)
+    assert s.metadata["beam_mass"] == pytest.approx(mass, rel=1e-15)
+    k3 = k3_matching_linear(k_tip, 0.1)
+    assert k3 * 0.1**3 == pytest.approx(k_tip * 0.1, rel=1e-14)
+    law = tip_mass_law("constant", scale="beam_mass", value=2.0, density=4.5e-4, **geom)
+    assert float(law(0.3)) == pytest.approx(2.0 * mass, rel=1e-15)

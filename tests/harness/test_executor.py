@@ -1,0 +1,62 @@
+"""The one executor of units, sweep points and figures: order, progress, errors, cancel."""
+
+import os
+import time
+
+import pytest
+
+from podbench.errors import InputError, ScenarioFileError
+from podbench.harness.executor import execute
+
+
+def _square(x):
+    time.sleep(0.05 * (x % 3))  # finish out of order
+    return x * x
+
+
+def _fail_first(task):
+    i, folder = task
+    if i == 0:
+        raise ScenarioFileError("scenario.toml: field `scenario.dt`: expected > 0")
+    time.sleep(1.0)
+    open(os.path.join(folder, f"{i}.ran"), "w").close()
+    return i
+
+
+def _zero_division(x):
+    return 1 / x
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_results_in_task_order_and_progress_per_finished_task(jobs):
+    seen = []
+    out = execute(_square, range(7), jobs=jobs,
+                  progress=lambda done, total, elapsed, r: seen.append((done, total, r)))
+    assert out == [x * x for x in range(7)]
+    assert [d for d, _, _ in seen] == list(range(1, 8)) and {t for _, t, _ in seen} == {7}
+    assert sorted(r for *_, r in seen) == sorted(out)
+
+
+def test_first_podbench_error_is_raised_as_itself_and_pending_tasks_are_cancelled(tmp_path):
+    tasks = [(i, str(tmp_path)) for i in range(20)]
+    with pytest.raises(ScenarioFileError) as info:
+        execute(_fail_first, tasks, jobs=2)
+    assert str(info.value) == "scenario.toml: field `scenario.dt`: expected > 0"
+    assert info.value.__cause__ is None and info.value.__suppress_context__
+    # the running tasks finish, the queued ones never start (without cancellation all 19
+    # would run: 10 s)
+    ran = len(list(tmp_path.glob("*.ran")))
+    assert ran < 10, ran
+
+
+def test_other_worker_errors_carry_the_worker_traceback():
+    with pytest.raises(RuntimeError, match=r"(?s)_zero_division.*ZeroDivisionError"):
+        execute(_zero_division, [1, 0, 2], jobs=2)
+    with pytest.raises(ZeroDivisionError):  # in the caller's process: the original
+        execute(_zero_division, [1, 0, 2], jobs=1)
+
+
+@pytest.mark.parametrize("jobs", [0, -1, 1.5, True])
+def test_jobs_must_be_a_positive_integer(jobs):
+    with pytest.raises(InputError, match="jobs"):
+        execute(_square, [1], jobs=jobs)

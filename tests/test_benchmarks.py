@@ -1,0 +1,50 @@
+"""The benchmark scripts import and run: the POD group at a tiny size (no timing asserted)."""
+
+import csv
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from benchmarks import groups, measure, report  # noqa: E402
+
+
+def test_pod_group_at_a_tiny_size_writes_the_csv_columns_and_positive_ratios(tmp_path):
+    lines = []
+    rows = groups.bench_pod(False, lines.append, size=(2_000, 100, 5))
+    assert [(r["group"], r["solver"], r["status"]) for r in rows] == [
+        ("pod", "snapshots", "ok"), ("pod", "svd", "ok")]
+    out = tmp_path / "bench.csv"
+    report.write_csv(rows, out)
+    with open(out, newline="") as fh:
+        back = list(csv.DictReader(fh))
+    assert tuple(back[0]) == report.FIELDS
+    assert report.read_csv(out) == [{f: str(r[f]) for f in report.FIELDS} for r in rows]
+    for r in back:
+        assert (r["m"], r["n"], r["k"], r["baseline"]) == ("2000", "100", "5", "svd")
+        for col in ("time_s", "speedup", "baseline_time_s"):
+            x = float(r[col])
+            assert math.isfinite(x) and x > 0, (col, r[col])
+    # the method of snapshots finds the SVD's leading modes (separated POVs 0.8^i)
+    assert float(back[0]["max_rel_diff"]) < 1e-6 and back[1]["max_rel_diff"] == "0 (reference)"
+    text = report.table(rows)
+    assert "**POD of a tall snapshot matrix**" in text and "| 2000 | 100 | 5 | svd |" in text
+
+
+def test_measure_returns_the_result_a_time_and_a_peak():
+    result, t, peak = measure.measure(lambda: np.ones((500, 500)).sum())
+    assert result == 250_000.0 and t > 0 and (math.isnan(peak) or peak >= 0)
+    assert measure.speedup(2.0, 0.5) == 4.0
+    assert measure.rel_diff(np.array([1.0, 1.0]), np.array([1.0, 0.0])) == pytest.approx(1.0)
+
+
+def test_a_failing_case_comes_back_as_an_error_message_not_an_exception():
+    # 10 × 20 snapshots cannot carry the 40 POVs of the test matrix
+    status, msg = measure.run_isolated(groups._pod_task, (10, 20, 30, "svd"), 120)
+    assert status == "error" and msg.splitlines()[0].startswith("ValueError: matmul")
