@@ -22,6 +22,20 @@ Because ``Ŵ − PW = (Ŵ − Ŵ_c) + [(Ŵ_c − PW) − (Ŵ_c^lin − PW^lin)] 
 the triangle inequality gives ``subspace ≤ diagonalization + linearization + residual``.
 All components are non-negative; on an LTI system with k = m every projection is exact.
 
+The three attributions above are measured against the twin, so when the twin itself fails
+they would repeat its failure, not the method's. Hence:
+
+* ``twin_error = ‖Ŵ_c − W‖ / N``, the twin's own total error; when it exceeds the method's
+  ``total_error`` the attributions diagonalization, linearization and residual are
+  *undefined* (NaN), not numbers;
+* ``own_linearization_error = ‖(Ŵ − P W) − (Ŵ^lin − P W^lin)‖ / N``: the method itself
+  refitted on the structure's linear twin with the same modes (``Ŵ^lin``), so the
+  nonlinearity's share of the method's own error (0 for a linear structure);
+* ``linear_diagonalization_error = ‖Ŵ^lin − Ŵ_c^lin‖ / N``: the diagonal assumption's cost
+  measured on the linear twin, where the coupled twin is exact up to the basis (equal to
+  ``diagonalization_error`` on a linear structure; undefined when the twin's error on the
+  linear twin exceeds the method's).
+
 Eq. 4.2's displacement-norm percent error ``100 |‖ŵ(t)‖ − ‖w(t)‖| / ‖w(t)‖`` is summarized
 by its median, 90th percentile and maximum over the samples where ``‖w(t)‖ > 0``;
 ``norm_peak_ratio = max_t ‖ŵ(t)‖ / max_t ‖w(t)‖``.
@@ -42,6 +56,9 @@ ERROR_COLUMNS = (
     "linearization_error",
     "residual_error",
     "subspace_error",
+    "twin_error",
+    "own_linearization_error",
+    "linear_diagonalization_error",
 )
 NORM_COLUMNS = ("norm_pe_median", "norm_pe_p90", "norm_pe_max", "norm_peak_ratio")
 
@@ -55,7 +72,7 @@ def _proj(U, W):
 
 
 def decompose(W, W_hat, U=None, *, W_twin=None, coupled: bool = False, W_lin=None,
-              W_twin_lin=None, nonlinear: bool = False) -> dict:
+              W_twin_lin=None, nonlinear: bool = False, W_own_lin=None) -> dict:
     """The error components of one prediction (see the module docstring).
 
     Parameters
@@ -72,6 +89,9 @@ def decompose(W, W_hat, U=None, *, W_twin=None, coupled: bool = False, W_lin=Non
         Truth and twin prediction on the linear twin of the structure (``nonlinear`` only).
     nonlinear : bool
         The structure has nonlinear elements.
+    W_own_lin : (m, n) array or None
+        The method's own prediction on the linear twin, refitted there in basis U
+        (``nonlinear`` only).
     """
     W = np.asarray(W, dtype=float)
     W_hat = np.asarray(W_hat, dtype=float)
@@ -86,19 +106,37 @@ def decompose(W, W_hat, U=None, *, W_twin=None, coupled: bool = False, W_lin=Non
     PW = _proj(U, W)
     out["projection_error"] = _fro(W - PW) / N
     out["subspace_error"] = _fro(W_hat - PW) / N
+    if nonlinear:
+        if W_lin is not None and W_own_lin is not None:
+            PW_lin = _proj(U, W_lin)
+            out["own_linearization_error"] = _fro((W_hat - PW) - (W_own_lin - PW_lin)) / N
+    else:
+        out["own_linearization_error"] = 0.0
     twin = W_hat if coupled else W_twin
     if twin is None:
         return out
-    out["diagonalization_error"] = 0.0 if coupled else _fro(W_hat - twin) / N
+    out["twin_error"] = _fro(twin - W) / N
+    undefined = out["twin_error"] > out["total_error"] * (1 + 1e-12)
+    diag = 0.0 if coupled else _fro(W_hat - twin) / N
     if not nonlinear:
-        out["linearization_error"] = 0.0
-        out["residual_error"] = _fro(twin - PW) / N
-        return out
-    if W_lin is None or W_twin_lin is None:
-        return out
-    PW_lin = _proj(U, W_lin)
-    out["linearization_error"] = _fro((twin - PW) - (W_twin_lin - PW_lin)) / N
-    out["residual_error"] = _fro(W_twin_lin - PW_lin) / N
+        lin, resid, lin_diag = 0.0, _fro(twin - PW) / N, (nan if undefined else diag)
+    elif W_lin is None or W_twin_lin is None:
+        lin = resid = lin_diag = nan
+    else:
+        PW_lin = _proj(U, W_lin)
+        lin = _fro((twin - PW) - (W_twin_lin - PW_lin)) / N
+        resid = _fro(W_twin_lin - PW_lin) / N
+        lin_diag = nan
+        if coupled:
+            lin_diag = 0.0
+        elif W_own_lin is not None and _fro(W_twin_lin - W_lin) <= _fro(W_own_lin - W_lin) * (
+                1 + 1e-12):
+            lin_diag = _fro(W_own_lin - W_twin_lin) / N
+    out["linear_diagonalization_error"] = lin_diag
+    if not undefined:
+        out["diagonalization_error"] = diag
+        out["linearization_error"] = lin
+        out["residual_error"] = resid
     return out
 
 

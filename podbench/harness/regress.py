@@ -77,12 +77,12 @@ def read_table(path) -> pd.DataFrame:
         raise InputError(f"{path}: no such file") from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not a readable CSV table ({exc})") from None
-    missing = [c for c in (*KEY, *COMPARED, "status") if c not in df.columns]
+    missing = [c for c in (*KEY, "total_error", "status") if c not in df.columns]
     if missing:
         raise InputError(f"{path}: missing columns {', '.join(missing)}")
     if df.duplicated(list(KEY)).any():
         raise InputError(f"{path}: duplicate rows for the same scenario/structure/method/target")
-    for c in COMPARED:
+    for c in (c for c in COMPARED if c in df.columns):
         try:
             df[c] = pd.to_numeric(df[c])
         except (ValueError, TypeError):
@@ -105,6 +105,8 @@ def compare(new: pd.DataFrame, base: pd.DataFrame, *, rtol: float = 0.01,
         if b["status"] == "ok" and n["status"] != "ok":
             out.status.append((key, b["status"], n["status"]))
         for col in COMPARED:
+            if col not in b or col not in n:  # a column added after the baseline was written
+                continue
             bv, nv = float(b[col]), float(n[col])
             if math.isnan(bv):
                 continue

@@ -61,7 +61,7 @@ __all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", 
            "sweep_markdown", "write_sweep", "sweep_axes"]
 
 SWEEP_COLUMNS = ("scenario", "structure", "method", "solver", "target", "noise", "modes",
-                 "seed", "n_modes", *ERROR_COLUMNS[:5], "subspace_error", *NORM_COLUMNS,
+                 "seed", "n_modes", *ERROR_COLUMNS, *NORM_COLUMNS,
                  "status")
 """Columns of ``sweep.csv``: ``noise`` (relative level), ``modes`` (the k axis; −1 when not
 swept), ``seed``, ``solver`` (the solver label; empty for a method that does not

@@ -25,10 +25,11 @@ def test_run_writes_tables_figures_and_is_byte_identical_when_repeated(study, tm
     assert "summary.csv" in files and "summary.md" in files
     assert sum(f.startswith("figures/") and f.endswith(".png") for f in files) == 2
     df = pd.read_csv(out / "summary.csv")
-    assert list(df.columns[:12]) == [
+    assert list(df.columns[:15]) == [
         "scenario", "structure", "method", "target", "n_modes", "total_error",
         "projection_error", "diagonalization_error", "linearization_error", "residual_error",
-        "subspace_error", "norm_pe_median"]
+        "subspace_error", "twin_error", "own_linearization_error",
+        "linear_diagonalization_error", "norm_pe_median"]
     assert {"norm_pe_p90", "status"} <= set(df.columns)
     assert len(df) == 4 and (df.status == "ok").all()
     first = (out / "summary.csv").read_bytes(), (out / "summary.md").read_bytes()

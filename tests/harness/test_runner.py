@@ -46,23 +46,60 @@ def test_ml_is_exact_and_sl_error_is_diagonalization_on_the_coupled_chain(write_
 
 def test_decomposition_invariants_on_the_nonlinear_beam(write_scenario):
     """Every component is non-negative; total² = projection² + subspace² (predictions lie in
-    span U); subspace ≤ diagonalization + linearization + residual (triangle inequality);
-    the LTI beam has zero linearization error and the NL beam a positive one."""
+    span U); subspace ≤ diagonalization + linearization + residual (triangle inequality)
+    and ≤ own linearization + linear diagonalization + residual; the LTI beam has zero
+    linearization errors and the NL beam positive ones; the twin-based attributions are
+    undefined (NaN) exactly when the twin's own error exceeds the method's total."""
     p = write_scenario(NL_BEAM, "nl_short")
     res = [run_unit(p, "lti_beam"), run_unit(p, "nl_beam")]
     rows = _rows(res)
+    twin_based = ("diagonalization_error", "linearization_error", "residual_error")
     for key, r in rows.items():
-        comps = [r[c] for c in ("total_error", "projection_error", "diagonalization_error",
-                                "linearization_error", "residual_error", "subspace_error")]
-        assert all(c >= 0 and math.isfinite(c) for c in comps), key
+        always = ("total_error", "projection_error", "subspace_error", "twin_error",
+                  "own_linearization_error")
+        assert all(r[c] >= 0 and math.isfinite(r[c]) for c in always), key
         assert r["total_error"] ** 2 == pytest.approx(
             r["projection_error"] ** 2 + r["subspace_error"] ** 2, rel=1e-9), key
-        assert r["subspace_error"] <= (r["diagonalization_error"] + r["linearization_error"]
-                                       + r["residual_error"]) * (1 + 1e-12), key
-    assert rows[("lti_beam", "POVR", "w3")]["linearization_error"] == 0.0
+        undefined = r["twin_error"] > r["total_error"] * (1 + 1e-12)
+        assert all(math.isnan(r[c]) for c in twin_based) == undefined, key
+        if not undefined:
+            assert all(r[c] >= 0 for c in twin_based), key
+            assert r["subspace_error"] <= (r["diagonalization_error"] + r["linearization_error"]
+                                           + r["residual_error"]) * (1 + 1e-12), key
+            if math.isfinite(r["linear_diagonalization_error"]):
+                assert r["subspace_error"] <= (r["own_linearization_error"]
+                                               + r["linear_diagonalization_error"]
+                                               + r["residual_error"]) * (1 + 1e-12), key
+    for m in ("POVR", "MDS"):
+        lti = rows[("lti_beam", m, "w3")]
+        assert lti["linearization_error"] == 0.0 and lti["own_linearization_error"] == 0.0
+        assert lti["linear_diagonalization_error"] == lti["diagonalization_error"]
     assert rows[("lti_beam", "MDS", "w3")]["diagonalization_error"] == 0.0
-    assert rows[("nl_beam", "MDS", "w3")]["linearization_error"] > 1e-3
-    assert rows[("nl_beam", "MDS", "w3")]["diagonalization_error"] == 0.0
+    nl_mds = rows[("nl_beam", "MDS", "w3")]
+    assert nl_mds["linearization_error"] > 1e-3
+    assert nl_mds["diagonalization_error"] == 0.0
+    # a coupled method is its own twin: its own linearization error is the twin's
+    assert nl_mds["own_linearization_error"] == pytest.approx(nl_mds["linearization_error"],
+                                                              rel=1e-12)
+    assert nl_mds["linear_diagonalization_error"] == 0.0
+    assert rows[("nl_beam", "POVR", "w3")]["own_linearization_error"] > 1e-3
+
+
+def test_an_attribution_against_a_failing_twin_is_undefined():
+    """decompose: a twin whose own error exceeds the method's total attributes nothing."""
+    from podbench.harness.metrics import decompose
+
+    rng = np.random.default_rng(1)
+    W = rng.standard_normal((6, 40))
+    U = np.linalg.qr(rng.standard_normal((6, 6)))[0]  # k = m: projection error 0
+    good, bad = W + 0.01 * rng.standard_normal(W.shape), W + rng.standard_normal(W.shape)
+    ok = decompose(W, good, U, W_twin=W + 0.001 * rng.standard_normal(W.shape))
+    assert math.isfinite(ok["diagonalization_error"]) and ok["linearization_error"] == 0.0
+    out = decompose(W, good, U, W_twin=bad)
+    assert out["twin_error"] > out["total_error"]
+    assert all(math.isnan(out[c]) for c in ("diagonalization_error", "linearization_error",
+                                            "residual_error", "linear_diagonalization_error"))
+    assert out["own_linearization_error"] == 0.0  # linear: defined without any twin
 
 
 def test_runs_are_deterministic_and_independent_of_jobs(write_scenario, tmp_path):
