@@ -93,6 +93,9 @@ BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
 
 CLAIMS_FILE = "claims.toml"
 _EXCITATION_KEYS = ("initial_displacement", "initial_velocity", "force")
+_EXCITATION_KINDS = {"initial_displacement": ("static_displacement",),
+                     "initial_velocity": ("impulse_velocity",),
+                     "force": ("pulse", "force_history", "combined")}
 ENGINES = ("newmark", "exudyn")
 NOISE_QUANTITIES = ("W", "F", "w0", "v0")
 """Training quantities a sweep may add noise to (displacements, forces, initial profiles)."""
@@ -112,6 +115,15 @@ class Case:
     initial_velocity: dict | None = None
     force: tuple[dict, ...] = ()
     description: str = ""
+    force_fields: tuple[str, ...] = ()
+    """Field of each force inside the case's table: ``force`` (one table) or ``force[i]``."""
+
+    def excitation_fields(self) -> list[tuple[str, dict]]:
+        """``(field, table)`` of every excitation, the field relative to ``cases.<name>``."""
+        out = [(k, getattr(self, k)) for k in ("initial_displacement", "initial_velocity")
+               if getattr(self, k) is not None]
+        names = self.force_fields or tuple(f"force[{i}]" for i in range(len(self.force)))
+        return out + list(zip(names, self.force, strict=True))
 
     def spec(self) -> dict:
         """A JSON-able description (used in cache keys)."""
@@ -212,6 +224,10 @@ def _excitation(t: Table, key: str, *, many: bool):
         if "kind" not in item or not isinstance(item["kind"], str):
             t.fail(where, "the excitation table needs a `kind` string (static_displacement, "
                           "impulse_velocity, pulse, force_history, combined)")
+        kinds = _EXCITATION_KINDS[key]
+        if item["kind"] not in kinds:
+            t.fail(f"{where}.kind", f'expected {" or ".join(map(repr, kinds))} for `{key}`, '
+                                    f'got "{item["kind"]}"')
         out.append(dict(item))
     return tuple(out) if many else out[0]
 
@@ -268,12 +284,15 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
     cases = {}
     for cname in list(cases_t.data):
         ct = cases_t.table(cname, required=True)
+        force = _excitation(ct, "force", many=True)
         case = Case(
             name=cname,
             initial_displacement=_excitation(ct, "initial_displacement", many=False),
             initial_velocity=_excitation(ct, "initial_velocity", many=False),
-            force=_excitation(ct, "force", many=True),
+            force=force,
             description=ct.string("description", "", nonempty=False),
+            force_fields=tuple(f"force[{i}]" if isinstance(ct.data["force"], list) else "force"
+                               for i in range(len(force))),
         )
         if case.initial_displacement is None and case.initial_velocity is None and not case.force:
             ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS))
