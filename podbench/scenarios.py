@@ -252,6 +252,8 @@ def load_scenario(path) -> Scenario:
         raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioFileError(f"{shown}: not UTF-8 text ({exc})") from None
+    except OSError as exc:
+        raise ScenarioFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
     try:
         return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest())
     except StructureFileError as exc:  # Table raises StructureFileError; re-badge it

@@ -210,8 +210,10 @@ def load_structure(name_or_path, *, search_path=None) -> Structure:
             spec = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise StructureFileError(f"{shown}: TOML syntax error: {exc}") from None
-    except UnicodeDecodeError as exc:  # pragma: no cover - tomllib reports most of these
+    except UnicodeDecodeError as exc:
         raise StructureFileError(f"{shown}: not UTF-8 text ({exc})") from None
+    except OSError as exc:
+        raise StructureFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
     return build_structure(spec, source=str(path))
 
 
