@@ -487,6 +487,10 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)
         return 130
+    except MemoryError as exc:
+        print(f"{prog}: error: out of memory ({_one_line(exc, 300) or 'MemoryError'}); reduce "
+              "n_samples, the structures or --jobs", file=sys.stderr)
+        return 2
     except OSError as exc:  # permission denied, disk full, a path that is a folder, ...
         if getattr(args, "debug", False):
             traceback.print_exc()

@@ -13,7 +13,7 @@ Format (units inch, lbf, second)::
     source = "Allison (2007) §4.1.2"     # where the study comes from (free text)
     description = "..."                  # free text
     structures = ["lti_beam", "nl_beam"] # names (structures/ folders) or paths to .toml files
-    n_samples = 500                      # samples per record, t_j = j·dt, j = 0 … n−1
+    n_samples = 500                      # samples per record, t_j = j·dt, j = 0 … n−1 (<= 10⁷)
     dt = 1.0e-4                          # s
     engine = "newmark"                   # optional: "newmark" (default) or "exudyn"
     targets = ["load5"]                  # cases every reported method predicts
@@ -64,6 +64,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -92,6 +93,9 @@ BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
 """Method names a scenario may use without a ``module:Class`` path."""
 
 CLAIMS_FILE = "claims.toml"
+MAX_SAMPLES = 10_000_000
+"""Largest ``scenario.n_samples`` (a record of 10⁷ samples on 48 sensors is 3.8 GB per
+matrix): a larger value is a typo, refused before anything is allocated."""
 _EXCITATION_KEYS = ("initial_displacement", "initial_velocity", "force")
 _EXCITATION_KINDS = {"initial_displacement": ("static_displacement",),
                      "initial_velocity": ("impulse_velocity",),
@@ -274,8 +278,10 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
         sc.fail("structures", "expected at least one structure")
     if len(set(structures)) != len(structures):
         sc.fail("structures", f"a structure is listed twice: {structures}")
-    n_samples = sc.integer("n_samples", minimum=2)
+    n_samples = sc.integer("n_samples", minimum=2, maximum=MAX_SAMPLES)
     dt = sc.number("dt", positive=True)
+    if not math.isfinite(n_samples * dt * 1e6):  # room for products like ω²·t² downstream
+        sc.fail("dt", f"{dt!r} s times n_samples = {n_samples} is not a finite record length")
     engine = sc.string("engine", "newmark", choices=ENGINES)
     targets = sc.strings("targets")
     if not targets:
