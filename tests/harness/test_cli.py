@@ -331,3 +331,15 @@ def test_a_structure_file_that_is_not_utf8_is_one_line(write_scenario, tmp_path,
     assert cli.main(["run", str(p), "-q", "--out", str(tmp_path / "out"),
                      "--cache", str(tmp_path / "cache")]) == 2
     assert "bad_structure.toml: not UTF-8 text" in _one_line_error(capsys)
+
+
+def test_sweep_refuses_a_foreign_scenario_folder_under_out(study, tmp_path, capsys):
+    foreign = tmp_path / "res" / "chain_free"
+    foreign.mkdir(parents=True)
+    (foreign / "notes.txt").write_text("precious\n")
+    assert cli.main(["sweep", str(study / "chain_free.toml"), "-q", "--out",
+                     str(tmp_path / "res"), "--cache", str(tmp_path / "cache")]) == 2
+    err = _one_line_error(capsys)
+    assert "--out" in err and "not a podbench output (no sweep.csv in it)" in err
+    assert sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]
+    assert not (tmp_path / "cache").exists()
