@@ -317,6 +317,8 @@ def cmd_regress(args) -> int:
     if args.update:  # checked before any work: the new baseline can be written
         if baseline.is_dir():
             raise _Usage(f"--baseline {args.baseline}: is a folder, not a CSV file")
+        if baseline.parent.exists() and not baseline.parent.is_dir():
+            raise _Usage(f"--baseline {args.baseline}: {baseline.parent} is a file, not a folder")
         _writable_folder(baseline.parent, "--baseline")
     elif not baseline.is_file():
         raise _Usage(f"{args.baseline}: no such baseline (create it with --update)")
