@@ -1,17 +1,20 @@
 """Command line: ``podbench run | regress | sweep | list``.
 
 Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
-missing path, a malformed scenario/structure/claims file, an unknown name), reported on one
-line; 130 interrupted.
+missing path, a malformed scenario/structure/claims file, an unknown name, a bad option, an
+unwritable output), reported on one line; 3 an internal error (a bug: one line, ``--debug``
+shows the traceback); 130 interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import textwrap
 import time
+import traceback
 from pathlib import Path
 
 DEFAULT_SCENARIOS = Path("scenarios") / "chapter4"
@@ -22,13 +25,49 @@ DEFAULT_SWEEPS = Path("scenarios") / "sweeps"
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
 target) and the norm percent errors follow Eq. 4.2 of Allison (2007); README.md defines
-every column. Exit codes: 0 ok, 1 regression found (regress), 2 unusable input, 130
-interrupted.
+every column. Exit codes: 0 ok, 1 regression found (regress), 2 unusable input (one line
+naming the file and field, or the option), 3 internal error (a bug; --debug shows the
+traceback), 130 interrupted.
 """
 
 
+class _ArgError(Exception):
+    """A command-line error found by argparse (reported on one line by :func:`main`)."""
+
+    def __init__(self, prog: str, message: str):
+        super().__init__(message)
+        self.prog = prog
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (no usage block) and exit code 2."""
+
+    def error(self, message):
+        raise _ArgError(self.prog, message)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return value
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="podbench",
         description="Benchmark suite for structural system identification with the proper "
                     "orthogonal decomposition (POD), after Allison (2007).",
@@ -43,7 +82,7 @@ def _parser() -> argparse.ArgumentParser:
         sp.add_argument("paths", nargs="*", metavar="PATH",
                         help=f"scenario files or folders of them (default: {DEFAULT_SCENARIOS}); "
                              "a folder's claims.toml is checked into FINDINGS.md")
-        sp.add_argument("-j", "--jobs", type=int, default=1, metavar="N",
+        sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
                         help="worker processes for the (scenario, structure) units "
                              "(default 1; results do not depend on N)")
         sp.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
@@ -54,6 +93,8 @@ def _parser() -> argparse.ArgumentParser:
                         help="override the scenarios' integration engine (default: each "
                              "scenario's own, normally newmark)")
         sp.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+        sp.add_argument("--debug", action="store_true",
+                        help="show the Python traceback of an internal error (exit code 3)")
 
     r = sub.add_parser(
         "run", help="run scenarios and write tables, figures and findings",
@@ -65,7 +106,9 @@ def _parser() -> argparse.ArgumentParser:
     common(r)
     r.add_argument("-o", "--out", default=None, metavar="DIR",
                    help="output folder (default results/<name of the scenario folder>, "
-                        "e.g. results/chapter4)")
+                        "e.g. results/chapter4); replaced as a whole, so it must not exist, "
+                        "be empty, or be a previous podbench output (holding summary.csv): "
+                        "any other folder or a file is refused")
     r.add_argument("--no-figures", action="store_true", help="skip the figures")
 
     g = sub.add_parser(
@@ -79,8 +122,10 @@ def _parser() -> argparse.ArgumentParser:
     common(g)
     g.add_argument("--baseline", default=str(DEFAULT_BASELINE), metavar="CSV",
                    help=f"baseline table (default {DEFAULT_BASELINE})")
-    g.add_argument("--rtol", type=float, default=0.01, help="relative tolerance (default 0.01)")
-    g.add_argument("--atol", type=float, default=1e-6, help="absolute tolerance (default 1e-6)")
+    g.add_argument("--rtol", type=_tolerance, default=0.01,
+                   help="relative tolerance, finite and >= 0 (default 0.01)")
+    g.add_argument("--atol", type=_tolerance, default=1e-6,
+                   help="absolute tolerance, finite and >= 0 (default 1e-6)")
     g.add_argument("--update", action="store_true",
                    help="write this run's table as the new baseline (deliberately) and exit 0")
     g.add_argument("--table", default=None, metavar="CSV",
@@ -115,7 +160,7 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     w.add_argument("paths", nargs="*", metavar="PATH",
                    help=f"scenario files or folders of them (default: {DEFAULT_SWEEPS})")
-    w.add_argument("-j", "--jobs", type=int, default=1, metavar="N",
+    w.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
                    help="local worker processes (default 1; the table does not depend on N)")
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the points on a Dask distributed cluster, e.g. "
@@ -132,7 +177,8 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
                         "podbench list shows them)")
     w.add_argument("-o", "--out", default="results", metavar="DIR",
                    help="output root: each scenario writes DIR/<scenario name>/sweep.csv and "
-                        "sweep.md (default results)")
+                        "sweep.md (default results); DIR/<scenario name> must not exist, be "
+                        "empty, or be a previous sweep output (holding sweep.csv)")
     w.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
                    help=f"truth-data cache folder (default {DEFAULT_CACHE}); noise is added "
                         "after loading, so sweep and run share entries")
@@ -140,11 +186,15 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
     w.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
                    help="override the scenarios' integration engine")
     w.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    w.add_argument("--debug", action="store_true",
+                   help="show the Python traceback of an internal error (exit code 3)")
 
-    sub.add_parser("list", help="list structures, scenarios, methods and solvers",
-                   description="List the structures found (structures/ and PODBENCH_STRUCTURES), "
-                               f"the scenarios of {DEFAULT_SCENARIOS}, the built-in methods "
-                               "and the deconvolution solvers.")
+    ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
+                        description="List the structures found (structures/ and "
+                                    f"PODBENCH_STRUCTURES), the scenarios of {DEFAULT_SCENARIOS}, "
+                                    "the built-in methods and the deconvolution solvers.")
+    ls.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
     return p
 
 
@@ -176,6 +226,37 @@ def _claims_path(paths):
         return found[0]
 
 
+def _writable_folder(path, option: str) -> Path:
+    """``path`` after checking, before any work, that it is a folder or can be created as one:
+    not a file, not under a file, its nearest existing ancestor writable."""
+    p = Path(path).expanduser()
+    if p.exists() and not p.is_dir():
+        raise _Usage(f"{option} {path}: exists and is not a folder")
+    a = p.absolute()
+    while not a.exists() and a != a.parent:
+        a = a.parent
+    if not a.is_dir():
+        raise _Usage(f"{option} {path}: {a} is a file, so no folder can be made under it")
+    if not os.access(a, os.W_OK | os.X_OK):
+        raise _Usage(f"{option} {path}: {a} is not writable")
+    return p
+
+
+def _output_folder(path, option: str, marker: str, *, also=()) -> Path:
+    """Check an output folder that podbench fills (or replaces): it must not exist, be empty,
+    or be a previous podbench output (holding ``marker``), so that a mistyped ``--out ~``
+    cannot replace a home folder; ``marker`` and ``also`` must not be folders."""
+    p = _writable_folder(path, option)
+    if p.is_dir():
+        for name in (marker, *also):
+            if (p / name).exists() and not (p / name).is_file():
+                raise _Usage(f"{option} {path}: {p / name} is a folder, not a file")
+        if not (p / marker).is_file() and any(p.iterdir()):
+            raise _Usage(f"{option} {path}: a non-empty folder that is not a podbench output "
+                         f"(no {marker} in it); give a new or empty folder")
+    return p
+
+
 def _default_out(paths) -> Path:
     p = Path(paths[0])
     name = p.name if p.is_dir() else p.resolve().parent.name
@@ -188,6 +269,8 @@ def _run(args, *, figures: bool):
 
     if args.jobs < 1:
         raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
+    if not args.no_cache:
+        _writable_folder(args.cache, "--cache")
     paths, files = _scenario_paths(args.paths)
     scenarios = {}
     for f in files:
@@ -205,8 +288,9 @@ def _run(args, *, figures: bool):
 def cmd_run(args) -> int:
     from .harness.report import write_study
 
+    out = Path(args.out) if args.out else _default_out(_scenario_paths(args.paths)[0])
+    _output_folder(out, "--out", "summary.csv")
     paths, scenarios, results, secs = _run(args, figures=not args.no_figures)
-    out = Path(args.out) if args.out else _default_out(paths)
     claims = _claims_path(paths)
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=not args.no_figures, jobs=args.jobs)
@@ -227,6 +311,18 @@ def cmd_regress(args) -> int:
     from .harness.regress import compare, read_table
     from .harness.report import atomic_write_text, summary_table, table_csv
 
+    if not args.table:
+        _scenario_paths(args.paths)  # a missing scenario path is reported first
+    baseline = Path(args.baseline)
+    if args.update:  # checked before any work: the new baseline can be written
+        if baseline.is_dir():
+            raise _Usage(f"--baseline {args.baseline}: is a folder, not a CSV file")
+        if baseline.parent.exists() and not baseline.parent.is_dir():
+            raise _Usage(f"--baseline {args.baseline}: {baseline.parent} is a file, not a folder")
+        _writable_folder(baseline.parent, "--baseline")
+    elif not baseline.is_file():
+        raise _Usage(f"{args.baseline}: no such baseline (create it with --update)")
+    base = None if args.update else read_table(args.baseline)
     if args.table:
         new = read_table(args.table)
     else:
@@ -236,9 +332,6 @@ def cmd_regress(args) -> int:
         atomic_write_text(args.baseline, table_csv(new))
         print(f"baseline updated: {args.baseline} ({len(new)} rows)")
         return 0
-    if not Path(args.baseline).is_file():
-        raise _Usage(f"{args.baseline}: no such baseline (create it with --update)")
-    base = read_table(args.baseline)
     cmp = compare(new, base, rtol=args.rtol, atol=args.atol)
     print(cmp.report(args.rtol, args.atol))
     return 1 if cmp.failed else 0
@@ -306,13 +399,32 @@ def _list_arg(text, name: str, kind):
             what = {float: "numbers", int: "integers or ranges a-b", str: "names"}[kind]
             raise _Usage(f"--{name}: cannot read {item!r} in {text!r} (expected a "
                          f"comma-separated list of {what})") from None
+        if len(out) > _MAX_LIST:
+            raise _Usage(f"--{name}: {text!r} gives more than {_MAX_LIST} values")
+    minimum = _LIST_MINIMUM.get(name)
+    for v in out:
+        if kind is float and not math.isfinite(v):
+            raise _Usage(f"--{name}: expected finite numbers, got {v!r} in {text!r}")
+        if minimum is not None and v < minimum:
+            raise _Usage(f"--{name}: expected values >= {minimum:g}, got {v!r} in {text!r}")
+    seen = set()
+    for v in out:
+        if v in seen:
+            raise _Usage(f"--{name}: {v!r} is listed twice in {text!r}")
+        seen.add(v)
     return out
+
+
+_MAX_LIST = 10_000
+_LIST_MINIMUM = {"noise": 0.0, "n-modes": 1, "seeds": 0}
+"""Smallest value of each numeric list option: noise levels are relative (>= 0), a POD basis
+has at least one mode, noise seeds are non-negative (``numpy.random.SeedSequence``)."""
 
 
 def cmd_sweep(args) -> int:
     from .deconvolution import available_solvers
     from .harness.sweep import run_sweep, write_sweep
-    from .scenarios import SolverChoice, find_scenarios
+    from .scenarios import SolverChoice, find_scenarios, load_scenario
 
     if args.jobs < 1:
         raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
@@ -335,6 +447,12 @@ def cmd_sweep(args) -> int:
                          "folder, or give scenario paths)")
         paths = [DEFAULT_SWEEPS]
     files = find_scenarios(paths)
+    if not args.no_cache:
+        _writable_folder(args.cache, "--cache")
+    _writable_folder(args.out, "--out")
+    for f in files:  # each scenario writes OUT/<name>/sweep.csv, sweep.md
+        _output_folder(Path(args.out) / load_scenario(f).name, "--out", "sweep.csv",
+                       also=("sweep.md",))
     say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     t0 = time.perf_counter()
     scenarios, df = run_sweep(files, jobs=args.jobs, scheduler=args.scheduler,
@@ -355,25 +473,53 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def _one_line(text: str, limit: int = 1000) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def main(argv=None) -> int:
+    """Run the command line; returns the exit code (see the module docstring)."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except _ArgError as exc:
+        print(f"{exc.prog}: error: {_one_line(exc)} (see {exc.prog} --help)", file=sys.stderr)
+        return 2
     if args.command is None:
         parser.print_help()
         return 2
     from .errors import PodbenchError
 
+    prog = f"podbench {args.command}"
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list}[args.command](args)
     except (_Usage, PodbenchError) as exc:
-        msg = " ".join(str(exc).split())
-        print(f"podbench {args.command}: error: {msg}", file=sys.stderr)
+        print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"podbench {args.command}: interrupted; results/ was left as it was",
-              file=sys.stderr)
+        print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)
         return 130
+    except MemoryError as exc:
+        print(f"{prog}: error: out of memory ({_one_line(exc, 300) or 'MemoryError'}); reduce "
+              "n_samples, the structures or --jobs", file=sys.stderr)
+        return 2
+    except OSError as exc:  # permission denied, disk full, a path that is a folder, ...
+        if getattr(args, "debug", False):
+            traceback.print_exc()
+        what = exc.strerror or str(exc) or type(exc).__name__
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"{prog}: error: {_one_line(where + what)}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback with --debug
+        if getattr(args, "debug", False):
+            traceback.print_exc()
+        lines = [ln for ln in str(exc).splitlines() if ln.strip()]
+        msg = _one_line(lines[-1] if lines else "", 300)  # a worker's traceback: its last line
+        print(f"{prog}: internal error: {type(exc).__name__}: {msg} (this is a bug; rerun "
+              "with --debug for the traceback)", file=sys.stderr)
+        return 3
 
 
 if __name__ == "__main__":  # pragma: no cover

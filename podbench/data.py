@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import as_finite_array
-from .errors import DimensionError
+from ._validation import as_finite_array, check_positive
+from .errors import DimensionError, InputError
 from .records import Record, as_record, is_record
 
 __all__ = ["Record", "Response", "as_record", "displacement_norm", "is_record",
@@ -39,6 +39,23 @@ def norm_percent_error(W_true: np.ndarray, W_pred: np.ndarray) -> np.ndarray:
     return pe
 
 
+def _check_sampling(t: np.ndarray, dt: float) -> None:
+    """Check the sampling convention ``t_j = j·dt`` (``t_0 = 0``) to a relative tolerance
+    ``1e-9·n`` (roundoff of a sum of n steps is far smaller; a wrong ``dt`` is far larger)."""
+    n = t.size
+    if n == 0:
+        return
+    ideal = np.arange(n) * dt
+    tol = 1e-9 * n * dt * np.maximum(np.arange(n), 1)
+    bad = np.flatnonzero(np.abs(t - ideal) > tol)
+    if bad.size:
+        j = int(bad[0])
+        raise InputError(
+            f"Parameter `t`: expected t_j = j·dt with t_0 = 0 (dt = {dt:g} s), got "
+            f"t[{j}] = {t[j]:.9g} s instead of {ideal[j]:.9g} s"
+        )
+
+
 @dataclass(frozen=True, eq=False)
 class Response:
     """A simulated (or measured) response.
@@ -46,7 +63,7 @@ class Response:
     Attributes
     ----------
     t : (n,) ndarray
-        Sample times ``j·dt`` (s).
+        Sample times ``t_j = j·dt`` (s), ``t_0 = 0``; checked to a relative ``1e-9·n``.
     W : (n_sensors, n) ndarray
         Displacements at the sensors (in, or rad for rotational sensors).
     F : (n_sensors, n) ndarray
@@ -54,7 +71,7 @@ class Response:
     w0, v0 : (n_sensors,) ndarray
         Initial displacement (in) and velocity (in/s) at the sensors.
     dt : float
-        Time step (s).
+        Time step (s), positive and finite.
     q, qd : (n_dofs, n) ndarray or None
         Full DOF displacement and velocity histories when the engine provides them.
     structure, engine, label : str
@@ -81,6 +98,8 @@ class Response:
         t = as_finite_array(self.t, "t", ndim=1)
         if t.shape[0] != W.shape[1]:
             raise DimensionError(f"Response: {t.shape[0]} times but W has {W.shape[1]} columns")
+        dt = check_positive(self.dt, "dt")
+        _check_sampling(t, dt)
         for name in ("w0", "v0"):
             a = as_finite_array(getattr(self, name), name, ndim=1)
             if a.shape[0] != W.shape[0]:
@@ -91,6 +110,7 @@ class Response:
         object.__setattr__(self, "W", W)
         object.__setattr__(self, "F", F)
         object.__setattr__(self, "t", t)
+        object.__setattr__(self, "dt", dt)
 
     @property
     def n_samples(self) -> int:

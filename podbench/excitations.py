@@ -110,11 +110,19 @@ def resolve_sensor(structure: Structure, location, *, by: str = "position") -> i
                 "use by='dof' or a label"
             )
         hits = np.flatnonzero(np.abs(s.sensor_positions - float(location)) <= POSITION_TOLERANCE)
+        lo, hi = float(s.sensor_positions.min()), float(s.sensor_positions.max())
+        if hits.size == 0 and not lo - POSITION_TOLERANCE <= float(location) <= hi + (
+                POSITION_TOLERANCE):
+            raise InputError(
+                f"Location {location!r} in is off the structure {s.name!r} (sensor positions "
+                f"{lo:g} … {hi:g} in)"
+            )
         if hits.size == 0:
+            near = float(s.sensor_positions[np.argmin(np.abs(s.sensor_positions - location))])
             raise InputError(
                 f"Location {location!r} in: no sensor of structure {s.name!r} within "
-                f"{POSITION_TOLERANCE:g} in (sensor positions span "
-                f"[{s.sensor_positions.min():g}, {s.sensor_positions.max():g}] in)"
+                f"{POSITION_TOLERANCE:g} in (nearest sensor at {near:g} in; sensor positions "
+                f"span [{lo:g}, {hi:g}] in)"
             )
         if hits.size > 1:
             labels = [s.sensor_labels[i] for i in hits] if s.sensor_labels else list(hits)
@@ -166,6 +174,22 @@ def resolve_dof(structure: Structure, location, *, by: str = "position") -> int:
             "constrained point; a load there is taken by the support"
         )
     return dof
+
+
+def _at(field: str, exc: InputError) -> InputError:
+    """``exc`` with ``field`` prepended to its ``field`` attribute (the dotted path, inside
+    the excitation's table, of the entry at fault; see :func:`check_excitation`)."""
+    inner = getattr(exc, "field", None)
+    exc.field = f"{field}.{inner}" if inner else field
+    return exc
+
+
+def _check_locations(structure: Structure, pairs, name: str, by: str) -> None:
+    for i, (loc, _) in enumerate(pairs):
+        try:
+            resolve_dof(structure, loc, by=by)
+        except InputError as exc:
+            raise _at(f"{name}[{i}]", exc) from None
 
 
 def _check_loads(loads, name: str) -> list[tuple[object, float]]:
@@ -242,6 +266,20 @@ class StaticDisplacement:
         self.by = check_choice(by, "by", _BY)
         self.reference = reference
 
+    def check(self, structure: Structure) -> None:
+        """Check, without solving, that the loads can be applied for ``structure``.
+
+        Raises
+        ------
+        InputError
+            With a ``field`` attribute (``"reference"``, ``"loads[1]"``) naming the entry.
+        """
+        try:
+            ref = _check_reference(structure, self.reference)
+        except InputError as exc:
+            raise _at("reference", exc) from None
+        _check_locations(ref, self.loads, "loads", self.by)
+
     def dof_vector(self, structure: Structure) -> np.ndarray:
         """``q0`` (n_dofs,) in inches (radians for rotations)."""
         ref = _check_reference(structure, self.reference)
@@ -290,6 +328,14 @@ class ImpulseVelocity:
         self.by = check_choice(by, "by", _BY)
         self.reference = reference
 
+    def check(self, structure: Structure) -> None:
+        """As :meth:`StaticDisplacement.check` (fields ``reference``, ``impulses[i]``)."""
+        try:
+            ref = _check_reference(structure, self.reference)
+        except InputError as exc:
+            raise _at("reference", exc) from None
+        _check_locations(ref, self.impulses, "impulses", self.by)
+
     def dof_vector(self, structure: Structure) -> np.ndarray:
         """``v0`` (n_dofs,) in in/s (rad/s for rotations)."""
         ref = _check_reference(structure, self.reference)
@@ -335,6 +381,17 @@ class _Force:
 
     def sample(self, structure: Structure, n_samples: int, dt: float) -> np.ndarray:
         raise NotImplementedError
+
+    def check(self, structure: Structure, n_samples: int, dt: float) -> None:
+        """Check, cheaply, that the force can be sampled for ``structure`` on ``n_samples``
+        samples of ``dt`` and loads at least one of them.
+
+        Raises
+        ------
+        InputError
+            With a ``field`` attribute naming the entry at fault (e.g. ``"location"``).
+        """
+        self.sample(structure, n_samples, dt)
 
     def __add__(self, other):
         if not isinstance(other, _Force):
@@ -418,6 +475,33 @@ class Pulse(_Force):
         out[j] = val
         return out
 
+    def check(self, structure: Structure, n_samples: int, dt: float) -> None:
+        n_samples, dt = _sample_checks(n_samples, dt)
+        try:
+            self._row(structure)
+        except InputError as exc:
+            raise _at("location", exc) from None
+        j0, j1 = self.window(dt)
+        if j1 <= j0:
+            raise _at("duration", InputError(
+                f"Pulse: a duration of {self.duration:g} s loads no sample at dt = {dt:g} s "
+                "(a sample is loaded when start <= t_j < start + duration, half a step "
+                "tolerance)"))
+        if j0 >= n_samples:
+            start = dt if self.start is None else self.start
+            raise _at("start", InputError(
+                f"Pulse: starts at {start:g} s, after the record's last sample at "
+                f"{(n_samples - 1) * dt:g} s (n_samples = {n_samples}, dt = {dt:g} s)"))
+
+    def _row(self, structure: Structure) -> int:
+        row = resolve_sensor(structure, self.location, by=self.by)
+        if structure.sensor_dofs[row] < 0:
+            raise InputError(
+                f"Pulse location {_describe(self.location, self.by)}: sensor {row} of "
+                f"structure {structure.name!r} is on a constrained point"
+            )
+        return row
+
     def sample(self, structure: Structure, n_samples: int, dt: float) -> np.ndarray:
         """The force matrix (n_sensors, n_samples) in lbf."""
         row = resolve_sensor(structure, self.location, by=self.by)
@@ -460,6 +544,12 @@ class ForceHistory(_Force):
             )
         return self.F.copy()
 
+    def check(self, structure: Structure, n_samples: int, dt: float) -> None:
+        try:
+            self.sample(structure, n_samples, dt)
+        except InputError as exc:
+            raise _at("F", exc) from None
+
     def to_dict(self) -> dict:
         return {"kind": self.kind, "F": self.F.tolist()}
 
@@ -490,6 +580,13 @@ class Combined(_Force):
     def sample(self, structure: Structure, n_samples: int, dt: float) -> np.ndarray:
         return sum(p.sample(structure, n_samples, dt) for p in self.parts)
 
+    def check(self, structure: Structure, n_samples: int, dt: float) -> None:
+        for i, p in enumerate(self.parts):
+            try:
+                p.check(structure, n_samples, dt)
+            except InputError as exc:
+                raise _at(f"parts[{i}]", exc) from None
+
     def to_dict(self) -> dict:
         return {"kind": self.kind, "parts": [p.to_dict() for p in self.parts]}
 
@@ -517,11 +614,14 @@ def excitation_from_dict(d: dict, *, structures: dict[str, Structure] | None = N
         name = d.pop("reference")
         if isinstance(name, Structure):
             d["reference"] = name
+        elif not isinstance(name, str):
+            raise _at("reference", InputError(
+                f"Excitation {kind!r}: expected the name of a structure, got {name!r}"))
         elif structures is None or name not in structures:
-            raise UnknownNameError(
+            raise _at("reference", UnknownNameError(
                 f"Excitation {kind!r}: reference structure {name!r} is not among the "
                 f"structures given ({sorted(structures or {})})"
-            )
+            ))
         else:
             d["reference"] = structures[name]
     try:
@@ -534,8 +634,23 @@ def excitation_from_dict(d: dict, *, structures: dict[str, Structure] | None = N
         if kind == "force_history":
             return ForceHistory(d.pop("F"), **d)
         if kind == "combined":
-            return Combined(*(excitation_from_dict(p, structures=structures)
-                              for p in d.pop("parts")))
+            parts = d.pop("parts")
+            if d:
+                raise TypeError(f"unexpected entries {sorted(d)}")
+            if not isinstance(parts, (list, tuple)):
+                raise _at("parts", InputError(
+                    f"Excitation 'combined': expected an array of force tables, got {parts!r}"))
+            built = []
+            for i, p in enumerate(parts):
+                try:
+                    built.append(excitation_from_dict(p, structures=structures))
+                except InputError as exc:
+                    raise _at(f"parts[{i}]", exc) from None
+            if any(not isinstance(b, _Force) for b in built):
+                raise _at("parts", InputError(
+                    "Excitation 'combined': every part must be a force (pulse, force_history, "
+                    "combined)"))
+            return Combined(*built)
     except KeyError as exc:
         raise InputError(f"Excitation {kind!r}: missing entry {exc}") from None
     except TypeError as exc:

@@ -13,7 +13,7 @@ Format (units inch, lbf, second)::
     source = "Allison (2007) §4.1.2"     # where the study comes from (free text)
     description = "..."                  # free text
     structures = ["lti_beam", "nl_beam"] # names (structures/ folders) or paths to .toml files
-    n_samples = 500                      # samples per record, t_j = j·dt, j = 0 … n−1
+    n_samples = 500                      # samples per record, t_j = j·dt, j = 0 … n−1 (<= 10⁷)
     dt = 1.0e-4                          # s
     engine = "newmark"                   # optional: "newmark" (default) or "exudyn"
     targets = ["load5"]                  # cases every reported method predicts
@@ -65,6 +65,7 @@ import dataclasses
 import hashlib
 import inspect
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -94,7 +95,13 @@ BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
 :data:`podbench.methods.BUILTIN_METHODS`)."""
 
 CLAIMS_FILE = "claims.toml"
+MAX_SAMPLES = 10_000_000
+"""Largest ``scenario.n_samples`` (a record of 10⁷ samples on 48 sensors is 3.8 GB per
+matrix): a larger value is a typo, refused before anything is allocated."""
 _EXCITATION_KEYS = ("initial_displacement", "initial_velocity", "force")
+_EXCITATION_KINDS = {"initial_displacement": ("static_displacement",),
+                     "initial_velocity": ("impulse_velocity",),
+                     "force": ("pulse", "force_history", "combined")}
 ENGINES = ("newmark", "exudyn")
 NOISE_QUANTITIES = ("W", "F", "w0", "v0")
 """Training quantities a sweep may add noise to (displacements, forces, initial profiles)."""
@@ -110,6 +117,15 @@ class Case:
     initial_velocity: dict | None = None
     force: tuple[dict, ...] = ()
     description: str = ""
+    force_fields: tuple[str, ...] = ()
+    """Field of each force inside the case's table: ``force`` (one table) or ``force[i]``."""
+
+    def excitation_fields(self) -> list[tuple[str, dict]]:
+        """``(field, table)`` of every excitation, the field relative to ``cases.<name>``."""
+        out = [(k, getattr(self, k)) for k in ("initial_displacement", "initial_velocity")
+               if getattr(self, k) is not None]
+        names = self.force_fields or tuple(f"force[{i}]" for i in range(len(self.force)))
+        return out + list(zip(names, self.force, strict=True))
 
     def spec(self) -> dict:
         """A JSON-able description (used in cache keys)."""
@@ -210,6 +226,10 @@ def _excitation(t: Table, key: str, *, many: bool):
         if "kind" not in item or not isinstance(item["kind"], str):
             t.fail(where, "the excitation table needs a `kind` string (static_displacement, "
                           "impulse_velocity, pulse, force_history, combined)")
+        kinds = _EXCITATION_KINDS[key]
+        if item["kind"] not in kinds:
+            t.fail(f"{where}.kind", f'expected {" or ".join(map(repr, kinds))} for `{key}`, '
+                                    f'got "{item["kind"]}"')
         out.append(dict(item))
     return tuple(out) if many else out[0]
 
@@ -234,6 +254,8 @@ def load_scenario(path) -> Scenario:
         raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioFileError(f"{shown}: not UTF-8 text ({exc})") from None
+    except OSError as exc:
+        raise ScenarioFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
     try:
         return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest())
     except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
@@ -254,8 +276,10 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
         sc.fail("structures", "expected at least one structure")
     if len(set(structures)) != len(structures):
         sc.fail("structures", f"a structure is listed twice: {structures}")
-    n_samples = sc.integer("n_samples", minimum=2)
+    n_samples = sc.integer("n_samples", minimum=2, maximum=MAX_SAMPLES)
     dt = sc.number("dt", positive=True)
+    if not math.isfinite(n_samples * dt * 1e6):  # room for products like ω²·t² downstream
+        sc.fail("dt", f"{dt!r} s times n_samples = {n_samples} is not a finite record length")
     engine = sc.string("engine", "newmark", choices=ENGINES)
     targets = sc.strings("targets")
     if not targets:
@@ -266,12 +290,15 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
     cases = {}
     for cname in list(cases_t.data):
         ct = cases_t.table(cname, required=True)
+        force = _excitation(ct, "force", many=True)
         case = Case(
             name=cname,
             initial_displacement=_excitation(ct, "initial_displacement", many=False),
             initial_velocity=_excitation(ct, "initial_velocity", many=False),
-            force=_excitation(ct, "force", many=True),
+            force=force,
             description=ct.string("description", "", nonempty=False),
+            force_fields=tuple(f"force[{i}]" if isinstance(ct.data["force"], list) else "force"
+                               for i in range(len(force))),
         )
         if case.initial_displacement is None and case.initial_velocity is None and not case.force:
             ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS))

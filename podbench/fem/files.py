@@ -69,6 +69,7 @@ __all__ = [
     "find_structure",
     "load_structure",
     "build_structure",
+    "check_structure_matrices",
 ]
 
 #: The unit system every structure file must declare (``units = "inch, lbf, second"``).
@@ -216,8 +217,10 @@ def load_structure(name_or_path, *, search_path=None) -> Structure:
             spec = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise StructureFileError(f"{shown}: TOML syntax error: {exc}") from None
-    except UnicodeDecodeError as exc:  # pragma: no cover - tomllib reports most of these
+    except UnicodeDecodeError as exc:
         raise StructureFileError(f"{shown}: not UTF-8 text ({exc})") from None
+    except OSError as exc:
+        raise StructureFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
     return build_structure(spec, source=str(path))
 
 
@@ -254,6 +257,8 @@ def build_structure(spec: dict, *, source: str = "") -> Structure:
                       source=str(source))
     try:
         structure = _KINDS[kind](top, ctx)
+        if kind not in ("matrices", "python"):  # those check each matrix where it is read
+            check_structure_matrices(structure, f"the {kind} built from this file has")
     except StructureFileError:
         raise
     except InputError as exc:
@@ -264,6 +269,28 @@ def build_structure(spec: dict, *, source: str = "") -> Structure:
     meta.setdefault("kind", kind)
     return replace(structure, name=name, description=ctx.description, source=ctx.source,
                    metadata=meta)
+
+
+def check_structure_matrices(structure: Structure, label: str) -> None:
+    """Check that ``M`` is symmetric positive definite and ``K`` (initially and after every
+    stiffness event), ``C`` symmetric positive semi-definite (see
+    :func:`podbench.fem.matrices.check_definite`); ``label`` starts the message
+    (e.g. ``"the chain built from this file has"``).
+
+    Raises
+    ------
+    InputError
+        ``"<label> K: not positive semi-definite (smallest eigenvalue ...)"``.
+    """
+    from .matrices import check_definite
+
+    check_definite(structure.M, f"{label} M", semi=False)
+    check_definite(structure.K, f"{label} K", semi=True)
+    if structure.events:
+        check_definite(structure.stiffness(float("inf")), f"{label} K after its stiffness "
+                       "events", semi=True)
+    if structure.C is not None:
+        check_definite(structure.C, f"{label} C", semi=True)
 
 
 # ---------------------------------------------------------------------------- shared readers
@@ -480,7 +507,8 @@ def _matrices(top: Table, ctx: SpecContext) -> Structure:
             n = checked["M"].shape[0] if key != "M" else None
             try:
                 checked[key] = check_matrix(A, where, n=n, symmetry_rtol=rtol,
-                                            positive_definite=(key == "M"))
+                                            positive_definite=(key == "M"),
+                                            positive_semidefinite=(key != "M"))
             except InputError as exc:
                 fail(ctx.file, None, str(exc))
     n = checked["M"].shape[0]
@@ -555,6 +583,10 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
         top.fail("builder", f"{target} raised {type(exc).__name__}: {exc}")
 
     if isinstance(result, Structure):
+        try:
+            check_structure_matrices(result, f"{target} returned a Structure with")
+        except InputError as exc:
+            top.fail("builder", str(exc))
         return result
     if not isinstance(result, Mapping):
         top.fail("builder", f"{target} must return a Structure or a dict with M, K (and "

@@ -27,13 +27,14 @@ from ..dynamics import simulate
 from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
 from ..excitations import excitation_from_dict
 from ..fem import load_structure
+from ..fem.files import _display
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from .cache import TruthCache, structure_fingerprint
 from .estimators import all_cases, build_estimator, is_user_method, training_records
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 
-__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy"]
+__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy", "check_cases"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
            *NORM_COLUMNS, "status")
@@ -106,22 +107,90 @@ def _structure_search(scenario: Scenario) -> list[Path]:
     return [scenario.folder, scenario.folder / "structures", Path.cwd() / "structures"]
 
 
-def resolve_structure(entry: str, scenario: Scenario):
-    """Load a structure named in a scenario (a name, or a path relative to the file)."""
+def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.structures"):
+    """Load a structure named in a scenario (a name, or a path relative to the file).
+
+    ``field`` is the scenario field that names it (shown in the error message).
+    """
     if entry.endswith(".toml") and not os.path.isabs(entry):
         entry = str(scenario.folder / entry)
+    if entry.endswith(".toml") and not os.path.isfile(entry):
+        raise ScenarioFileError(f"{_display(scenario.path)}: field `{field}`: {entry}: no such "
+                                "structure file")
     try:
         return load_structure(entry, search_path=_structure_search(scenario))
     except UnknownNameError as exc:
-        raise ScenarioFileError(f"{scenario.path}: field `scenario.structures`: {exc}") from None
+        raise ScenarioFileError(f"{_display(scenario.path)}: field `{field}`: {exc}") from None
 
 
-def _references(case) -> set[str]:
-    refs = set()
-    for d in (case.initial_displacement, case.initial_velocity, *case.force):
-        if isinstance(d, dict) and "reference" in d:
-            refs.add(d["reference"])
+def _references(case) -> dict[str, str]:
+    """Names of the reference structures of a case's excitations, each with the field that
+    names it first (``cases.<case>.<key>.reference``)."""
+    refs: dict[str, str] = {}
+    for key, d in case.excitation_fields():
+        if isinstance(d, dict) and isinstance(d.get("reference"), str):
+            refs.setdefault(d["reference"], f"cases.{case.name}.{key}.reference")
     return refs
+
+
+def _case_error(scenario: Scenario, case: str, key: str, exc: Exception,
+                structure: str = "") -> ScenarioFileError:
+    """The one-line error for the excitation ``key`` of ``case``; an ``exc.field`` (set by
+    :mod:`podbench.excitations`) is appended to the dotted field."""
+    inner = getattr(exc, "field", None)
+    path = f"cases.{case}.{key}" + (f".{inner}" if inner else "")
+    on = f" on {structure}" if structure else ""
+    msg = " ".join(str(exc).split())
+    return ScenarioFileError(f"{_display(scenario.path)}: field `{path}`{on}: {msg}")
+
+
+def _build_case(scenario: Scenario, case: str, refs: dict) -> list[tuple[str, object]]:
+    """``(key, excitation)`` of every excitation of ``case`` (``refs``: name → Structure)."""
+    out = []
+    for key, d in scenario.cases[case].excitation_fields():
+        try:
+            out.append((key, excitation_from_dict(d, structures=refs)))
+        except PodbenchError as exc:
+            raise _case_error(scenario, case, key, exc) from None
+    return out
+
+
+def _check_built(scenario: Scenario, case: str, built, structure) -> None:
+    """Check the built excitations of ``case`` against ``structure`` (no solve, no run)."""
+    for key, exc in built:
+        try:
+            if key.startswith("force"):
+                exc.check(structure, scenario.n_samples, scenario.dt)
+            else:
+                exc.check(structure)
+        except PodbenchError as err:
+            raise _case_error(scenario, case, key, err, structure.name) from None
+
+
+def check_cases(scenario: Scenario, structure, loaded: dict | None = None) -> None:
+    """Check every case's excitations against ``structure`` before anything is simulated:
+    kinds and entries, reference structures (``cases.<case>.<key>.reference``), load
+    locations (on the structure or its reference), pulse windows inside the record,
+    force-history shapes.
+
+    ``loaded`` caches reference structures by name across calls (one scenario).
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the scenario file, the dotted field and the structure.
+    """
+    loaded = {} if loaded is None else loaded
+    for cname, case in scenario.cases.items():
+        refs = {}
+        for name, fld in sorted(_references(case).items()):
+            if name == structure.name:
+                refs[name] = structure
+                continue
+            if name not in loaded:
+                loaded[name] = resolve_structure(name, scenario, field=fld)
+            refs[name] = loaded[name]
+        _check_built(scenario, cname, _build_case(scenario, cname, refs), structure)
 
 
 class _Truth:
@@ -148,12 +217,12 @@ class _Truth:
                                      self.structure.name, case_name)
         return self._noisy[key]
 
-    def _reference(self, name: str):
+    def _reference(self, name: str, field: str):
         if name not in self._refs:
             if name == self.structure.name:
                 self._refs[name] = self.structure
             else:
-                self._refs[name] = resolve_structure(name, self.scenario)
+                self._refs[name] = resolve_structure(name, self.scenario, field=field)
         return self._refs[name]
 
     def get(self, case_name: str, linear: bool = False) -> Response:
@@ -162,16 +231,13 @@ class _Truth:
             return self._store[key]
         sc, case = self.scenario, self.scenario.cases[case_name]
         s = self.structure.linear_twin() if linear else self.structure
-        refs = {n: self._reference(n) for n in sorted(_references(case))}
-        where = f"{sc.path}: case `{case_name}`"
-        try:
-            ic_d = (excitation_from_dict(case.initial_displacement, structures=refs)
-                    if case.initial_displacement else None)
-            ic_v = (excitation_from_dict(case.initial_velocity, structures=refs)
-                    if case.initial_velocity else None)
-            forces = [excitation_from_dict(f, structures=refs) for f in case.force]
-        except PodbenchError as exc:
-            raise ScenarioFileError(f"{where}: {exc}") from None
+        refs = {n: self._reference(n, f) for n, f in sorted(_references(case).items())}
+        where = f"{_display(sc.path)}: case `{case_name}`"
+        built = _build_case(sc, case_name, refs)
+        _check_built(sc, case_name, built, s)
+        ic_d = next((e for k, e in built if k == "initial_displacement"), None)
+        ic_v = next((e for k, e in built if k == "initial_velocity"), None)
+        forces = [e for k, e in built if k.startswith("force")]
         ckey = TruthCache.key(
             structure=structure_fingerprint(s),
             refs={n: structure_fingerprint(r) for n, r in refs.items()},
@@ -337,8 +403,12 @@ def plan(paths) -> list[tuple[Path, str]]:
     units = []
     for p in paths:
         sc = load_scenario(p)
-        for entry in sc.structures:
-            resolve_structure(entry, sc)  # fail early, in the parent, on unknown names
+        loaded: dict = {}
+        for i, entry in enumerate(sc.structures):
+            # fail early, in the parent, before anything is simulated: unknown names,
+            # malformed structure files, excitations that do not fit the structure
+            structure = resolve_structure(entry, sc, field=f"scenario.structures[{i}]")
+            check_cases(sc, structure, loaded)
             units.append((Path(p), entry))
     return units
 

@@ -55,7 +55,7 @@ from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS
 from .report import table_csv
-from .runner import NoiseSpec, resolve_structure, run_unit
+from .runner import NoiseSpec, check_cases, resolve_structure, run_unit
 
 __all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", "sweep_table",
            "sweep_markdown", "write_sweep", "sweep_axes"]
@@ -133,8 +133,11 @@ def plan_sweep(paths, *, cache_dir=None, engine=None, **axes) -> tuple[dict, lis
             raise ScenarioFileError(f"{p}: a second scenario named {sc.name!r}")
         scenarios[sc.name] = sc
         ax = sweep_axes(sc, **axes)
-        for entry in sc.structures:
-            resolve_structure(entry, sc)  # unknown names fail here, in the parent
+        loaded: dict = {}
+        for i, entry in enumerate(sc.structures):
+            # unknown names, bad structure files and excitations fail here, in the parent
+            check_cases(sc, resolve_structure(entry, sc, field=f"scenario.structures[{i}]"),
+                        loaded)
             for level in ax.noise:
                 for k in ax.n_modes or (None,):
                     for seed in ax.seeds:

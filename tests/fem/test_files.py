@@ -206,3 +206,69 @@ def test_malformed_truss_files(tmp_path):
         assert bad != text
         with pytest.raises(StructureFileError, match=match):
             load_structure(write(tmp_path, bad))
+
+
+# ---------------------------------------------------------------------------- definiteness
+def _matrices_file(tmp_path, **arrays):
+    np.savez(tmp_path / "sys.npz", **arrays)
+    return write(tmp_path, '# Units: inch, lbf, second\nname = "foo"\nkind = "matrices"\n'
+                 'units = "inch, lbf, second"\ndescription = "test"\n\n[matrices]\n'
+                 'file = "sys.npz"\nsensor_dofs = "all"\n')
+
+
+def test_an_indefinite_stiffness_is_refused_at_load_naming_file_field_and_eigenvalue(tmp_path):
+    # K = [[2, -3], [-3, 2]] has eigenvalues -1 and 5: indefinite
+    p = _matrices_file(tmp_path, M=np.eye(2), K=np.array([[2.0, -3.0], [-3.0, 2.0]]))
+    with pytest.raises(StructureFileError) as e:
+        load_structure(p)
+    msg = str(e.value)
+    assert "foo.toml: field `matrices.file`: matrix K" in msg and "\n" not in msg
+    assert "not positive semi-definite (smallest eigenvalue -1," in msg
+
+
+def test_an_indefinite_damping_matrix_and_a_builder_result_are_refused(tmp_path):
+    p = _matrices_file(tmp_path, M=np.eye(2), K=np.eye(2), C=np.diag([1.0, -0.5]))
+    with pytest.raises(StructureFileError, match=r"matrix C .*smallest eigenvalue -0\.5"):
+        load_structure(p)
+    (tmp_path / "bad_builder.py").write_text(
+        "import numpy as np\n"
+        "def build():\n    return {'M': np.eye(3), 'K': -np.eye(3)}\n")
+    q = write(tmp_path, '# Units: inch, lbf, second\nname = "foo"\nkind = "python"\n'
+              'units = "inch, lbf, second"\ndescription = "test"\n'
+              'builder = "bad_builder:build"\npath = "bad_builder.py"\n')
+    with pytest.raises(StructureFileError,
+                       match=r"foo\.toml: bad_builder:build returned K: not positive "
+                             r"semi-definite \(smallest eigenvalue -1"):
+        load_structure(q)
+
+
+def test_singular_stiffness_passes_and_the_shipped_structures_are_definite(tmp_path):
+    # a free-free spring (rigid-body mode, eigenvalues 0 and 2e6): semi-definite is enough
+    p = _matrices_file(tmp_path, M=np.eye(2), K=1e6 * np.array([[1.0, -1.0], [-1.0, 1.0]]))
+    assert load_structure(p).n_dofs == 2
+    for name in ("satellite_truss", "lti_beam", "ltv_beam", "nl_beam", "chain_coupled"):
+        load_structure(name)  # the truss's K after the fracture is singular: it passes
+
+
+def test_sparse_definiteness_check_agrees_with_the_eigenvalues():
+    import scipy.sparse as sp
+
+    from podbench.errors import InputError
+    from podbench.fem.chain import chain
+    from podbench.fem.matrices import check_definite
+
+    n = 1200  # above the dense limit: the sparse LDLᵀ inertia decides
+    K = chain(n, boundary="fixed-free").K
+    check_definite(K, "K", semi=True)
+    check_definite(K, "K", semi=False)
+    free = K.tolil()
+    free[0, 0] = 1.0  # ungrounded: singular, eigenvalue 0
+    check_definite(free.tocsr(), "K", semi=True)
+    with pytest.raises(InputError, match="not positive definite"):
+        check_definite(free.tocsr(), "K", semi=False)
+    # two eigenvalues pushed below zero: the inertia counts them
+    bad = (free - sp.diags(np.r_[np.zeros(n - 2), 5.0, 5.0])).tocsr()
+    lam = np.linalg.eigvalsh(bad.toarray())
+    assert (lam < 0).sum() == 2
+    with pytest.raises(InputError, match=r"K: not positive semi-definite \(2 eigenvalue\(s\)"):
+        check_definite(bad, "K", semi=True)

@@ -128,3 +128,219 @@ def test_list_shows_structures_scenarios_methods(capsys, monkeypatch):
     for name in ("lti_beam", "satellite_truss", "beam_forced", "truss_free_velocity", "POVR",
                  "MR", "module:Class", "tls"):
         assert name in out
+
+
+# ---------------------------------------------------------------------------- early, one line
+def _one_line_error(capsys, code=2):
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    return err
+
+
+def _nothing_done(tmp_path):
+    """No cache entry (nothing simulated) and no output folder (nothing written)."""
+    cache = tmp_path / "cache"
+    assert not cache.exists() or not any(cache.rglob("*"))
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_load_off_the_beam_names_file_case_and_field_before_any_simulation(
+        write_scenario, tmp_path, capsys, monkeypatch):
+    from conftest import NL_BEAM
+
+    monkeypatch.chdir(tmp_path)
+    p = write_scenario(NL_BEAM.replace("[[8.0, -300.0]]", "[[30.0, -300.0]]"), "nl")
+    args = ["run", str(p), "--cache", str(tmp_path / "cache"), "--out", str(tmp_path / "out")]
+    assert cli.main(args + ["-q"]) == 2
+    err = _one_line_error(capsys)
+    assert "nl.toml: field `cases.w2.initial_displacement.loads[0]` on lti_beam:" in err
+    assert "30.0 in is off the structure 'lti_beam' (sensor positions 0 … 24 in)" in err
+    _nothing_done(tmp_path)
+
+
+@pytest.mark.parametrize("edit, field", [
+    (('reference = "lti_beam" }}\n[cases.w1]', 'reference = "lti_bem" }}\n[cases.w1]'),
+     "cases.w0.initial_displacement.reference"),
+    (('[[24.0, 100.0]], reference = "lti_beam"', '[[24.0, 100.0]], reference = 3'),
+     "cases.w1.initial_displacement.reference"),
+    (('[[24.0, 100.0]], reference = "lti_beam"', '[[24.0, 100.0]], reference = "chain_ideal"'),
+     "cases.w1.initial_displacement.reference"),             # 5 DOFs, the beams have 48
+    (('kind = "static_displacement", loads = [[8.0',
+      'kind = "impulse_velocity", loads = [[8.0'), "cases.w2.initial_displacement.kind"),
+])
+def test_a_bad_reference_or_kind_names_its_own_field(write_scenario, tmp_path, capsys,
+                                                     monkeypatch, edit, field):
+    from conftest import NL_BEAM
+
+    monkeypatch.chdir(tmp_path)
+    text = NL_BEAM.replace(*edit)
+    assert text != NL_BEAM
+    p = write_scenario(text, "nl")
+    assert cli.main(["run", str(p), "-q", "--cache", str(tmp_path / "cache"),
+                     "--out", str(tmp_path / "out")]) == 2
+    assert f"nl.toml: field `{field}`" in _one_line_error(capsys)
+    _nothing_done(tmp_path)
+
+
+@pytest.mark.parametrize("force, field, needle", [
+    ('{ kind = "pulse", location = 2, amplitude = 1.0, duration = 0.02, by = "dof", '
+     'start = 9.0 }', "cases.f1.force.start", "after the record's last sample at 0.476 s"),
+    ('{ kind = "pulse", location = 2, amplitude = 1.0, duration = 1e-4, by = "dof" }',
+     "cases.f1.force.duration", "loads no sample"),
+    ('[{ kind = "pulse", location = 2, amplitude = 1.0, duration = 0.02, by = "dof" }, '
+     '{ kind = "force_history", F = [[1.0, 2.0]] }]', "cases.f1.force[1].F",
+     "expected shape (5, 120)"),
+    ('{ kind = "combined", parts = [{ kind = "pulse", location = "m9", amplitude = 1.0, '
+     'duration = 0.02 }] }', "cases.f1.force.parts[0].location", "'m9'"),
+])
+def test_forces_are_checked_against_the_record_at_plan_time(write_scenario, tmp_path, capsys,
+                                                            monkeypatch, force, field, needle):
+    monkeypatch.chdir(tmp_path)
+    old = ('force = {{ kind = "pulse", location = 4, amplitude = 1.0, duration = 0.02, '
+           'by = "dof" }}')
+    assert old in CHAIN_FORCED
+    p = write_scenario(CHAIN_FORCED.replace(old, "force = " + force.replace("{", "{{")
+                                            .replace("}", "}}")), "cf")
+    assert cli.main(["run", str(p), "-q", "--cache", str(tmp_path / "cache"),
+                     "--out", str(tmp_path / "out")]) == 2
+    err = _one_line_error(capsys)
+    assert f"cf.toml: field `{field}` on chain_coupled" in err and needle in err
+    _nothing_done(tmp_path)
+
+
+@pytest.mark.parametrize("option", ["--cache", "--out"])
+@pytest.mark.parametrize("where", ["file", "under_file", "foreign_folder"])
+def test_cache_and_out_are_checked_before_any_work(study, tmp_path, capsys, option, where):
+    blocker = tmp_path / "a_file.txt"
+    blocker.write_text("precious\n")
+    foreign = tmp_path / "home"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("precious\n")
+    path = {"file": blocker, "under_file": blocker / "sub", "foreign_folder": foreign}[where]
+    args = {"--cache": str(tmp_path / "cache"), "--out": str(tmp_path / "out"), option: str(path)}
+    code = cli.main(["run", str(study), "-q", "--no-figures", "--cache", args["--cache"],
+                     "--out", args["--out"]])
+    if option == "--cache" and where == "foreign_folder":
+        assert code == 0  # a cache may live in any folder; it only adds entries
+        return
+    assert code == 2
+    err = _one_line_error(capsys)
+    assert f"{option} {path}" in err
+    assert blocker.read_text() == "precious\n" and (foreign / "notes.txt").read_text() == (
+        "precious\n") and sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]
+    _nothing_done(tmp_path)
+
+
+def test_out_may_be_new_empty_or_a_previous_output(study, tmp_path):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    for out in (tmp_path / "new" / "deeper", empty, empty):  # the third: a previous output
+        assert cli.main(["run", str(study), "-q", "--no-figures", "--no-cache",
+                         "--out", str(out)]) == 0
+        assert (out / "summary.csv").is_file()
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "geteuid") or __import__("os").geteuid() == 0,
+                    reason="root can write anywhere")
+def test_an_unwritable_cache_is_refused(study, tmp_path, capsys):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        assert cli.main(["run", str(study), "-q", "--cache", str(ro / "c"),
+                         "--out", str(tmp_path / "out")]) == 2
+        assert "is not writable" in _one_line_error(capsys)
+    finally:
+        ro.chmod(0o700)
+
+
+@pytest.mark.parametrize("argv", [
+    ["regress", "--rtol", "-0.01"], ["regress", "--atol", "-1e-6"], ["regress", "--rtol", "nan"],
+    ["regress", "--atol", "inf"], ["run", "--jobs", "-2"], ["run", "--jobs", "two"],
+    ["sweep", "--noise", "nan"], ["sweep", "--noise", "0.01,0.01"], ["sweep", "--seeds", "-1"],
+    ["sweep", "--seeds", "0-99999999"], ["sweep", "--n-modes", "0"], ["sweep", "--n-modes", "3,3"],
+    ["sweep", "--jobs", "0"], ["run", "--engine", "euler"],
+])
+def test_numeric_options_are_validated_before_any_work(study, tmp_path, capsys, argv):
+    base = tmp_path / "baseline.csv"
+    if argv[0] == "regress":
+        assert cli.main(["regress", str(study), "-q", "--baseline", str(base), "--update",
+                         "--cache", str(tmp_path / "c0")]) == 0
+        capsys.readouterr()
+        argv = [*argv, "--baseline", str(base)]
+    assert cli.main([*argv, str(study), "-q", "--cache", str(tmp_path / "cache")]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith(f"podbench {argv[0]}: error:") and argv[1] in err
+    assert not (tmp_path / "cache").exists()
+
+
+def test_an_unchanged_table_is_no_regression_at_zero_tolerance(study, tmp_path, capsys):
+    base = tmp_path / "baseline.csv"
+    common = [str(study), "-q", "--baseline", str(base), "--no-cache"]
+    assert cli.main(["regress", *common, "--update"]) == 0
+    assert cli.main(["regress", "--table", str(base), "--baseline", str(base),
+                     "--rtol", "0", "--atol", "0"]) == 0
+    assert "no error got worse" in capsys.readouterr().out
+
+
+def test_os_errors_exit_2_and_bugs_exit_3_on_one_line(study, tmp_path, capsys, monkeypatch):
+    from podbench.harness import runner
+
+    def denied(*a, **k):
+        raise PermissionError(13, "Permission denied", "/some/where/entry.npz")
+
+    monkeypatch.setattr(runner, "run_study", denied)
+    args = ["run", str(study), "-q", "--out", str(tmp_path / "out")]
+    assert cli.main(args) == 2
+    assert "error: /some/where/entry.npz: Permission denied" in _one_line_error(capsys)
+
+    def bug(*a, **k):
+        raise ValueError("something podbench did not expect")
+
+    monkeypatch.setattr(runner, "run_study", bug)
+    assert cli.main(args) == 3
+    err = _one_line_error(capsys)
+    assert err.startswith("podbench run: internal error: ValueError: something podbench did "
+                          "not expect (this is a bug; rerun with --debug")
+    assert cli.main([*args, "--debug"]) == 3
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "in bug" in err
+
+
+@pytest.mark.parametrize("content", [b"\xff\xfe not utf-8 \x00", b"", "dir"])
+def test_unreadable_scenario_files_are_one_line(tmp_path, capsys, content):
+    p = tmp_path / "scen.toml"
+    if content == "dir":
+        p.mkdir()
+        (p / "inner.toml").write_bytes(b"")
+    else:
+        p.write_bytes(content)
+    assert cli.main(["run", str(p), "-q", "--out", str(tmp_path / "out"),
+                     "--cache", str(tmp_path / "cache")]) == 2
+    err = _one_line_error(capsys)
+    assert "scen.toml" in err
+    _nothing_done(tmp_path)
+
+
+def test_a_structure_file_that_is_not_utf8_is_one_line(write_scenario, tmp_path, capsys,
+                                                       monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scenarios").mkdir(exist_ok=True)
+    (tmp_path / "scenarios" / "bad_structure.toml").write_bytes(b"name = \"\xff\"\n")
+    p = write_scenario(CHAIN_FREE.replace('structures = ["chain_coupled"]',
+                                          'structures = ["bad_structure.toml"]'), "cf")
+    assert cli.main(["run", str(p), "-q", "--out", str(tmp_path / "out"),
+                     "--cache", str(tmp_path / "cache")]) == 2
+    assert "bad_structure.toml: not UTF-8 text" in _one_line_error(capsys)
+
+
+def test_sweep_refuses_a_foreign_scenario_folder_under_out(study, tmp_path, capsys):
+    foreign = tmp_path / "res" / "chain_free"
+    foreign.mkdir(parents=True)
+    (foreign / "notes.txt").write_text("precious\n")
+    assert cli.main(["sweep", str(study / "chain_free.toml"), "-q", "--out",
+                     str(tmp_path / "res"), "--cache", str(tmp_path / "cache")]) == 2
+    err = _one_line_error(capsys)
+    assert "--out" in err and "not a podbench output (no sweep.csv in it)" in err
+    assert sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]
+    assert not (tmp_path / "cache").exists()

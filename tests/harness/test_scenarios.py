@@ -88,5 +88,6 @@ def test_unknown_structure_and_bad_excitation_are_scenario_errors(write_scenario
         run_unit(p, "no_such_beam")
     p = write_scenario(CHAIN_FREE.replace("loads = [[4, 1.0]], by = \"dof\"",
                                           "loads = [[40, 1.0]], by = \"dof\""))
-    with pytest.raises(ScenarioFileError, match="case `x1`"):
+    with pytest.raises(ScenarioFileError,
+                       match=r"field `cases.x1.initial_displacement.loads\[0\]` on chain_coupled"):
         run_unit(p, "chain_coupled")
