@@ -38,6 +38,10 @@ __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
            *NORM_COLUMNS, "status")
+SWEEP_DIAGNOSTICS = ("solver_reg", "solver_iterations", "solver_amplification")
+"""Fit diagnostics (:attr:`podbench.methods.PODMethod.diagnostics_`) a sweep row carries:
+the Tikhonov parameter the solver chose, its iterations and the deconvolution's
+amplification ‖A‖‖X‖/‖B‖ (NaN for a method or solver without them)."""
 """Columns of ``summary.csv`` in order."""
 
 
@@ -336,11 +340,15 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             status = _failure(exc)
             for t in scenario.targets:
                 res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
+                                 **({k: float("nan") for k in SWEEP_DIAGNOSTICS}
+                                    if overrides is not None else {}),
                                  **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
             continue
         diag = getattr(est, "diagnostics_", None)
-        res.fits.append({**{k: v for k, v in base.items()}, **(diag if isinstance(diag, dict)
-                                                               else {})})
+        diag = diag if isinstance(diag, dict) else {}
+        res.fits.append({**base, **diag})
+        if overrides is not None:  # a sweep point: what the solver chose, on every row
+            base = {**base, **{k: diag.get(k, float("nan")) for k in SWEEP_DIAGNOSTICS}}
         U = getattr(est, "modes_", None)
         U = None if U is None else np.asarray(U, dtype=float)
         status = "ok"

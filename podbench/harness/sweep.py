@@ -55,18 +55,19 @@ from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS
 from .report import table_csv
-from .runner import NoiseSpec, check_cases, resolve_structure, run_unit
+from .runner import SWEEP_DIAGNOSTICS, NoiseSpec, check_cases, resolve_structure, run_unit
 
 __all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", "sweep_table",
            "sweep_markdown", "write_sweep", "sweep_axes"]
 
 SWEEP_COLUMNS = ("scenario", "structure", "method", "solver", "target", "noise", "modes",
-                 "seed", "n_modes", *ERROR_COLUMNS, *NORM_COLUMNS,
+                 "seed", "n_modes", *ERROR_COLUMNS, *NORM_COLUMNS, *SWEEP_DIAGNOSTICS,
                  "status")
 """Columns of ``sweep.csv``: ``noise`` (relative level), ``modes`` (the k axis; −1 when not
 swept), ``seed``, ``solver`` (the solver label; empty for a method that does not
 deconvolve) and ``n_modes`` (the k actually used, −1 for a failed fit), then the columns of
-``summary.csv``."""
+``summary.csv`` and what the fit's solver chose (:data:`~podbench.harness.runner.
+SWEEP_DIAGNOSTICS`: Tikhonov parameter, iterations, amplification)."""
 
 
 @dataclass(frozen=True)
