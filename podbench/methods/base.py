@@ -1,15 +1,17 @@
 """Base class and shared input checks of the POD-based identification methods.
 
-The methods follow the scikit-learn estimator contract:
+The methods follow the scikit-learn estimator contract over records (see
+:class:`PODMethod` for the whole contract):
 
 * ``__init__`` takes keyword-only hyperparameters and stores them unchanged;
-* ``fit(...)`` validates hyperparameters and data and returns ``self``;
+* ``fit(records, *, basis=None)`` validates hyperparameters and data and returns ``self``;
 * learned state ends in an underscore (``modes_``, ``povs_``, ``pocs_``, ``kernel_`` …);
-* ``predict(...)`` returns the predicted ``(m, n)`` displacement matrix and raises
+* ``predict(record)`` returns the predicted ``(m, n)`` displacement matrix and raises
   :class:`~podbench.errors.NotFittedError` before ``fit``.
 
-Methods see only NumPy arrays (snapshot matrices ``m × n``, force matrices at the same
-sensors and times, initial profiles, Δt); they know nothing of how the data were produced.
+Methods see only records (:class:`~podbench.records.Record`: snapshot matrices ``m × n``,
+force matrices at the same sensors and times, initial profiles, Δt); they know nothing of
+how the data were produced.
 """
 
 from __future__ import annotations

@@ -95,7 +95,6 @@ class SingleLoad(_ForcedMethod):
     tol : float
         ``fit`` raises :class:`IllConditionedError` if a modal force is too small to
         deconvolve: ``‖q_i‖ <= tol·‖F‖_F`` (default 1e-6; the load is orthogonal to a POM).
-
     max_growth : float
         ``fit`` raises :class:`IllConditionedError` when a deconvolution amplifies the data
         by more than this, ``‖A‖‖X‖/‖B‖ > max_growth`` (default 1e8, the ``"block"``
@@ -118,6 +117,8 @@ class SingleLoad(_ForcedMethod):
     """
 
     abbreviation = "SL"
+    excitation_kind = "forced"
+    n_records = (1, 1)
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
                  tol=1e-6, max_growth=1e8):
@@ -127,9 +128,6 @@ class SingleLoad(_ForcedMethod):
         self.solver_options = solver_options
         self.tol = tol
         self.max_growth = max_growth
-
-    excitation_kind = "forced"
-    n_records = (1, 1)
 
     def _validate_params(self) -> None:
         check_n_modes(self.n_modes)
@@ -297,6 +295,9 @@ class MultipleLoad(_ForcedMethod):
     """
 
     abbreviation = "ML"
+    excitation_kind = "forced"
+    coupled = True
+    records_per_mode = True
 
     def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
                  max_growth=1e8):
@@ -305,10 +306,6 @@ class MultipleLoad(_ForcedMethod):
         self.solver_options = solver_options
         self.max_cond = max_cond
         self.max_growth = max_growth
-
-    excitation_kind = "forced"
-    coupled = True
-    records_per_mode = True
 
     def _validate_params(self) -> None:
         check_n_modes(self.n_modes)

@@ -102,15 +102,14 @@ class POVR(PODMethod):
     """
 
     abbreviation = "POVR"
+    excitation_kind = "free"
+    n_records = (1, 1)
 
     def __init__(self, *, n_modes=None, excitation="displacement", energy=0.99, tol=1e-6):
         self.n_modes = n_modes
         self.excitation = excitation
         self.energy = energy
         self.tol = tol
-
-    excitation_kind = "free"
-    n_records = (1, 1)
 
     def _validate_params(self) -> None:
         check_choice(self.excitation, "excitation", _EXCITATIONS)
@@ -273,15 +272,14 @@ class MDS(PODMethod):
     """
 
     abbreviation = "MDS"
+    excitation_kind = "free"
+    coupled = True
+    records_per_mode = True
 
     def __init__(self, *, excitation="displacement", n_modes=None, max_cond=1e10):
         self.excitation = excitation
         self.n_modes = n_modes
         self.max_cond = max_cond
-
-    excitation_kind = "free"
-    coupled = True
-    records_per_mode = True
 
     def _validate_params(self) -> None:
         check_choice(self.excitation, "excitation", _EXCITATIONS)

@@ -142,6 +142,8 @@ class MixedResponse(PODMethod):
     """
 
     abbreviation = "MR"
+    excitation_kind = "mixed"
+    n_records = (3, 3)
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
                  velocity_scaling="ratio", tol=1e-6, max_growth=1e8):
@@ -152,9 +154,6 @@ class MixedResponse(PODMethod):
         self.velocity_scaling = velocity_scaling
         self.tol = tol
         self.max_growth = max_growth
-
-    excitation_kind = "mixed"
-    n_records = (3, 3)
 
     def _validate_params(self) -> None:
         check_n_modes(self.n_modes)
