@@ -264,8 +264,21 @@ def test_dask_local_cluster_gives_the_same_table(write_scenario):
     pytest.importorskip("distributed")
     from distributed import LocalCluster
 
-    p = sweep_file(write_scenario, SMALL)
+    # a user's solver class, named in the file, is imported where the scenario is read
+    p = sweep_file(write_scenario, SMALL.replace(
+        'solvers = ["ls", "tls"]',
+        'solvers = ["ls", "tls", {solver = "plain.py:Plain", label = "plain"}]'))
+    (p.parent / "plain.py").write_text(
+        "import numpy as np\n"
+        "from podbench.deconvolution import DenseSolver\n\n"
+        "class Plain(DenseSolver):\n"
+        "    name = 'plain'\n"
+        "    def _solve_matrix(self, A, B):\n"
+        "        return np.linalg.lstsq(A, B, rcond=None)[0]\n")
     _, serial = run_sweep([p])
+    assert set(serial["solver"]) >= {"ls", "tls", "plain"}
+    mine = serial[(serial.solver == "plain") & (serial.noise == 0)]
+    assert (mine.status == "ok").all() and len(mine) > 0
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp",
                       host="127.0.0.1", dashboard_address=None) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
