@@ -73,7 +73,7 @@ import tomllib
 
 from .deconvolution import make_solver
 from .errors import InputError, ScenarioFileError, StructureFileError
-from .fem._spec import Table
+from .fem._spec import MISSING, Table
 from .fem.files import _display
 
 __all__ = [
@@ -82,6 +82,7 @@ __all__ = [
     "MethodSpec",
     "Sweep",
     "SolverChoice",
+    "Variant",
     "load_scenario",
     "apply_overrides",
     "method_solver",
@@ -155,6 +156,17 @@ class MethodSpec:
 
 
 @dataclass(frozen=True)
+class Variant:
+    """A ``[variants.<name>]`` table: the structure ``structure`` with the dotted fields of
+    ``set`` replaced (e.g. ``{"tip_mass.mean": 0.1}``), named ``name`` in the tables."""
+
+    name: str
+    structure: str
+    set: dict = field(default_factory=dict)
+    description: str = ""
+
+
+@dataclass(frozen=True)
 class SolverChoice:
     """One entry of ``sweep.solvers``: a solver name, its options and the label shown."""
 
@@ -196,6 +208,11 @@ class Scenario:
     path: Path
     digest: str
     sweep: Sweep | None = None
+    variants: dict = field(default_factory=dict)
+    """``name -> Variant``: structures of this scenario built from a structure file with some
+    of its fields replaced (``[variants.<name>]``)."""
+    base: Path | None = None
+    """The scenario file this one inherits from (``scenario.base``), or None."""
 
     @property
     def folder(self) -> Path:
@@ -234,8 +251,8 @@ def _excitation(t: Table, key: str, *, many: bool):
     return tuple(out) if many else out[0]
 
 
-def load_scenario(path) -> Scenario:
-    """Read and validate one scenario file.
+def load_scenario(path, *, _stack: tuple = ()) -> Scenario:
+    """Read and validate one scenario file (and the file it inherits from, ``base``).
 
     Raises
     ------
@@ -257,38 +274,61 @@ def load_scenario(path) -> Scenario:
     except OSError as exc:
         raise ScenarioFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
     try:
-        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest())
+        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest(), _stack)
     except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
         raise ScenarioFileError(str(exc)) from None
 
 
-def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
+def _load_base(sc: Table, path: Path, rel: str, stack: tuple) -> Scenario:
+    """The scenario ``rel`` (relative to ``path``) that ``path`` inherits from."""
+    base_path = (path.parent / rel).resolve()
+    if base_path in stack or base_path == path.resolve():
+        sc.fail("base", f'"{rel}" inherits back from this file (a cycle)')
+    if not base_path.is_file():
+        sc.fail("base", f'no such scenario file "{rel}" (relative to this file)')
+    try:
+        return load_scenario(base_path, _stack=stack + (path.resolve(),))
+    except ScenarioFileError as exc:
+        sc.fail("base", f"the inherited scenario is not usable: {exc}")
+
+
+def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) -> Scenario:
     top = Table(doc, file=shown)
     sc = top.table("scenario", required=True)
     name = sc.string("name")
     if name != path.stem:
         sc.fail("name", f'"{name}" does not match the file name "{path.name}"')
-    title = sc.string("title")
-    source = sc.string("source", "")
-    description = sc.string("description", "", nonempty=False)
-    structures = sc.strings("structures")
+    base_rel = sc.string("base", None)
+    base = None if base_rel is None else _load_base(sc, path, base_rel, stack)
+
+    def inherited(attr):
+        return MISSING if base is None else getattr(base, attr)
+
+    title = sc.string("title", inherited("title"))
+    source = sc.string("source", "" if base is None else base.source)
+    description = sc.string("description", "" if base is None else base.description,
+                            nonempty=False)
+    structures = sc.strings("structures", MISSING if base is None else list(base.structures))
     if not structures:
         sc.fail("structures", "expected at least one structure")
     if len(set(structures)) != len(structures):
         sc.fail("structures", f"a structure is listed twice: {structures}")
-    n_samples = sc.integer("n_samples", minimum=2, maximum=MAX_SAMPLES)
-    dt = sc.number("dt", positive=True)
+    n_samples = sc.integer("n_samples", inherited("n_samples"), minimum=2, maximum=MAX_SAMPLES)
+    dt = sc.number("dt", inherited("dt"), positive=True)
     if not math.isfinite(n_samples * dt * 1e6):  # room for products like ω²·t² downstream
         sc.fail("dt", f"{dt!r} s times n_samples = {n_samples} is not a finite record length")
-    engine = sc.string("engine", "newmark", choices=ENGINES)
-    targets = sc.strings("targets")
+    engine = sc.string("engine", "newmark" if base is None else base.engine, choices=ENGINES)
+    targets = sc.strings("targets", MISSING if base is None else list(base.targets))
     if not targets:
         sc.fail("targets", "expected at least one target case")
     sc.close()
+    variants = {**(base.variants if base is not None else {}), **_parse_variants(top, structures)}
+    if base is not None:
+        digest = hashlib.sha256((digest + base.digest).encode("ascii")).hexdigest()
 
-    cases_t = top.table("cases", required=True)
-    cases = {}
-    for cname in list(cases_t.data):
+    cases_t = top.table("cases", required=base is None)
+    cases = {} if base is None else dict(base.cases)
+    for cname in list(cases_t.data if cases_t is not None else ()):
         ct = cases_t.table(cname, required=True)
         force = _excitation(ct, "force", many=True)
         case = Case(
@@ -304,7 +344,8 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
             ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS))
         ct.close()
         cases[cname] = case
-    cases_t.close()
+    if cases_t is not None:
+        cases_t.close()
 
     def check_case(t: Table, key: str, cname: str):
         if cname not in cases:
@@ -314,9 +355,14 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
         check_case(sc, f"targets[{i}]", tname)
 
     methods = []
-    mtables = top.tables("methods")
-    if not mtables:
+    mtables = top.tables("methods", [] if base is not None else MISSING)
+    if not mtables and base is None:
         top.fail("methods", "expected at least one [[methods]] entry")
+    if not mtables and base is not None:  # inherited, their cases checked against ours
+        methods = list(base.methods)
+        for i, m in enumerate(methods):
+            for j, c in enumerate(m.train):
+                check_case(top, f"methods[{i}].train[{j}] (inherited)", c)
     for mt in mtables:
         label = mt.string("label")
         method = mt.string("method")
@@ -365,14 +411,42 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
         top.fail("methods", "every method has report = false: nothing would be tabulated")
     _check_method_options(top, methods, path.parent)
     sweep_t = top.table("sweep")
-    sweep = None if sweep_t is None else _parse_sweep(sweep_t, path.parent)
+    sweep = (base.sweep if base is not None else None) if sweep_t is None \
+        else _parse_sweep(sweep_t, path.parent)
     top.close()
     return Scenario(
         name=name, title=title, source=source, description=description.strip(),
         structures=tuple(structures), n_samples=n_samples, dt=dt, engine=engine,
         targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
-        digest=digest, sweep=sweep,
+        digest=digest, sweep=sweep, variants=variants,
+        base=None if base is None else base.path,
     )
+
+
+def _parse_variants(top: Table, structures) -> dict:
+    """The ``[variants.<name>]`` tables: ``structure`` (a name or path), ``set`` (dotted
+    field → value; every field must exist in that file, checked when it is loaded),
+    ``description``. A variant's name may be listed in ``scenario.structures``."""
+    vt = top.table("variants")
+    out: dict[str, Variant] = {}
+    if vt is None:
+        return out
+    for vname in list(vt.data):
+        t = vt.table(vname, required=True)
+        structure = t.string("structure")
+        values = t.raw("set")
+        if not isinstance(values, dict) or not values:
+            t.fail("set", f"expected a table of dotted fields and values, got {values!r}")
+        for key, value in values.items():
+            if isinstance(value, dict):
+                t.fail(f"set.{key}", 'write nested fields as one dotted key in quotes, e.g. '
+                                     '"tip_mass.mean" = 0.1')
+        description = t.string("description", "", nonempty=False)
+        t.close()
+        out[vname] = Variant(name=vname, structure=structure, set=dict(values),
+                             description=description)
+    vt.close()
+    return out
 
 
 def _check_method_options(top: Table, methods, folder: Path) -> None:

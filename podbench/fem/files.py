@@ -192,7 +192,8 @@ def _display(path: Path) -> str:
     return str(path) if rel.startswith("..") else rel
 
 
-def load_structure(name_or_path, *, search_path=None) -> Structure:
+def load_structure(name_or_path, *, search_path=None, overrides=None,
+                   name: str | None = None) -> Structure:
     """Build the structure of a file, given its name (``"lti_beam"``) or its path.
 
     Parameters
@@ -202,6 +203,11 @@ def load_structure(name_or_path, *, search_path=None) -> Structure:
         files in sub-folders read ``"examples/my_builder"``) or the path of a ``.toml`` file.
     search_path : path or list of paths, optional
         Folders searched before ``PODBENCH_STRUCTURES`` and the repository's ``structures/``.
+    overrides : dict, optional
+        ``{"tip_mass.mean": 0.1, …}``: dotted fields of the file replaced before the
+        structure is built (a variant; every field must exist in the file).
+    name : str, optional
+        The name of the built structure (default the file's ``name``); a variant's name.
 
     Raises
     ------
@@ -221,7 +227,45 @@ def load_structure(name_or_path, *, search_path=None) -> Structure:
         raise StructureFileError(f"{shown}: not UTF-8 text ({exc})") from None
     except OSError as exc:
         raise StructureFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
-    return build_structure(spec, source=str(path))
+    if not overrides:
+        structure = build_structure(spec, source=str(path))
+    else:
+        structure = build_structure(_with_overrides(spec, overrides, shown), source=str(path))
+        shown_set = ", ".join(f"{k} = {v!r}" for k, v in overrides.items())
+        structure = replace(structure, description=f"{structure.description}\n"
+                                                   f"Variant: {shown_set}.")
+    if name is not None and name != structure.name:
+        structure = replace(structure, name=name)
+    return structure
+
+
+def _with_overrides(spec: dict, overrides: dict, shown: str) -> dict:
+    """A copy of ``spec`` with the dotted fields of ``overrides`` replaced; each field must
+    exist already (a misspelt field would otherwise be a silent no-op) and keep its type
+    family (number for number, string for string, …)."""
+    import copy
+
+    out = copy.deepcopy(spec)
+    for dotted, value in overrides.items():
+        keys = str(dotted).split(".")
+        node = out
+        for k in keys[:-1]:
+            node = node.get(k) if isinstance(node, dict) else None
+            if not isinstance(node, dict):
+                break
+        if not isinstance(node, dict) or keys[-1] not in node:
+            raise StructureFileError(f"{shown}: a variant sets `{dotted}`, which this file "
+                                     "does not have (only existing fields can be replaced)")
+        old = node[keys[-1]]
+        number = (int, float)
+        same = (isinstance(old, number) and isinstance(value, number)
+                and not isinstance(old, bool) and not isinstance(value, bool)) \
+            or type(old) is type(value)
+        if not same:
+            raise StructureFileError(f"{shown}: a variant sets `{dotted}` to {value!r}, but the "
+                                     f"file's value {old!r} is of another type")
+        node[keys[-1]] = value
+    return out
 
 
 def build_structure(spec: dict, *, source: str = "") -> Structure:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..data import Response, displacement_norm, norm_percent_error
 from ..dynamics import simulate
-from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
+from ..errors import PodbenchError, ScenarioFileError, StructureFileError, UnknownNameError
 from ..excitations import excitation_from_dict
 from ..fem import load_structure
 from ..fem.files import _display
@@ -116,6 +116,20 @@ def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.str
 
     ``field`` is the scenario field that names it (shown in the error message).
     """
+    variant = scenario.variants.get(entry)
+    if variant is not None:  # a structure file with some fields replaced, renamed
+        base_entry = variant.structure
+        if base_entry.endswith(".toml") and not os.path.isabs(base_entry):
+            base_entry = str(scenario.folder / base_entry)
+        shown = _display(scenario.path)
+        try:
+            return load_structure(base_entry, search_path=_structure_search(scenario),
+                                  overrides=variant.set, name=entry)
+        except UnknownNameError as exc:
+            raise ScenarioFileError(f"{shown}: field `variants.{entry}.structure`: {exc}") \
+                from None
+        except StructureFileError as exc:
+            raise ScenarioFileError(f"{shown}: field `variants.{entry}.set`: {exc}") from None
     if entry.endswith(".toml") and not os.path.isabs(entry):
         entry = str(scenario.folder / entry)
     if entry.endswith(".toml") and not os.path.isfile(entry):
