@@ -137,8 +137,8 @@ class DMDc(PeerMethod):
 
     def predict(self, record) -> np.ndarray:
         """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
-        return self.modes_ @ self._respond((self.Atilde_, self.Btilde_, self.basis_),
-                                           self._new_inputs(record))
+        Uin = self._new_inputs(record)  # checks that the model is fitted
+        return self.modes_ @ self._respond((self.Atilde_, self.Btilde_, self.basis_), Uin)
 
     @property
     def diagnostics_(self) -> dict:

@@ -131,7 +131,8 @@ class OpInf(PeerMethod):
 
     def predict(self, record) -> np.ndarray:
         """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
-        return self.modes_ @ self._respond((self.A_, self.B_), self._new_inputs(record))
+        Uin = self._new_inputs(record)  # checks that the model is fitted
+        return self.modes_ @ self._respond((self.A_, self.B_), Uin)
 
     @property
     def diagnostics_(self) -> dict:
