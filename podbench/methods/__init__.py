@@ -16,18 +16,23 @@ Every method is an estimator (:class:`PODMethod`): keyword-only hyperparameters,
 displacement matrix; fitted state ends in ``_``; ``basis=`` replaces the POMs by a given
 orthonormal ``m × k`` basis. The dissertation's array forms (``POVR().fit(W, x0)``,
 ``MultipleLoad().fit([W…], [F…], dt=…)``) remain as thin wrappers.
+
+The peers (:mod:`podbench.methods.peers`: :class:`ERA` (ERA/OKID), :class:`DMDc`,
+:class:`OpInf`) are established identification methods in the same contract.
 """
 
 from .base import PODMethod
 from .forced import MultipleLoad, SingleLoad
 from .free import MDS, POVR
 from .mixed import MixedResponse
+from .peers import ERA, DMDc, OpInf
 from .superposition import Superposition
 
 BUILTIN_METHODS = {"POVR": POVR, "MDS": MDS, "SL": SingleLoad, "ML": MultipleLoad,
-                   "MR": MixedResponse}
+                   "MR": MixedResponse, "ERA": ERA, "DMDc": DMDc, "OpInf": OpInf}
 """The names a scenario file may give as ``method`` (besides ``superposition`` and a user's
-``module:Class``), with their classes."""
+``module:Class``), with their classes; ERA, DMDc and OpInf are the peers
+(:mod:`podbench.methods.peers`; DMDc and OpInf need ``pip install 'podbench[peers]'``)."""
 
 __all__ = ["PODMethod", "POVR", "MDS", "SingleLoad", "MultipleLoad", "MixedResponse",
-           "Superposition", "BUILTIN_METHODS"]
+           "Superposition", "ERA", "DMDc", "OpInf", "BUILTIN_METHODS"]

@@ -24,8 +24,9 @@ def _imported_modules(path: Path) -> set[str]:
 
 def test_methods_import_nothing_from_simulation_or_harness():
     files = [PACKAGE / "pod.py", *sorted((PACKAGE / "deconvolution").glob("*.py")),
-             *sorted((PACKAGE / "methods").glob("*.py"))]
-    assert len(files) >= 14
+             *sorted((PACKAGE / "methods").glob("*.py")),
+             *sorted((PACKAGE / "methods" / "peers").glob("*.py"))]
+    assert len(files) >= 19
     for path in files:
         for name in _imported_modules(path):
             parts = [p for p in name.replace("podbench.", "").lstrip(".").split(".") if p]
@@ -34,8 +35,9 @@ def test_methods_import_nothing_from_simulation_or_harness():
 
 def test_public_names():
     assert set(methods.__all__) == {"PODMethod", "POVR", "MDS", "SingleLoad", "MultipleLoad",
-                                    "MixedResponse", "Superposition", "BUILTIN_METHODS"}
+                                    "MixedResponse", "Superposition", "ERA", "DMDc", "OpInf",
+                                    "BUILTIN_METHODS"}
     abbreviations = [getattr(methods, n).abbreviation for n in methods.__all__[1:6]]
     assert abbreviations == ["POVR", "MDS", "SL", "ML", "MR"]
     assert {k: c.abbreviation for k, c in methods.BUILTIN_METHODS.items()} == {
-        k: k for k in ("POVR", "MDS", "SL", "ML", "MR")}
+        k: k for k in ("POVR", "MDS", "SL", "ML", "MR", "ERA", "DMDc", "OpInf")}
