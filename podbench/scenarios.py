@@ -72,6 +72,7 @@ from pathlib import Path
 import tomllib
 
 from .deconvolution import make_solver
+from .methods import BUILTIN_METHODS as _METHOD_CLASSES
 from .errors import InputError, ScenarioFileError, StructureFileError
 from .fem._spec import MISSING, Table
 from .fem.files import _display
@@ -91,7 +92,7 @@ __all__ = [
     "CLAIMS_FILE",
 ]
 
-BUILTIN_METHODS = ("POVR", "MDS", "SL", "ML", "MR", "superposition")
+BUILTIN_METHODS = (*_METHOD_CLASSES, "superposition")
 """Method names a scenario may use without a ``module:Class`` path (the classes are
 :data:`podbench.methods.BUILTIN_METHODS`)."""
 
