@@ -72,10 +72,10 @@ from pathlib import Path
 import tomllib
 
 from .deconvolution import make_solver
-from .methods import BUILTIN_METHODS as _METHOD_CLASSES
 from .errors import InputError, ScenarioFileError, StructureFileError
 from .fem._spec import MISSING, Table
 from .fem.files import _display
+from .methods import BUILTIN_METHODS as _METHOD_CLASSES
 
 __all__ = [
     "Scenario",

@@ -18,6 +18,7 @@ from .._atomic import atomic_write_text, replace_dir
 from .claims import evaluate_claims, load_claims
 from .executor import execute
 from .runner import COLUMNS
+from .sensitivity import base_claims_path, sensitivity_markdown, sensitivity_verdicts
 
 __all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
 
@@ -178,6 +179,10 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
             claims, remarks = load_claims(claims_path)
             evaluated = evaluate_claims(claims, df)
             (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks, claims_path),
+                                             encoding="utf-8", newline="\n")
+        elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
+            verdicts = sensitivity_verdicts(load_claims(base_claims)[0], scenarios, df)
+            (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
                                              encoding="utf-8", newline="\n")
         if figures:
             fdir = tmp / "figures"

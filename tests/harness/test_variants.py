@@ -119,3 +119,57 @@ def test_the_sensitivity_studies_load_and_span_the_stated_ranges():
             anchors.update(x for k, x in v.set.items() if k == "tip_spring.k3_match_linear_at")
     assert min(means) == 0.02 and max(means) == 1.0  # × the beam's mass (issue 11 item 4)
     assert min(anchors) == 0.3 and max(anchors) == 1.0  # in
+
+
+def test_a_sensitivity_study_judges_the_base_claims_on_every_variant(tmp_path, monkeypatch):
+    """A folder of derived scenarios whose base folder has a claims.toml gets a FINDINGS.md
+    with each claim's verdict at every value of the varied parameter."""
+    from conftest import NL_BEAM
+
+    from podbench.harness.sensitivity import _ranges
+
+    monkeypatch.chdir(tmp_path)
+    base = tmp_path / "base"
+    base.mkdir()
+    (base / "nl_short.toml").write_text(textwrap.dedent(NL_BEAM.format(name="nl_short")))
+    # one claim whose verdict must change with the spring: MDS's error on the NL beam falls
+    # as the cubic spring weakens (the anchor displacement grows)
+    (base / "claims.toml").write_text(textwrap.dedent('''
+        [[claims]]
+        id = "mds-under-half"
+        source = "test"
+        quote = "MDS is accurate"
+        scenario = "nl_short"
+        structure = "nl_beam"
+        target = "w3"
+        checks = ["MDS.total_error < 0.5"]
+        '''))
+    sens = tmp_path / "sens"
+    sens.mkdir()
+    variants = "".join(f'''
+        [variants."k{a}"]
+        structure = "nl_beam"
+        set = {{ "tip_spring.k3_match_linear_at" = {a} }}
+        ''' for a in (0.3, 1.0, 3.0))
+    (sens / "nl_k3.toml").write_text(textwrap.dedent('''
+        [scenario]
+        name = "nl_k3"
+        base = "../base/nl_short.toml"
+        structures = ["k0.3", "k1.0", "k3.0"]
+        ''') + textwrap.dedent(variants))
+    out = tmp_path / "out"
+    assert cli.main(["run", str(sens), "--out", str(out), "-q", "--no-figures"]) == 0
+    import pandas as pd
+
+    df = pd.read_csv(out / "summary.csv")
+    mds = df[df.method == "MDS"].set_index("structure")["total_error"]
+    expected = ["reproduced" if mds[f"k{a}"] < 0.5 else "not reproduced" for a in (0.3, 1.0, 3.0)]
+    assert len(set(expected)) == 2, mds  # the verdict does change over this range
+    text = (out / "FINDINGS.md").read_text()
+    for a, verdict in zip((0.3, 1.0, 3.0), expected, strict=True):
+        assert f"| {a:g} | k{a} | {verdict} |" in text
+    points = [{"value": a, "verdict": v} for a, v in zip((0.3, 1.0, 3.0), expected, strict=True)]
+    assert f"| `tip_spring.k3_match_linear_at` | {_ranges(points)} |" in text
+    assert _ranges([{"value": 1, "verdict": "reproduced"}, {"value": 2, "verdict": "x"},
+                    {"value": 3, "verdict": "reproduced"}, {"value": 4, "verdict": "reproduced"}]
+                   ) == "1, 3–4"
