@@ -298,13 +298,25 @@ class StaticDisplacement:
 
 
 class ImpulseVelocity:
-    """Initial velocity from impulses: ``v0 = M(0)⁻¹ J`` (in/s), ``J = F·duration`` (lbf·s).
+    """Initial velocity from impulses: a force ``F`` acting for ``duration`` (lbf, s).
 
-    The velocity an ideal impulse ``J`` imparts to a structure at rest. The dissertation's
-    "1000-lbf impulses" (§4.1.2) and "1125-lbf impulses" (truss, §4.2.1) state a force, not an
-    impulse; podbench defines them as the force acting for one time step:
-    ``duration = dt`` (1e-4 s on the beams → ``J = 0.1`` lbf·s; 0.05 s on the truss →
-    ``J = 56.25`` lbf·s). ``duration`` is always explicit.
+    Two definitions of the velocity the impulse gives the structure at rest (``velocity``):
+
+    * ``"ideal"``: ``v0 = M(0)⁻¹ J`` with ``J = F·duration`` (lbf·s), the velocity an ideal
+      (instantaneous) impulse imparts;
+    * ``"measured"``: the velocity change measured on the model. The reference structure is
+      integrated from rest (podbench's Newmark, step ``dt``) under the rectangular pulse
+      :class:`Pulse` ``(location, F, duration)`` (default start, one step after t = 0), and
+      ``v0`` is the velocity of every DOF at the first sample after the pulse (sample ``j1``
+      of :meth:`Pulse.window`, ``t = duration + dt``). Up to that sample the trapezoidal
+      impulse of the sampled force is exactly ``F·duration``. The displacement at that
+      sample is not kept (the result is a velocity profile).
+
+    The dissertation's "1000-lbf impulses" (beams, §4.1.1) and "1125-lbf impulses" (truss,
+    §4.2.1) state a force, not an impulse, and the velocity changes are "measured". The
+    scenario files state which duration and definition they use and why
+    (``scenarios/chapter4/beam_free_velocity.toml``; docs/structures.md has the NL beam's
+    tip maxima under each reading). ``duration`` is always explicit.
 
     Parameters
     ----------
@@ -313,20 +325,38 @@ class ImpulseVelocity:
     duration : float
         Time (s) the force acts; ``J = force · duration``.
     by, reference
-        As in :class:`StaticDisplacement`; the mass used is ``M(0)`` of the reference (the
-        beams' profiles are computed on the LTI beam, §4.1.2).
+        As in :class:`StaticDisplacement`; the structure used is the reference (the beams'
+        profiles are computed on the LTI beam, §4.1.1).
+    velocity : {"ideal", "measured"}
+        Definition of the velocity change (see above); default ``"ideal"``.
+    dt : float, optional
+        Integration step (s) of the ``"measured"`` definition (required there, e.g. the
+        scenario's 1e-4 s); must divide ``duration`` into whole steps within 1e-9.
     """
 
     kind = "impulse_velocity"
+    VELOCITIES = ("ideal", "measured")
 
     def __init__(
         self, impulses, duration: float, *, by: str = "position",
-        reference: Structure | None = None,
+        reference: Structure | None = None, velocity: str = "ideal", dt: float | None = None,
     ):
         self.impulses = _check_loads(impulses, "impulses")
         self.duration = check_positive(duration, "duration")
         self.by = check_choice(by, "by", _BY)
         self.reference = reference
+        self.velocity = check_choice(velocity, "velocity", self.VELOCITIES)
+        self.dt = None if dt is None else check_positive(dt, "dt")
+        if self.velocity == "measured":
+            if self.dt is None:
+                raise InputError("Parameter `dt`: velocity='measured' needs the integration "
+                                 "step dt (s)")
+            steps = self.duration / self.dt
+            if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+                raise InputError(
+                    f"Parameter `duration`: {self.duration!r} s is not a whole number of "
+                    f"steps dt = {self.dt!r} s (velocity='measured')"
+                )
 
     def check(self, structure: Structure) -> None:
         """As :meth:`StaticDisplacement.check` (fields ``reference``, ``impulses[i]``)."""
@@ -339,22 +369,37 @@ class ImpulseVelocity:
     def dof_vector(self, structure: Structure) -> np.ndarray:
         """``v0`` (n_dofs,) in in/s (rad/s for rotations)."""
         ref = _check_reference(structure, self.reference)
-        J = self.duration * _load_vector(ref, self.impulses, self.by)
-        return _solve(ref.mass(0.0), J, f"The mass matrix M(0) of {ref.name!r}")
+        if self.velocity == "ideal":
+            J = self.duration * _load_vector(ref, self.impulses, self.by)
+            return _solve(ref.mass(0.0), J, f"The mass matrix M(0) of {ref.name!r}")
+        from .dynamics.newmark import newmark  # the measured definition simulates the pulse
+
+        f = _load_vector(ref, self.impulses, self.by)
+        j0, j1 = Pulse(0, 1.0, self.duration, by="dof").window(self.dt)
+        F = np.zeros((ref.n_dofs, j1 + 1))
+        F[:, j0:j1] = f[:, None]
+        zero = np.zeros(ref.n_dofs)
+        return newmark(ref, zero, zero, F, self.dt).v[:, j1].copy()
 
     def to_dict(self) -> dict:
         d = {
             "kind": self.kind, "impulses": [list(p) for p in self.impulses],
             "duration": self.duration, "by": self.by,
         }
+        if self.velocity != "ideal":
+            d["velocity"] = self.velocity
+        if self.dt is not None:
+            d["dt"] = self.dt
         if self.reference is not None:
             d["reference"] = self.reference.name
         return d
 
     def __repr__(self) -> str:
         ref = f", reference={self.reference.name!r}" if self.reference is not None else ""
+        extra = f", velocity={self.velocity!r}, dt={self.dt!r}" if self.velocity != "ideal" else ""
         return (
-            f"ImpulseVelocity({self.impulses!r}, duration={self.duration!r}, by={self.by!r}{ref})"
+            f"ImpulseVelocity({self.impulses!r}, duration={self.duration!r}, by={self.by!r}"
+            f"{ref}{extra})"
         )
 
 
@@ -367,10 +412,13 @@ def static_displacement(
 
 def impulse_velocity(
     structure: Structure, impulses, duration: float, *, by: str = "position",
-    reference: Structure | None = None,
+    reference: Structure | None = None, velocity: str = "ideal", dt: float | None = None,
 ) -> np.ndarray:
-    """``v0 = M(0)⁻¹ J`` (n_dofs,), ``J = F·duration``; see :class:`ImpulseVelocity`."""
-    return ImpulseVelocity(impulses, duration, by=by, reference=reference).dof_vector(structure)
+    """``v0`` (n_dofs,) of impulses ``F`` acting for ``duration``: ``M(0)⁻¹ F·duration``
+    (``velocity="ideal"``) or measured on the model (``"measured"``, step ``dt``); see
+    :class:`ImpulseVelocity`."""
+    return ImpulseVelocity(impulses, duration, by=by, reference=reference, velocity=velocity,
+                           dt=dt).dof_vector(structure)
 
 
 # ---------------------------------------------------------------------------- forces

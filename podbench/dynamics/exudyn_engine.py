@@ -16,9 +16,13 @@ Mapping:
   ``jacobianUserFunction`` ``fODE2·∂g/∂q + fODE2_t·∂g/∂q'``.
 * Variable mass: ``massMatrixUserFunction(t)`` returns ``M + m(t) e eᵀ``.
 * Stiffness events: a pre-step user function (it receives the end time of the step about to be
-  solved) sets the stiffness of sample ``round(t/dt)`` following the
-  :class:`~podbench.fem.StiffnessEvent` convention, so the switch happens at exactly the same
-  sample as in the podbench integrator (exudyn accumulates time, hence the rounding).
+  solved) sets the stiffness (and the mass, for an element that disappears) of sample
+  ``round(t/dt)`` following the :class:`~podbench.fem.StiffnessEvent` convention, so the
+  switch happens at exactly the same sample as in the podbench integrator (exudyn accumulates
+  time, hence the rounding). DOFs an event removes are decoupled there (placeholder mass, no
+  stiffness: :meth:`~podbench.fem.Structure.matrices_at`) and drift freely inside exudyn;
+  they cannot act on the remaining DOFs, and their histories are set to zero from the event's
+  sample on, as podbench's integrator holds them.
 * Newton: a Jacobian is always supplied (zero for linear structures: exudyn adds K and C
   analytically), full Newton, no adaptive step. exudyn's tolerance is relative to each step's
   initial residual: 1e-12 for nonlinear structures; 1e-10 for linear ones, which the first
@@ -95,9 +99,10 @@ def simulate_exudyn(
     n_dofs, n = f.shape
     h = float(dt)
     sparse = n_dofs > DENSE_MAX_DOFS
-    M = s.M
     C = s.damping_matrix()
-    K0 = s.stiffness(0.0, dt=h)
+    state0 = tuple(i for i, ev in enumerate(s.events) if ev.first_sample(h) <= 0)
+    K0, M, _ = s.matrices_at(state0)
+    mass_events = any(ev.delta_M is not None or ev.removed_dofs for ev in s.events)
 
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -175,12 +180,10 @@ def simulate_exudyn(
             j = sample_index(t)
             state = tuple(i for i, fj in enumerate(first) if j >= fj)
             if state != current["state"]:
-                K = s.K
-                for i in state:
-                    K = K + s.events[i].delta_K
-                mbs_.SetObjectParameter(
-                    obj, "stiffnessMatrix", _matrix(exu, sp.csr_matrix(K), sparse)
-                )
+                K, Mt, _ = s.matrices_at(state)
+                mbs_.SetObjectParameter(obj, "stiffnessMatrix", _matrix(exu, K, sparse))
+                if mass_events:
+                    mbs_.SetObjectParameter(obj, "massMatrix", _matrix(exu, Mt, sparse))
                 current["state"] = state
             return True
 
@@ -211,7 +214,7 @@ def simulate_exudyn(
     # exactly by the first Newton iteration (residual ~1e-13 relative); a tighter goal would
     # only iterate on round-off noise (and fail on the truss), so linear structures use 1e-10.
     ti.newton.relativeTolerance = newton_rtol if nonlinear else max(newton_rtol, 1e-10)
-    if vm is not None:
+    if vm is not None or mass_events:
         ti.reuseConstantMassMatrix = False
     sim.solution.file.write = False
     sim.solution.sensors.writePeriod = h
@@ -233,4 +236,9 @@ def simulate_exudyn(
                 f"exudyn returned {data.shape[0]} samples for {s.name!r}, expected {n}"
             )
         out.append(np.ascontiguousarray(data[:, 1:].T))
+    for ev in s.events:  # removed DOFs: zero from the event's sample on (see the module doc)
+        if ev.removed_dofs:
+            rows = np.asarray(ev.removed_dofs)
+            for hist in out:
+                hist[rows, ev.first_sample(h):] = 0.0
     return out[0], out[1]

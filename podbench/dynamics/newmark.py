@@ -25,8 +25,11 @@ Conventions
   ``a_0 = M(0)⁻¹ (f_0 − C v_0 − K(0) q_0 − g(q_0, v_0))``.
 * Stiffness events (element fracture) follow :class:`podbench.fem.StiffnessEvent`: the event is
   in effect from sample ``j = event.first_sample(dt)`` on, i.e. the equilibrium at that sample
-  already uses the changed stiffness. One factorization is made per distinct set of events in
-  effect (cached), not per step.
+  already uses the changed stiffness (and mass, when the element disappears). ``q`` and ``v``
+  of the remaining DOFs are continuous across the event; the DOFs the event removes are set
+  to zero at that sample and held there (their decoupled placeholder mass, see
+  :meth:`podbench.fem.Structure.matrices_at`, keeps the effective matrix regular). One
+  factorization is made per distinct set of events in effect (cached), not per step.
 * Variable mass ``M(t) = M + m(t) e eᵀ``: the effective matrix is the base one (built with the
   constant ``M``) plus the rank-1 term ``m(t_{j+1}) e eᵀ``; it is solved with the
   Sherman–Morrison formula on the base factorization (no refactorization per step).
@@ -158,8 +161,8 @@ class _Model:
     """The structure's terms as the integrator needs them, for one time step ``h``.
 
     * ``stiffness(j)``: ``K(t_j)`` (events per :class:`StiffnessEvent`), ``|K(t_j)|`` and the
-      solver of the base effective matrix ``S = M + h/2 C + h²/4 K(t_j)`` (cached per set
-      of events in effect);
+      solver of the base effective matrix ``S = M(t_j) + h/2 C + h²/4 K(t_j)`` (cached per
+      set of events in effect); ``removed(j)`` the DOFs removed by those events;
     * ``mass_times(j, a)``: ``M(t_j) a`` (``|M(t_j)| |a|`` with ``absolute=True``);
     * ``restoring(q, v)``: ``g(q, v)`` of the nonlinear elements;
     * ``update(j, q, v)``: the small matrix ``B`` with tangent ``S + E B Eᵀ``:
@@ -173,9 +176,8 @@ class _Model:
         self.dense = s.n_dofs <= DENSE_MAX_DOFS
         self.C_sparse = s.damping_matrix()
         self.has_damping = self.C_sparse.nnz > 0
-        self.M = _operator(s.M, self.dense)
         self.C = _operator(self.C_sparse, self.dense)
-        self.absM, self.absC = abs(self.M), abs(self.C)
+        self.absC = abs(self.C)
         self.nonlinear = s.nonlinear
         self.el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in self.nonlinear]
 
@@ -201,30 +203,40 @@ class _Model:
         self.first = [ev.first_sample(h) for ev in s.events]
         self._cache: dict[tuple[int, ...], tuple] = {}
 
-    def stiffness(self, j: int):
-        """``(K, |K|, solver)`` at sample ``j``."""
+    def _state(self, j: int) -> dict:
         state = tuple(i for i, fj in enumerate(self.first) if j >= fj)
         if state not in self._cache:
-            K = self.s.K
-            for i in state:
-                K = K + self.s.events[i].delta_K
-            S = self.s.M + self.gh * self.C_sparse + self.bh2 * K
+            K, M, removed = self.s.matrices_at(state)
+            S = M + self.gh * self.C_sparse + self.bh2 * K
             what = f"The Newmark effective matrix (stiffness events in effect: {list(state)})"
             K = _operator(K, self.dense)
-            self._cache[state] = (K, abs(K), _LowRankUpdatedSolver(S, self.upd, what))
+            Mo = _operator(M, self.dense)
+            self._cache[state] = {
+                "K": K, "absK": abs(K), "M_sparse": M, "M": Mo, "absM": abs(Mo),
+                "removed": removed, "solver": _LowRankUpdatedSolver(S, self.upd, what)}
         return self._cache[state]
+
+    def stiffness(self, j: int):
+        """``(K, |K|, solver)`` at sample ``j``."""
+        st = self._state(j)
+        return st["K"], st["absK"], st["solver"]
+
+    def removed(self, j: int) -> np.ndarray:
+        """DOFs removed from the model at sample ``j`` (held at zero)."""
+        return self._state(j)["removed"]
 
     def mass_times(self, j: int, a: np.ndarray, absolute: bool = False) -> np.ndarray:
         if absolute:
             a = np.abs(a)
-        Ma = (self.absM if absolute else self.M) @ a
+        st = self._state(j)
+        Ma = (st["absM"] if absolute else st["M"]) @ a
         if self.vm is not None:
             m = abs(self.m_t[j]) if absolute else self.m_t[j]
             Ma[self.vm.dof] += m * a[self.vm.dof]
         return Ma
 
     def mass_matrix(self, j: int) -> sp.spmatrix:
-        M = self.s.M
+        M = self._state(j)["M_sparse"]
         if self.vm is not None:
             d = self.vm.dof
             M = M + sp.csr_matrix(([self.m_t[j]], ([d], [d])), shape=M.shape)
@@ -374,17 +386,26 @@ def newmark(
     q = np.array(q0, dtype=float)
     v = np.array(v0, dtype=float)
     K0 = model.stiffness(0)[0]
+    removed = model.removed(0)
+    q[removed] = v[removed] = 0.0
     rhs0 = load(0) - K0 @ q - model.restoring(q, v)
     if model.has_damping:
         rhs0 -= model.C @ v
+    rhs0[removed] = 0.0
     a = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
     out(0, q, v, a)
 
     for j in range(n - 1):
         K, absK, solver = model.stiffness(j + 1)
+        removed = model.removed(j + 1)
+        if removed.size:  # DOFs that left the model (element fracture) are held at zero
+            q[removed] = v[removed] = a[removed] = 0.0
         qp = q + h * v + bh2 * a  # predictors q̃, ṽ
         vp = v + gh * a
         fj = load(j + 1)
+        if removed.size:
+            fj = np.array(fj, dtype=float)
+            fj[removed] = 0.0
         if model.nonlinear:
             a, iters[j + 1] = _newton(
                 model, j + 1, a, qp, vp, fj, K, absK, solver, rtol, max_iter

@@ -439,6 +439,8 @@ def _satellite_truss(top: Table, ctx: SpecContext) -> Structure:
         kw["fracture_element"] = fr.integer("element", positive=True,
                                             maximum=kw["n_elements"])
         kw["fracture_time"] = fr.number("time", nonnegative=True)
+        kw["fracture_model"] = fr.string("model", "element",
+                                         choices=("element", "stiffness_only"))
         fr.close()
     return satellite_truss(name=ctx.name, **kw)
 

@@ -8,8 +8,10 @@ with
 
 * ``M(t) = M + m(t) e eᵀ`` when a :class:`VariableMass` is present (a point mass on one DOF
   that moves with that DOF, so no ``ṁ q'`` term: see ``structures/ltv_beam.toml``);
-* ``K(t) = K + Σ ΔK_i`` over the :class:`StiffnessEvent` s whose time has been reached
-  (element fracture removes the element's stiffness);
+* ``K(t) = K + Σ ΔK_i`` and ``M(t) = M + Σ ΔM_i`` over the :class:`StiffnessEvent` s whose
+  time has been reached (element fracture removes the element's stiffness and, when the
+  element disappears, its mass; coordinates that only the element connected leave the
+  model, see :meth:`Structure.matrices_at`);
 * ``g`` the sum of the :class:`NonlinearElement` s' restoring forces (cubic springs);
 * ``T`` the sensor-to-DOF injection: forces are sampled at the sensors (the dissertation's
   force matrix ``F`` of Eq. 3.37 lives on the same points as the snapshot matrix ``W``).
@@ -56,16 +58,31 @@ class VariableMass:
 
 @dataclass(frozen=True)
 class StiffnessEvent:
-    """From time ``time`` (s) on, the stiffness matrix is ``K + delta_K`` (an element breaks).
+    """From time ``time`` (s) on, the matrices are ``K + delta_K`` and ``M + delta_M``.
+
+    An element breaks: ``delta_K`` removes its stiffness; ``delta_M`` (optional) its mass,
+    when the element disappears; ``removed_dofs`` (optional) are the DOFs that only the
+    element connected. They leave the model at the event: from then on their displacement,
+    velocity and acceleration are zero, their sensors read 0, and they carry no stiffness or
+    mass coupling (the integrators give each a decoupled placeholder mass, its mass before the
+    event, so that the matrices they factorize stay regular; see
+    :meth:`Structure.matrices_at`).
 
     Timing convention (shared by every engine): the event takes effect at the first sample
     ``t_j = j·dt`` with ``t_j >= time - dt/2``; the equilibrium at that sample already uses
-    the changed stiffness.
+    the changed matrices. Displacements and velocities of the remaining DOFs are continuous
+    across the event (the broken element takes its own momentum with it).
     """
 
     time: float
     delta_K: sp.csr_matrix
     description: str = ""
+    delta_M: sp.csr_matrix | None = None
+    removed_dofs: tuple[int, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "removed_dofs",
+                           tuple(sorted({int(d) for d in self.removed_dofs})))
 
     def first_sample(self, dt: float) -> int:
         """Index ``j`` of the first sample at which the event is in effect."""
@@ -198,6 +215,16 @@ class Structure:
                     f"Stiffness event at t={ev.time}: delta_K has shape {ev.delta_K.shape}, "
                     f"expected {(n, n)}"
                 )
+            if ev.delta_M is not None and ev.delta_M.shape != (n, n):
+                raise DimensionError(
+                    f"Stiffness event at t={ev.time}: delta_M has shape {ev.delta_M.shape}, "
+                    f"expected {(n, n)}"
+                )
+            if ev.removed_dofs and not 0 <= min(ev.removed_dofs) <= max(ev.removed_dofs) < n:
+                raise DimensionError(
+                    f"Stiffness event at t={ev.time}: removed_dofs must lie in [0, {n - 1}], "
+                    f"got {list(ev.removed_dofs)}"
+                )
         if self.variable_mass is not None and not 0 <= self.variable_mass.dof < n:
             raise DimensionError(f"Variable mass DOF {self.variable_mass.dof} outside [0, {n})")
         object.__setattr__(self, "events", tuple(sorted(self.events, key=lambda e: e.time)))
@@ -252,26 +279,68 @@ class Structure:
         return out
 
     # ------------------------------------------------------------------ time-dependent matrices
-    def mass(self, t: float = 0.0) -> sp.csr_matrix:
-        """``M(t)`` including the variable point mass."""
+    def events_in_effect(self, t: float, dt: float | None = None) -> tuple[int, ...]:
+        """Indices (into ``events``) of the events in effect at ``t``.
+
+        With ``dt`` the timing convention of :class:`StiffnessEvent` is used (in effect from
+        ``time - dt/2``), otherwise from ``time`` exactly.
+        """
+        return tuple(i for i, ev in enumerate(self.events)
+                     if t >= ev.time - (0.5 * dt if dt else 0.0))
+
+    def matrices_at(self, state: tuple[int, ...]) -> tuple[sp.csr_matrix, sp.csr_matrix,
+                                                            np.ndarray]:
+        """``(K, M, removed)`` with the events ``state`` (indices into ``events``) in effect.
+
+        ``K = K0 + Σ ΔK``, ``M = M0 + Σ ΔM`` (the variable point mass is not included), and
+        ``removed`` the sorted DOFs that have left the model. Their rows and columns of ``K``
+        and ``M`` are zero except a placeholder ``M[d, d]`` equal to ``M0[d, d]`` (a decoupled
+        coordinate the integrators hold at zero; it keeps ``M`` and the Newmark effective
+        matrix regular without touching the remaining DOFs).
+        """
+        K, M = self.K, self.M
+        removed: set[int] = set()
+        for i in state:
+            ev = self.events[i]
+            K = K + ev.delta_K
+            if ev.delta_M is not None:
+                M = M + ev.delta_M
+            removed.update(ev.removed_dofs)
+        rem = np.array(sorted(removed), dtype=np.int64)
+        if rem.size:
+            keep = np.ones(self.n_dofs)
+            keep[rem] = 0.0
+            D = sp.diags(keep)
+            placeholder = np.zeros(self.n_dofs)
+            placeholder[rem] = self.M.diagonal()[rem]
+            K = D @ K @ D
+            M = D @ M @ D + sp.diags(placeholder)
+        return sp.csr_matrix(K), sp.csr_matrix(M), rem
+
+    def removed_dofs(self, t: float, dt: float | None = None) -> np.ndarray:
+        """DOFs that have left the model at ``t`` (see :meth:`matrices_at`)."""
+        return self.matrices_at(self.events_in_effect(t, dt))[2]
+
+    def mass(self, t: float = 0.0, dt: float | None = None) -> sp.csr_matrix:
+        """``M(t)``: the initial mass plus every event in effect at ``t`` (removed DOFs carry
+        their placeholder mass, see :meth:`matrices_at`) plus the variable point mass."""
+        M = self.matrices_at(self.events_in_effect(t, dt))[1] if self.events else self.M
         if self.variable_mass is None:
-            return self.M
+            return M
         d = self.variable_mass.dof
         m = float(self.variable_mass(np.array([t]))[0])
-        return (self.M + sp.csr_matrix(([m], ([d], [d])), shape=self.M.shape)).tocsr()
+        return (M + sp.csr_matrix(([m], ([d], [d])), shape=self.M.shape)).tocsr()
 
     def stiffness(self, t: float = 0.0, dt: float | None = None) -> sp.csr_matrix:
         """``K(t)``: the initial stiffness plus every event already in effect at ``t``.
 
         With ``dt`` the event timing convention of :class:`StiffnessEvent` is used
-        (in effect from ``time - dt/2``), otherwise from ``time`` exactly.
+        (in effect from ``time - dt/2``), otherwise from ``time`` exactly. Rows and columns
+        of removed DOFs are zero.
         """
-        K = self.K
-        for ev in self.events:
-            start = ev.time - (0.5 * dt if dt else 0.0)
-            if t >= start:
-                K = K + ev.delta_K
-        return K.tocsr()
+        if not self.events:
+            return self.K
+        return self.matrices_at(self.events_in_effect(t, dt))[0]
 
     def damping_matrix(self) -> sp.csr_matrix:
         """``C`` (a zero sparse matrix if the structure is undamped)."""
@@ -281,14 +350,16 @@ class Structure:
     def natural_frequencies(self, k: int = 5, t: float = 0.0) -> np.ndarray:
         """The ``k`` lowest undamped natural frequencies (Hz) of the linear part at time ``t``.
 
-        Solves ``K(t) φ = ω² M(t) φ``; nonlinear elements and damping are ignored.
+        Solves ``K(t) φ = ω² M(t) φ`` on the DOFs still in the model at ``t`` (removed DOFs,
+        see :meth:`matrices_at`, are left out); nonlinear elements and damping are ignored.
         Rigid-body modes (after a fracture) appear as zero frequencies.
         """
-        n = self.n_dofs
+        keep = np.setdiff1d(np.arange(self.n_dofs), self.removed_dofs(t))
+        n = keep.size
         if not 1 <= k <= n:
             raise InputError(f"Parameter `k`: must lie in [1, {n}], got {k}")
-        Kt = self.stiffness(t).toarray()
-        Mt = self.mass(t).toarray()
+        Kt = self.stiffness(t).toarray()[np.ix_(keep, keep)]
+        Mt = self.mass(t).toarray()[np.ix_(keep, keep)]
         w2 = scipy.linalg.eigh(Kt, Mt, eigvals_only=True, subset_by_index=[0, k - 1])
         return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi)
 

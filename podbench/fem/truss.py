@@ -57,13 +57,24 @@ DOF 0 = ``face0.theta``, DOFs ``1 + 3(f−1) + c`` for faces 1..99, DOF 298 =
 
 Fracture
 --------
-§4.2 removes "the stiffness matrix for the 10th truss element" at t = 3 s: a
-:class:`StiffnessEvent` with ``delta_K = −K_e10`` (assembled). Its mass stays (the text
-removes only the stiffness). Element 10's middle face (face 19) is connected to nothing but
-element 10, so after the fracture its three coordinates carry no stiffness at all: K then
-has five zero eigenvalues, the two rigid rotations of the left (faces 0–18) and right
-(faces 20–100) parts about their pins and the three coordinates of the orphaned face 19,
-which stays tied to faces 18 and 20 only through element 10's (kept) consistent mass.
+§4.2: "the stiffness matrix for the 10th truss element from the left boundary was removed from
+the global stiffness matrix to simulate a fracture (i.e. the 10th truss element breaks off and
+disappears). As a result, the remaining truss sections on the right and left of the break are
+free to exhibit rigid-body rotation around each pinned end." Two models
+(``fracture_model``):
+
+* ``"element"`` (default, the reading of the whole passage): the element breaks off and
+  disappears. A :class:`StiffnessEvent` at t = 3 s with ``delta_K = −K_e10`` and
+  ``delta_M = −M_e10`` (assembled), and ``removed_dofs`` the free coordinates of the faces
+  only element 10 holds (its middle face 19; also face 0's or face 2n's rotation for the
+  first or last element). Those coordinates leave the model: they are held at zero and their
+  sensors read 0 from the event on (W keeps its 299 rows). After the event K, M restricted
+  to the remaining coordinates have exactly two zero eigenvalues, the rigid rotations of the
+  left (faces 0–18) and right (faces 20–100) parts about their pins.
+* ``"stiffness_only"`` (the literal first clause): only ``delta_K = −K_e10``. The element's
+  mass and its middle face stay; face 19 then has no stiffness at all and K has five zero
+  eigenvalues (the two rotations and face 19's three coordinates, tied to faces 18 and 20
+  only through element 10's kept consistent mass, so face 19 drifts without bound).
 
 Units: inch, lbf, second; masses lbf·s²/in; rotations rad.
 """
@@ -91,7 +102,11 @@ __all__ = [
     "face_dof",
     "truss_dof",
     "dissertation_dof_element",
+    "FRACTURE_MODELS",
 ]
+
+#: ``fracture_model`` choices of :func:`satellite_truss` (see the module docstring).
+FRACTURE_MODELS = ("element", "stiffness_only")
 
 #: The three coordinates of a face, in their order within the face.
 COORDINATES = ("d_top", "d_bot", "theta")
@@ -322,11 +337,12 @@ def satellite_truss(
     supports: str = "pinned",
     fracture_element: int | None = 10,
     fracture_time: float = 3.0,
+    fracture_model: str = "element",
     description: str = "",
     source: str = "",
 ) -> Structure:
-    """The §4.2 satellite truss, pinned at both ends, with element ``fracture_element``'s
-    stiffness removed at ``fracture_time`` (see the module docstring).
+    """The §4.2 satellite truss, pinned at both ends, with element ``fracture_element``
+    breaking at ``fracture_time`` (see the module docstring).
 
     Parameters
     ----------
@@ -347,9 +363,13 @@ def satellite_truss(
         "free" keeps all ``3·(2·n_elements + 1)`` coordinates (303 DOFs; two rigid-body
         modes), for checks. :func:`truss_dof` and :func:`face_dof` number the pinned truss.
     fracture_element : int or None
-        1-based element whose stiffness is removed (None: no fracture, an LTI truss).
+        1-based element that breaks (None: no fracture, an LTI truss).
     fracture_time : float
         Time of the fracture, s.
+    fracture_model : {"element", "stiffness_only"}
+        ``"element"``: the element disappears (its stiffness and mass go, the coordinates
+        only it connected leave the model and read 0); ``"stiffness_only"``: only its
+        stiffness is removed (see the module docstring).
 
     Returns
     -------
@@ -358,11 +378,13 @@ def satellite_truss(
         ``"face44.d_bot"``; ``sensor_positions`` = X1 of each DOF's face (in). ``metadata``
         holds ``n_elements``, ``n_faces``, ``face_x``, ``free_coordinates`` (the 303-numbering
         coordinate of each DOF), ``members`` (one element's member table), ``member_mass``
-        (total mass of all members), ``fracture_element``, ``element_K``/``element_M``
+        (total mass of all members), ``fracture_element``, ``fracture_model``,
+        ``removed_dofs`` (the DOFs the fracture removes), ``element_K``/``element_M``
         (9×9), ``y_top``/``y_bottom``.
     """
     n = check_positive(n_elements, "n_elements", integer=True)
     check_choice(supports, "supports", ("pinned", "free"))
+    check_choice(fracture_model, "fracture_model", FRACTURE_MODELS)
     rho = density_from_lbm_per_ft3(112.3) if density is None else check_positive(
         density, "density")
     Ke, Me, table = truss_element_matrices(
@@ -392,18 +414,33 @@ def satellite_truss(
     M = ((M + M.T) * 0.5).tocsr()
 
     events = ()
+    removed: tuple[int, ...] = ()
     if fracture_element is not None:
         if isinstance(fracture_element, bool) or not isinstance(
                 fracture_element, (int, np.integer)) or not 1 <= fracture_element <= n:
             raise InputError(f"Parameter `fracture_element`: expected an integer in [1, {n}], "
                              f"got {fracture_element!r}")
         fracture_time = check_positive(fracture_time, "fracture_time", allow_zero=True)
-        dK = assemble([(int(fracture_element) - 1, Ke)])
+        e = int(fracture_element) - 1
+        dK = assemble([(e, Ke)])
         dK = (-(dK + dK.T) * 0.5).tocsr()
-        events = (StiffnessEvent(
-            time=fracture_time, delta_K=dK,
-            description=f"element {fracture_element} breaks: its stiffness is removed "
-                        "(its mass stays)"),)
+        if fracture_model == "stiffness_only":
+            events = (StiffnessEvent(
+                time=fracture_time, delta_K=dK,
+                description=f"element {fracture_element} breaks: its stiffness is removed "
+                            "(its mass stays)"),)
+        else:
+            dM = assemble([(e, Me)])
+            dM = (-(dM + dM.T) * 0.5).tocsr()
+            # faces held by this element only: its middle face, and an end face of the truss
+            own = {2 * e + 1} | ({0} if e == 0 else set()) | ({n_faces - 1} if e == n - 1
+                                                                 else set())
+            removed = tuple(int(k) for k in np.flatnonzero(np.isin(free // 3, sorted(own))))
+            events = (StiffnessEvent(
+                time=fracture_time, delta_K=dK, delta_M=dM, removed_dofs=removed,
+                description=f"element {fracture_element} breaks off and disappears: its "
+                            f"stiffness and mass are removed and DOFs {list(removed)} (faces "
+                            f"{sorted(own)}) leave the model"),)
 
     b = float(bay_length)
     face_x = np.arange(n_faces) * b
@@ -417,6 +454,8 @@ def satellite_truss(
         "members": table,
         "member_mass": n * sum(r["mass"] for r in table),
         "fracture_element": fracture_element,
+        "fracture_model": fracture_model if fracture_element is not None else None,
+        "removed_dofs": np.asarray(removed, dtype=np.int64),
         "element_K": Ke,
         "element_M": Me,
         "y_top": -T["top"][0, 2],

@@ -1,6 +1,7 @@
 """Cache of simulated truth data, keyed by content.
 
-A key is the SHA-256 of: the structure's content (its M, K, C, sensor map, events, the tip-mass
+A key is the SHA-256 of: the structure's content (its M, K, C, sensor map, events with
+their mass changes and removed DOFs, the tip-mass
 law sampled at fixed times, the nonlinear elements; and the same for every structure an
 excitation names as ``reference``), the case's excitation tables, ``n_samples``, ``dt``, the
 engine, whether the linear twin is simulated, and :data:`TRUTH_VERSION`. A changed structure
@@ -62,6 +63,9 @@ def structure_fingerprint(s) -> str:
     for ev in s.events:
         h.update(f"ev:{ev.time!r}".encode())
         _hash_array(h, getattr(ev, "delta_K", None))
+        if getattr(ev, "delta_M", None) is not None or getattr(ev, "removed_dofs", ()):
+            _hash_array(h, ev.delta_M)
+            _hash_array(h, np.asarray(ev.removed_dofs, dtype=np.int64))
     for el in s.nonlinear:
         h.update(_ADDR.sub("", repr(el)).encode())
     return h.hexdigest()

@@ -42,6 +42,21 @@ def chain_event(n: int = 4, time: float = 1.0) -> StiffnessEvent:
     return StiffnessEvent(time, dK.tocsr(), "spring 1-2 breaks")
 
 
+def chain_end_breaks_off(n: int = 5, time: float = 1.0) -> StiffnessEvent:
+    """The last spring and the last mass of :func:`chain` break off and disappear at ``time``:
+    the spring (k between DOFs n−2 and n−1) and its mass, 0.1 lbf·s²/in lumped on each end,
+    go; DOF n−1, connected by nothing else, leaves the model."""
+    k = 1000.0 * (1.0 + 0.1 * (n - 1))
+    a, b = n - 2, n - 1
+    dK = sp.lil_matrix((n, n))
+    dK[a, a] = dK[b, b] = -k
+    dK[a, b] = dK[b, a] = k
+    dM = sp.lil_matrix((n, n))
+    dM[a, a] = dM[b, b] = -0.1
+    return StiffnessEvent(time, dK.tocsr(), "end spring and mass break off",
+                          delta_M=dM.tocsr(), removed_dofs=(b,))
+
+
 def tip_mass(dof: int) -> VariableMass:
     return VariableMass(dof, lambda t: 0.5 + 0.4 * np.sin(2.0 * np.pi * t), "0.5 + 0.4 sin(2πt)")
 

@@ -130,18 +130,96 @@ def test_first_frequency_matches_equivalent_beam(truss):
     assert truss.natural_frequencies(1)[0] == pytest.approx(f_beam, rel=0.01)
 
 
-def test_fracture_of_element_10(truss):
+def _assembled_without(truss_structure, skip):
+    """K, M of the pinned truss assembled here from the element matrices, leaving out the
+    1-based elements ``skip`` (independent of the package's assembly and event code)."""
+    md = truss_structure.metadata
+    n_coord = 3 * md["n_faces"]
+    K = np.zeros((n_coord, n_coord))
+    M = np.zeros((n_coord, n_coord))
+    for e in range(md["n_elements"]):
+        if e + 1 in skip:
+            continue
+        idx = np.arange(6 * e, 6 * e + 9)
+        K[np.ix_(idx, idx)] += md["element_K"]
+        M[np.ix_(idx, idx)] += md["element_M"]
+    free = md["free_coordinates"]
+    return K[np.ix_(free, free)], M[np.ix_(free, free)]
+
+
+def test_fracture_of_element_10_removes_the_element(truss):
+    """§4.2: "the 10th truss element breaks off and disappears" and "the remaining truss
+    sections ... are free to exhibit rigid-body rotation around each pinned end": after the
+    event exactly two zero-stiffness modes, the two rotations (the old model, stiffness only,
+    had five; it is kept as the variant tested below)."""
     (ev,) = truss.events
     assert ev.time == 3.0
+    assert truss.metadata["fracture_model"] == "element"
+    face19 = [face_dof(19, name) for name in ("d_top", "d_bot", "theta")]
+    assert ev.removed_dofs == tuple(face19) == (55, 56, 57)
+    np.testing.assert_array_equal(truss.removed_dofs(2.9), [])
+    np.testing.assert_array_equal(truss.removed_dofs(3.0), face19)
+    np.testing.assert_array_equal(truss.stiffness(2.9).toarray(), truss.K.toarray())
+    np.testing.assert_array_equal(truss.mass(2.9).toarray(), truss.M.toarray())
+
+    K1, M1, removed = truss.matrices_at((0,))
+    K1, M1 = K1.toarray(), M1.toarray()
+    keep = np.setdiff1d(np.arange(truss.n_dofs), removed)
+    assert keep.size == 296
+    # the remaining model is the truss assembled without element 10 (stiffness AND mass)
+    K_ref, M_ref = _assembled_without(truss, {10})
+    kk = np.ix_(keep, keep)
+    np.testing.assert_allclose(K1[kk], K_ref[kk], rtol=0, atol=1e-9 * np.abs(K_ref).max())
+    np.testing.assert_allclose(M1[kk], M_ref[kk], rtol=0, atol=1e-12 * np.abs(M_ref).max())
+    # ... and without element 10 the face-19 coordinates carry nothing at all
+    assert not np.any(K_ref[face19]) and not np.any(M_ref[face19])
+    # removed coordinates: decoupled (no stiffness, placeholder mass on the diagonal only)
+    assert not np.any(K1[face19]) and not np.any(K1[:, face19])
+    np.testing.assert_array_equal(M1[np.ix_(face19, face19)],
+                                  np.diag(truss.M.diagonal()[face19]))
+    assert not np.any(M1[np.ix_(keep, face19)])
+
+    Kr, Mr = K1[kk], M1[kk]
+    assert np.linalg.eigvalsh(Mr).min() > 0  # the remaining mass is positive definite
+    w2, vec = scipy.linalg.eigh(Kr, Mr, subset_by_index=[0, 5])  # ω², rad²/s²
+    zero = np.abs(w2) < 1e-6
+    assert zero.sum() == 2  # exactly the two rigid rotations (measured |ω²| < 1e-9)
+    assert w2[2] > 1.0      # next: 0.266 Hz, ω² = 2.80
+    left = rigid_vectors(truss, range(0, 19), 0.0)[keep]            # about the left pin
+    right = rigid_vectors(truss, range(20, 101), 100 * B_BAY)[keep]  # about the right pin
+    basis = np.column_stack([left, right])
+    scale = np.abs(Kr).max()
+    for q in basis.T:
+        assert np.linalg.norm(Kr @ q) < 1e-9 * scale * np.linalg.norm(q)
+        assert np.linalg.norm(K_ref[kk] @ q) < 1e-9 * scale * np.linalg.norm(q)
+        assert np.linalg.norm(truss.K.toarray()[kk] @ q) > 1e3 * np.linalg.norm(Kr @ q)
+    Q, _ = np.linalg.qr(basis)
+    N = vec[:, zero]
+    np.testing.assert_allclose(Q @ (Q.T @ N), N, atol=1e-8)
+
+    f = truss.natural_frequencies(4, t=3.0)  # on the remaining coordinates
+    assert np.all(f[:2] < 1e-4) and f[2] == pytest.approx(0.2663, abs=5e-4)
+
+
+def test_stiffness_only_variant_keeps_the_mass_and_five_zero_modes():
+    """The variant structures/satellite_truss_stiffness_only.toml (the literal first clause:
+    only the element's stiffness is removed): its mass and middle face stay, K has five zero
+    eigenvalues (two rotations + the orphaned face 19's three coordinates)."""
+    truss = load_structure("satellite_truss_stiffness_only")
+    (ev,) = truss.events
+    assert ev.time == 3.0 and ev.delta_M is None and ev.removed_dofs == ()
+    assert truss.metadata["fracture_model"] == "stiffness_only"
     K0 = truss.stiffness(2.9).toarray()
     K1 = truss.stiffness(3.0).toarray()
     np.testing.assert_array_equal(K0, truss.K.toarray())
+    K_ref, _ = _assembled_without(truss, {10})
+    np.testing.assert_allclose(K1, K_ref, rtol=0, atol=1e-9 * np.abs(K_ref).max())
     # only element 10's coordinates (faces 18, 19, 20) change
     changed = np.flatnonzero(np.abs(K1 - K0).sum(axis=0))
     faces = {int(c) // 3 for c in truss.metadata["free_coordinates"][changed]}
     assert faces == {18, 19, 20}
     # the mass is unchanged by the event
-    assert truss.mass(5.0) is truss.M
+    np.testing.assert_array_equal(truss.mass(5.0).toarray(), truss.M.toarray())
 
     left = rigid_vectors(truss, range(0, 19), 0.0)          # about the left pin
     right = rigid_vectors(truss, range(20, 101), 100 * B_BAY)  # about the right pin
@@ -168,6 +246,19 @@ def test_fracture_of_element_10(truss):
     assert np.all(f[:5] < 1e-4) and f[5] > 0.1
 
 
+@pytest.mark.parametrize(("element", "faces"), [(1, [0, 1]), (50, [99, 100])])
+def test_end_element_fracture_also_removes_the_end_face_rotation(element, faces):
+    """The first/last element alone holds its end face's rotation (the pinned face's
+    d_top, d_bot are not DOFs): it leaves with the element, and the remaining truss keeps one
+    rigid rotation (the part still pinned at the other end)."""
+    s = satellite_truss(fracture_element=element)
+    removed = s.events[0].removed_dofs
+    labels = [s.dof_labels[d] for d in removed]
+    assert sorted({int(lab[4:lab.index(".")]) for lab in labels}) == faces
+    assert len(removed) == 4  # the middle face (3) + the end face's rotation (1)
+    f = s.natural_frequencies(3, t=3.0)
+    assert f[0] < 1e-4 and f[1] > 1e-2
+
 def test_no_fracture_option_and_bad_arguments():
     s = satellite_truss(fracture_element=None)
     assert s.is_time_invariant
@@ -175,6 +266,8 @@ def test_no_fracture_option_and_bad_arguments():
         satellite_truss(fracture_element=51)
     with pytest.raises(InputError, match="supports"):
         satellite_truss(supports="clamped")
+    with pytest.raises(InputError, match="fracture_model"):
+        satellite_truss(fracture_model="mass_only")
 
 
 def test_build_is_deterministic(truss):
@@ -183,3 +276,5 @@ def test_build_is_deterministic(truss):
     np.testing.assert_array_equal(again.M.toarray(), truss.M.toarray())
     np.testing.assert_array_equal(again.events[0].delta_K.toarray(),
                                   truss.events[0].delta_K.toarray())
+    np.testing.assert_array_equal(again.events[0].delta_M.toarray(),
+                                  truss.events[0].delta_M.toarray())

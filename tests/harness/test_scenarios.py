@@ -36,6 +36,51 @@ def test_the_seven_chapter4_studies_load_as_the_dissertation_defines_them():
     assert sc["truss_forced"].n_samples == 200 and sc["truss_forced"].dt == 0.05
 
 
+VARIANTS = ROOT / "scenarios" / "chapter4_variants"
+
+
+def _without(d, *keys):
+    return {k: v for k, v in d.items() if k not in keys}
+
+
+def test_chapter4_variants_differ_from_the_main_study_only_in_their_reading():
+    """scenarios/chapter4_variants/ (issue 11): each file is its main scenario with one
+    reading changed: the fracture model, the impulse, or the pulses' start (f₀ ≠ 0)."""
+    main = {f.stem: load_scenario(f) for f in find_scenarios([CH4])}
+    var = {f.stem: load_scenario(f) for f in find_scenarios([VARIANTS])}
+    assert sorted(var) == sorted([
+        "truss_free_displacement__stiffness_only", "truss_free_velocity__stiffness_only",
+        "truss_forced__stiffness_only", "beam_free_velocity__impulse_one_step",
+        "beam_free_velocity__impulse_ideal_half_ms", "beam_mixed__impulse_one_step",
+        "beam_forced__f0_nonzero", "beam_mixed__f0_nonzero", "truss_forced__f0_nonzero"])
+    for name, v in var.items():
+        base, kind = name.split("__")
+        m = main[base]
+        assert v.name == name and v.targets == m.targets and v.cases.keys() == m.cases.keys()
+        assert [x.label for x in v.methods] == [x.label for x in m.methods]
+        if kind == "stiffness_only":
+            assert v.structures == ("satellite_truss_stiffness_only",)
+            assert m.structures == ("satellite_truss",)
+        else:
+            assert v.structures == m.structures
+        for case, c in v.cases.items():
+            mc = m.cases[case]
+            if kind.startswith("impulse") and c.initial_velocity is not None:
+                iv, miv = c.initial_velocity, mc.initial_velocity
+                assert miv["velocity"] == "measured" and miv["duration"] == 5e-4
+                assert "velocity" not in iv
+                assert iv["duration"] == (1e-4 if kind == "impulse_one_step" else 5e-4)
+                assert _without(iv, "duration", "dt") == _without(miv, "duration", "dt",
+                                                                   "velocity")
+            elif kind == "f0_nonzero":
+                assert len(c.force) == len(mc.force)
+                for f, mf in zip(c.force, mc.force, strict=True):
+                    assert f["start"] == 0.0 and "start" not in mf
+                    assert _without(f, "start") == mf
+            else:
+                assert c == mc
+
+
 def test_claims_file_parses_and_names_existing_rows():
     claims, _ = load_claims(CH4 / "claims.toml")
     assert len(claims) >= 20
