@@ -109,9 +109,12 @@ def _response(rng, m=40, n=2500):
 
 
 def test_noise_is_relative_gaussian_seeded_and_scales_with_the_level():
+    """The former model (per_entry_rms), kept as a named option; the per-channel default is
+    tested in tests/test_noise.py."""
     r = _response(np.random.default_rng(7))
     rms_w = np.sqrt(np.mean(r.W ** 2))
-    a = noisy(r, NoiseSpec(0.02, seed=3), "sc", "beam", "load1")
+    old = "per_entry_rms"
+    a = noisy(r, NoiseSpec(0.02, seed=3, model=old), "sc", "beam", "load1")
     dW = a.W - r.W
     # standard deviation level × RMS(W), mean zero (100,000 draws: 0.2 % sampling error)
     assert np.std(dW) / rms_w == pytest.approx(0.02, rel=0.01)
@@ -120,16 +123,16 @@ def test_noise_is_relative_gaussian_seeded_and_scales_with_the_level():
     assert np.std(a.F - r.F) / rms_f == pytest.approx(0.02, rel=0.01)
     # initial profiles untouched by default; added on request
     assert np.array_equal(a.w0, r.w0) and np.array_equal(a.v0, r.v0)
-    b = noisy(r, NoiseSpec(0.02, seed=3, on=("v0",)), "sc", "beam", "load1")
+    b = noisy(r, NoiseSpec(0.02, seed=3, on=("v0",), model=old), "sc", "beam", "load1")
     assert np.array_equal(b.W, r.W) and not np.array_equal(b.v0, r.v0)
     # deterministic; the same pattern at every level (common random numbers)
-    again = noisy(r, NoiseSpec(0.02, seed=3), "sc", "beam", "load1")
+    again = noisy(r, NoiseSpec(0.02, seed=3, model=old), "sc", "beam", "load1")
     assert np.array_equal(again.W, a.W)
-    double = noisy(r, NoiseSpec(0.04, seed=3), "sc", "beam", "load1")
+    double = noisy(r, NoiseSpec(0.04, seed=3, model=old), "sc", "beam", "load1")
     np.testing.assert_allclose(double.W - r.W, 2 * dW, rtol=1e-12, atol=1e-14)
     # another seed or another case: independent draws
-    for other in (noisy(r, NoiseSpec(0.02, seed=4), "sc", "beam", "load1"),
-                  noisy(r, NoiseSpec(0.02, seed=3), "sc", "beam", "load2")):
+    for other in (noisy(r, NoiseSpec(0.02, seed=4, model=old), "sc", "beam", "load1"),
+                  noisy(r, NoiseSpec(0.02, seed=3, model=old), "sc", "beam", "load2")):
         corr = np.corrcoef((other.W - r.W).ravel(), dW.ravel())[0, 1]
         assert abs(corr) < 0.02
     assert noisy(r, NoiseSpec(0.0, seed=3), "sc", "beam", "load1") is r
