@@ -25,6 +25,14 @@ Format (units inch, lbf, second)::
     #                          reference = "lti_beam" }
     # initial_velocity = { kind = "impulse_velocity", impulses = [[19, 1000]],
     #                      duration = 1.0e-4, reference = "lti_beam" }
+    # file = "data/load1.npz"            # instead: a measured record (.npz, .mat, .csv, .uff;
+    #                                    # relative to this file; podbench.measured)
+
+A case with a ``file`` is read, not simulated; its ``W`` must have the scenario's
+``n_samples`` columns and its ``dt`` the scenario's ``dt``. ``structures = ["measured"]``
+means no structure at all (every case then needs a ``file``); a structure name with file
+cases checks the sensor count (and positions, if the file has them) against the structure.
+Either way a unit with a measured case has no linear twin: its linearization columns are NaN.
 
     [[methods]]
     label = "SL"                         # name in the tables (unique)
@@ -129,6 +137,9 @@ class Case:
     description: str = ""
     force_fields: tuple[str, ...] = ()
     """Field of each force inside the case's table: ``force`` (one table) or ``force[i]``."""
+    file: str | None = None
+    """A measured record (path relative to the scenario file, :mod:`podbench.measured`)
+    instead of excitations: the case is read, not simulated."""
 
     def excitation_fields(self) -> list[tuple[str, dict]]:
         """``(field, table)`` of every excitation, the field relative to ``cases.<name>``."""
@@ -139,11 +150,14 @@ class Case:
 
     def spec(self) -> dict:
         """A JSON-able description (used in cache keys)."""
-        return {
+        out = {
             "initial_displacement": self.initial_displacement,
             "initial_velocity": self.initial_velocity,
             "force": list(self.force),
         }
+        if self.file is not None:
+            out["file"] = self.file
+        return out
 
 
 @dataclass(frozen=True)
@@ -314,9 +328,16 @@ def _parse(doc: dict, path: Path, shown: str, digest: str) -> Scenario:
             description=ct.string("description", "", nonempty=False),
             force_fields=tuple(f"force[{i}]" if isinstance(ct.data["force"], list) else "force"
                                for i in range(len(force))),
+            file=ct.string("file", None),
         )
-        if case.initial_displacement is None and case.initial_velocity is None and not case.force:
-            ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS))
+        excited = not (case.initial_displacement is None and case.initial_velocity is None
+                       and not case.force)
+        if case.file is not None and excited:
+            ct.fail("file", "a case is either a measured record (`file`) or excitations "
+                            "(" + ", ".join(_EXCITATION_KEYS) + "), not both")
+        if case.file is None and not excited:
+            ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS)
+                    + " (or a measured record: `file`)")
         ct.close()
         cases[cname] = case
     cases_t.close()

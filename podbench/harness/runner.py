@@ -28,6 +28,7 @@ from ..errors import PodbenchError, ScenarioFileError, UnknownNameError
 from ..excitations import excitation_from_dict
 from ..fem import load_structure
 from ..fem.files import _display
+from ..measured import read_record
 from ..noise import NoiseSpec, noise_generator, noisy
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from .cache import TruthCache, structure_fingerprint
@@ -65,11 +66,28 @@ def _structure_search(scenario: Scenario) -> list[Path]:
     return [scenario.folder, scenario.folder / "structures", Path.cwd() / "structures"]
 
 
+MEASURED = "measured"
+"""The structure entry that means "no structure": every case is a measured record."""
+
+
+class MeasuredStructure:
+    """What ``structures = ["measured"]`` resolves to: no model, nothing to simulate, no
+    linear twin (the sensors are those of the files)."""
+
+    name = MEASURED
+    is_linear = True
+    n_sensors = None
+    sensor_positions = None
+
+
 def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.structures"):
-    """Load a structure named in a scenario (a name, or a path relative to the file).
+    """Load a structure named in a scenario (a name, or a path relative to the file;
+    ``"measured"``: :class:`MeasuredStructure`).
 
     ``field`` is the scenario field that names it (shown in the error message).
     """
+    if entry == MEASURED:
+        return MeasuredStructure()
     if entry.endswith(".toml") and not os.path.isabs(entry):
         entry = str(scenario.folder / entry)
     if entry.endswith(".toml") and not os.path.isfile(entry):
@@ -140,6 +158,9 @@ def check_cases(scenario: Scenario, structure, loaded: dict | None = None) -> No
     """
     loaded = {} if loaded is None else loaded
     for cname, case in scenario.cases.items():
+        if case.file is not None or isinstance(structure, MeasuredStructure):
+            read_case(scenario, cname, structure)
+            continue
         refs = {}
         for name, fld in sorted(_references(case).items()):
             if name == structure.name:
@@ -149,6 +170,52 @@ def check_cases(scenario: Scenario, structure, loaded: dict | None = None) -> No
                 loaded[name] = resolve_structure(name, scenario, field=fld)
             refs[name] = loaded[name]
         _check_built(scenario, cname, _build_case(scenario, cname, refs), structure)
+
+
+def read_case(scenario: Scenario, case_name: str, structure) -> Response:
+    """The measured record of case ``case_name`` (``[cases.x] file``), checked against the
+    scenario's ``n_samples`` and ``dt`` and the structure's sensors.
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the scenario, the field ``cases.<case>.file``, the record file and the
+        variable at fault.
+    """
+    case = scenario.cases[case_name]
+    head = f"{_display(scenario.path)}: field `cases.{case_name}.file`"
+    if case.file is None:
+        raise ScenarioFileError(f"{head}: structure \"{MEASURED}\" simulates nothing; give "
+                                "the case a measured record (`file`)")
+    path = Path(case.file)
+    path = path if path.is_absolute() else scenario.folder / path
+    shown = case.file
+
+    def fail(var, message):
+        raise ScenarioFileError(f"{head}: {shown}: variable `{var}`: {message}")
+
+    try:
+        rec = read_record(path)
+    except PodbenchError as exc:
+        msg = " ".join(str(exc).split()).replace(str(path), shown)
+        raise ScenarioFileError(f"{head}: {msg}") from None
+    m, n = rec.W.shape
+    if n != scenario.n_samples:
+        fail("W", f"{n} samples (columns), the scenario's n_samples is {scenario.n_samples}")
+    if abs(rec.dt - scenario.dt) > 1e-9 * scenario.dt:
+        fail("dt", f"{rec.dt!r} s differs from the scenario's dt = {scenario.dt!r} s")
+    if structure.n_sensors is not None and m != structure.n_sensors:
+        fail("W", f"{m} sensors (rows), structure {structure.name!r} has {structure.n_sensors}")
+    pos = structure.sensor_positions
+    if pos is not None and rec.sensor_positions is not None and not np.allclose(
+            rec.sensor_positions, pos, rtol=0, atol=1e-9):
+        fail("sensor_positions", f"{list(rec.sensor_positions)} differ from structure "
+                                 f"{structure.name!r}'s {list(np.asarray(pos))}")
+    w0 = rec.W[:, 0].copy() if rec.w0 is None else rec.w0
+    v0 = np.zeros(m) if rec.v0 is None else rec.v0
+    return Response(t=np.arange(n) * scenario.dt, W=rec.W, F=rec.F, w0=w0, v0=v0,
+                    dt=scenario.dt, structure=structure.name, engine="measured",
+                    label=case_name)
 
 
 class _Truth:
@@ -192,6 +259,12 @@ class _Truth:
         if key in self._store:
             return self._store[key]
         sc, case = self.scenario, self.scenario.cases[case_name]
+        if case.file is not None or isinstance(self.structure, MeasuredStructure):
+            if linear:
+                raise ScenarioFileError(f"{_display(sc.path)}: case `{case_name}` is measured: "
+                                        "it has no linear twin")
+            self._store[key] = read_case(sc, case_name, self.structure)
+            return self._store[key]
         s = self.structure.linear_twin() if linear else self.structure
         refs = {n: self._reference(n, f) for n, f in sorted(_references(case).items())}
         where = f"{_display(sc.path)}: case `{case_name}`"
@@ -280,12 +353,15 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     if conditioning is not None and conditioning.is_identity:
         conditioning = None
     truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise, conditioning)
-    nonlinear = not structure.is_linear
     res = UnitResult(scenario=scenario.name, structure=structure.name)
 
     needed = set(scenario.targets)
     for m in scenario.methods:
         needed |= all_cases(m, scenario.method)
+    # a measured case has no linear twin: no linearization is computed, its columns are NaN
+    measured = isinstance(structure, MeasuredStructure) or any(
+        scenario.cases[c].file is not None for c in needed)
+    nonlinear = not structure.is_linear and not measured
     for c in sorted(needed):
         truth.get(c)
         if nonlinear:
@@ -357,7 +433,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             row.update(decompose(
                 W, Wh, U, W_twin=None if W_twin is None else W_twin[t], coupled=coupled,
                 W_lin=None if W_lin is None else W_lin[t],
-                W_twin_lin=None if W_twin_lin is None else W_twin_lin[t], nonlinear=nonlinear,
+                W_twin_lin=None if W_twin_lin is None else W_twin_lin[t],
+                nonlinear=nonlinear or measured,
                 W_own_lin=None if W_own_lin is None else W_own_lin[t],
             ))
             row.update(norm_summaries(W, Wh))
