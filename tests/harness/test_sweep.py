@@ -317,3 +317,21 @@ def test_cli_sweep_bad_input_exits_2_with_one_line(write_scenario, tmp_path, cap
 def test_cli_sweep_missing_path_exits_2(tmp_path, capsys):
     assert cli.main(["sweep", str(tmp_path / "nothing.toml"), "-q"]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+def test_sweep_noise_model_snr_and_force_disturbances_are_read(write_scenario):
+    sc = load_scenario(sweep_file(write_scenario, """
+        snr_db = [40, 20]
+        noise_model = "per_entry_rms"
+        force_offset = 0.01
+        force_drift = -0.02
+    """))
+    assert sc.sweep.noise == pytest.approx((0.01, 0.1), rel=1e-14)
+    assert sc.sweep.noise_model == "per_entry_rms"
+    assert (sc.sweep.force_offset, sc.sweep.force_drift) == (0.01, -0.02)
+    assert load_scenario(sweep_file(write_scenario, "seeds = [0]", "d")).sweep.noise_model == (
+        "per_channel")
+    with pytest.raises(ScenarioFileError, match="not both"):
+        load_scenario(sweep_file(write_scenario, "snr_db = [40]\nnoise = [0.01]", "both"))
+    with pytest.raises(ScenarioFileError, match="noise_model"):
+        load_scenario(sweep_file(write_scenario, 'noise_model = "white"', "bad"))
