@@ -479,6 +479,12 @@ class Pulse(_Force):
         ``τ = t_j − start``.
     by : {"position", "dof"}
         How a numeric ``location`` is read.
+    hits : list of (delay_s, rel_amp), optional
+        Further impacts of the same shape and duration at the same point, as an impact
+        hammer gives them when it bounces (double and triple hits): hit ``k`` starts
+        ``delay_s`` (> 0) after the first and has amplitude ``rel_amp × amplitude``. They are
+        part of the excitation (the truth is simulated with them), not a measurement error.
+        Overlapping hits add. Scenario files: ``hits = [[2.0e-3, 0.3], [4.5e-3, 0.1]]``.
     """
 
     kind = "pulse"
@@ -486,7 +492,7 @@ class Pulse(_Force):
 
     def __init__(
         self, location, amplitude: float, duration: float, *, start: float | None = None,
-        shape: str = "rectangular", by: str = "position",
+        shape: str = "rectangular", by: str = "position", hits=(),
     ):
         if isinstance(amplitude, bool) or not isinstance(amplitude, numbers.Real) or not (
             np.isfinite(amplitude)
@@ -498,29 +504,38 @@ class Pulse(_Force):
         self.start = None if start is None else check_positive(start, "start", allow_zero=True)
         self.shape = check_choice(shape, "shape", self.SHAPES)
         self.by = check_choice(by, "by", _BY)
+        self.hits = _check_hits(hits)
 
-    def window(self, dt: float) -> tuple[int, int]:
-        """First loaded sample and one past the last: ``(j0, j1)``."""
-        start = dt if self.start is None else self.start
+    def window(self, dt: float, start: float | None = None) -> tuple[int, int]:
+        """First loaded sample and one past the last: ``(j0, j1)`` (of the first hit, or of
+        a hit starting at ``start``)."""
+        if start is None:
+            start = dt if self.start is None else self.start
         j0 = int(np.ceil(start / dt - 0.5))
         j1 = int(np.ceil((start + self.duration) / dt - 0.5))
         return j0, j1
 
+    def _starts(self, dt: float) -> list[tuple[float, float]]:
+        """``(start_s, amplitude_lbf)`` of every hit, the first one first."""
+        start = dt if self.start is None else self.start
+        return [(start, self.amplitude)] + [(start + d, r * self.amplitude)
+                                            for d, r in self.hits]
+
     def history(self, n_samples: int, dt: float) -> np.ndarray:
         """The load at ``t_j`` (n_samples,) in lbf."""
         n_samples, dt = _sample_checks(n_samples, dt)
-        start = dt if self.start is None else self.start
-        j0, j1 = self.window(dt)
         out = np.zeros(n_samples)
-        j = np.arange(j0, min(j1, n_samples))
-        tau = j * dt - start
-        if self.shape == "rectangular":
-            val = np.full(j.size, self.amplitude)
-        elif self.shape == "half_sine":
-            val = self.amplitude * np.sin(np.pi * tau / self.duration)
-        else:
-            val = self.amplitude * (1.0 - np.abs(2.0 * tau / self.duration - 1.0))
-        out[j] = val
+        for start, amp in self._starts(dt):
+            j0, j1 = self.window(dt, start)
+            j = np.arange(j0, min(j1, n_samples))
+            tau = j * dt - start
+            if self.shape == "rectangular":
+                val = np.full(j.size, amp)
+            elif self.shape == "half_sine":
+                val = amp * np.sin(np.pi * tau / self.duration)
+            else:
+                val = amp * (1.0 - np.abs(2.0 * tau / self.duration - 1.0))
+            out[j] += val
         return out
 
     def check(self, structure: Structure, n_samples: int, dt: float) -> None:
@@ -540,6 +555,11 @@ class Pulse(_Force):
             raise _at("start", InputError(
                 f"Pulse: starts at {start:g} s, after the record's last sample at "
                 f"{(n_samples - 1) * dt:g} s (n_samples = {n_samples}, dt = {dt:g} s)"))
+        for k, (start, _) in enumerate(self._starts(dt)[1:]):
+            if self.window(dt, start)[0] >= n_samples:
+                raise _at(f"hits[{k}]", InputError(
+                    f"Pulse: hit {k} starts at {start:g} s, after the record's last sample at "
+                    f"{(n_samples - 1) * dt:g} s"))
 
     def _row(self, structure: Structure) -> int:
         row = resolve_sensor(structure, self.location, by=self.by)
@@ -563,16 +583,39 @@ class Pulse(_Force):
         return F
 
     def to_dict(self) -> dict:
-        return {
+        d = {
             "kind": self.kind, "location": self.location, "amplitude": self.amplitude,
             "duration": self.duration, "start": self.start, "shape": self.shape, "by": self.by,
         }
+        if self.hits:
+            d["hits"] = [list(h) for h in self.hits]
+        return d
 
     def __repr__(self) -> str:
+        hits = f", hits={[list(h) for h in self.hits]!r}" if self.hits else ""
         return (
             f"Pulse({self.location!r}, {self.amplitude!r}, {self.duration!r}, "
-            f"start={self.start!r}, shape={self.shape!r}, by={self.by!r})"
+            f"start={self.start!r}, shape={self.shape!r}, by={self.by!r}{hits})"
         )
+
+
+def _check_hits(hits) -> tuple[tuple[float, float], ...]:
+    """Validate ``hits`` (pairs ``(delay_s > 0, finite rel_amp)``)."""
+    if hits is None:
+        return ()
+    if not isinstance(hits, (list, tuple)):
+        raise _at("hits", InputError(
+            f"Pulse: expected `hits` as a list of [delay_s, rel_amp] pairs, got {hits!r}"))
+    out = []
+    for k, h in enumerate(hits):
+        ok = isinstance(h, (list, tuple)) and len(h) == 2 and all(
+            isinstance(x, numbers.Real) and not isinstance(x, bool) and np.isfinite(x)
+            for x in h)
+        if not ok or h[0] <= 0:
+            raise _at(f"hits[{k}]", InputError(
+                f"Pulse: expected a hit [delay_s > 0, rel_amp] with finite numbers, got {h!r}"))
+        out.append((float(h[0]), float(h[1])))
+    return tuple(out)
 
 
 class ForceHistory(_Force):

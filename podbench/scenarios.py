@@ -25,6 +25,14 @@ Format (units inch, lbf, second)::
     #                          reference = "lti_beam" }
     # initial_velocity = { kind = "impulse_velocity", impulses = [[19, 1000]],
     #                      duration = 1.0e-4, reference = "lti_beam" }
+    # file = "data/load1.npz"            # instead: a measured record (.npz, .mat, .csv, .uff;
+    #                                    # relative to this file; podbench.measured)
+
+A case with a ``file`` is read, not simulated; its ``W`` must have the scenario's
+``n_samples`` columns and its ``dt`` the scenario's ``dt``. ``structures = ["measured"]``
+means no structure at all (every case then needs a ``file``); a structure name with file
+cases checks the sensor count (and positions, if the file has them) against the structure.
+Either way a unit with a measured case has no linear twin: its linearization columns are NaN.
 
     [[methods]]
     label = "SL"                         # name in the tables (unique)
@@ -43,7 +51,17 @@ Format (units inch, lbf, second)::
                                          # or tables {solver = "tls", options = {rcond = 1e-2},
                                          #            label = "tls-1e-2"}
     noise_on = ["W", "F"]                # training quantities that get noise (W, F, w0, v0)
+    noise_model = "per_channel"          # or "per_entry_rms" (the former model; podbench.noise)
+    # snr_db = [40, 26]                  # instead of `noise`: sensor SNR in dB (40 dB = 1 %)
+    force_offset = 0.0                   # measured-force offset, relative to the channel peak
+    force_drift = 0.0                    # measured-force linear drift at the record's end, same
     coupled_train = "first"              # MDS/ML with k modes: "first" k training cases or "all"
+
+    [conditioning]                       # optional: signal conditioning of every training
+    detrend = "linear"                   # record (podbench.conditioning): "mean" / "linear"
+    force_window = { pre = 1e-4, post = 2e-3 }     # s around each detected impact
+    exponential_window = { tau = 0.05 }  # s; the prediction is corrected (un-windowed)
+    # threshold = 0.05, noise_factor = 5.0, min_pretrigger = 8   (impact detection)
 
 The excitation tables are those of :func:`podbench.excitations.excitation_from_dict`;
 ``force`` is one table or an array of tables (summed). A ``reference`` names a structure of
@@ -121,6 +139,9 @@ class Case:
     description: str = ""
     force_fields: tuple[str, ...] = ()
     """Field of each force inside the case's table: ``force`` (one table) or ``force[i]``."""
+    file: str | None = None
+    """A measured record (path relative to the scenario file, :mod:`podbench.measured`)
+    instead of excitations: the case is read, not simulated."""
 
     def excitation_fields(self) -> list[tuple[str, dict]]:
         """``(field, table)`` of every excitation, the field relative to ``cases.<name>``."""
@@ -131,11 +152,14 @@ class Case:
 
     def spec(self) -> dict:
         """A JSON-able description (used in cache keys)."""
-        return {
+        out = {
             "initial_displacement": self.initial_displacement,
             "initial_velocity": self.initial_velocity,
             "force": list(self.force),
         }
+        if self.file is not None:
+            out["file"] = self.file
+        return out
 
 
 @dataclass(frozen=True)
@@ -189,6 +213,9 @@ class Sweep:
     solvers: tuple[SolverChoice, ...] | None = None
     noise_on: tuple[str, ...] = ("W", "F")
     coupled_train: str = "first"
+    noise_model: str = "per_channel"
+    force_offset: float = 0.0
+    force_drift: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -214,6 +241,8 @@ class Scenario:
     of its fields replaced (``[variants.<name>]``)."""
     base: Path | None = None
     """The scenario file this one inherits from (``scenario.base``), or None."""
+    conditioning: object = None
+    """The ``[conditioning]`` table (:class:`podbench.conditioning.Conditioning`) or None."""
 
     @property
     def folder(self) -> Path:
@@ -340,9 +369,16 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
             description=ct.string("description", "", nonempty=False),
             force_fields=tuple(f"force[{i}]" if isinstance(ct.data["force"], list) else "force"
                                for i in range(len(force))),
+            file=ct.string("file", None),
         )
-        if case.initial_displacement is None and case.initial_velocity is None and not case.force:
-            ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS))
+        excited = not (case.initial_displacement is None and case.initial_velocity is None
+                       and not case.force)
+        if case.file is not None and excited:
+            ct.fail("file", "a case is either a measured record (`file`) or excitations "
+                            "(" + ", ".join(_EXCITATION_KEYS) + "), not both")
+        if case.file is None and not excited:
+            ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS)
+                    + " (or a measured record: `file`)")
         ct.close()
         cases[cname] = case
     if cases_t is not None:
@@ -414,13 +450,16 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
     sweep_t = top.table("sweep")
     sweep = (base.sweep if base is not None else None) if sweep_t is None \
         else _parse_sweep(sweep_t, path.parent)
+    cond_t = top.table("conditioning")
+    conditioning = (base.conditioning if base is not None else None) if cond_t is None \
+        else _parse_conditioning(cond_t)
     top.close()
     return Scenario(
         name=name, title=title, source=source, description=description.strip(),
         structures=tuple(structures), n_samples=n_samples, dt=dt, engine=engine,
         targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
         digest=digest, sweep=sweep, variants=variants,
-        base=None if base is None else base.path,
+        base=None if base is None else base.path, conditioning=conditioning,
     )
 
 
@@ -481,8 +520,24 @@ def _unique(t: Table, key: str, values) -> None:
 
 
 def _parse_sweep(t: Table, folder: Path) -> Sweep:
-    noise = tuple(t.numbers("noise", [0.0], nonnegative=True))
+    from .noise import NOISE_MODELS, level_from_snr_db
+
+    if "snr_db" in t.data:
+        if "noise" in t.data:
+            t.fail("snr_db", "give the noise levels either as `noise` or as `snr_db`, not both")
+        snr = t.numbers("snr_db", None)
+        if not snr:
+            t.fail("snr_db", "expected a non-empty array of SNRs in dB")
+        _unique(t, "snr_db", snr)
+        if any(not math.isfinite(x) for x in snr):
+            t.fail("snr_db", f"expected finite numbers of dB, got {snr}")
+        noise = tuple(level_from_snr_db(x) for x in snr)
+    else:
+        noise = tuple(t.numbers("noise", [0.0], nonnegative=True))
     _unique(t, "noise", noise)
+    noise_model = t.string("noise_model", "per_channel", choices=NOISE_MODELS)
+    force_offset = t.number("force_offset", 0.0)
+    force_drift = t.number("force_drift", 0.0)
     n_modes = t.integers("n_modes", None, minimum=1)
     if n_modes is not None:
         _unique(t, "n_modes", n_modes)
@@ -528,7 +583,31 @@ def _parse_sweep(t: Table, folder: Path) -> Sweep:
         solvers = tuple(solvers)
     t.close()
     return Sweep(noise=noise, n_modes=n_modes, seeds=seeds, solvers=solvers,
-                 noise_on=tuple(noise_on), coupled_train=coupled_train)
+                 noise_on=tuple(noise_on), coupled_train=coupled_train,
+                 noise_model=noise_model, force_offset=force_offset, force_drift=force_drift)
+
+
+def _parse_conditioning(t: Table):
+    """The ``[conditioning]`` table (:mod:`podbench.conditioning`)."""
+    from .conditioning import DETREND_KINDS, Conditioning
+
+    kw = {}
+    if t.has("detrend"):
+        kw["detrend"] = t.string("detrend", choices=DETREND_KINDS)
+    fw = t.table("force_window")
+    if fw is not None:
+        kw["force_window"] = (fw.number("pre", 0.0, nonnegative=True),
+                              fw.number("post", nonnegative=True))
+        fw.close()
+    ew = t.table("exponential_window")
+    if ew is not None:
+        kw["exponential_window"] = ew.number("tau", positive=True)
+        ew.close()
+    kw["threshold"] = t.number("threshold", 0.05, positive=True)
+    kw["noise_factor"] = t.number("noise_factor", 5.0, nonnegative=True)
+    kw["min_pretrigger"] = t.integer("min_pretrigger", 8, minimum=1)
+    t.close()
+    return Conditioning(**kw)
 
 
 def _takes_option(spec: MethodSpec, scenario: Scenario, name: str) -> bool:

@@ -8,13 +8,12 @@ depend on ``jobs``: rows are sorted by scenario file, structure (scenario order)
 
 ``run_unit`` also runs one point of a sweep (:mod:`podbench.harness.sweep`): ``overrides``
 derives the point's scenario (:func:`podbench.scenarios.apply_overrides`) and ``noise``
-(:class:`NoiseSpec`) adds measurement noise to the training data only (:func:`noisy`).
+(:class:`podbench.noise.NoiseSpec`) adds measurement noise to the training data only
+(:func:`podbench.noise.noisy`; both re-exported here).
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -22,19 +21,23 @@ from pathlib import Path
 
 import numpy as np
 
+from ..conditioning import Conditioning, WindowCorrected, condition
 from ..data import Response, displacement_norm, norm_percent_error
 from ..dynamics import simulate
 from ..errors import PodbenchError, ScenarioFileError, StructureFileError, UnknownNameError
 from ..excitations import excitation_from_dict
 from ..fem import load_structure
 from ..fem.files import _display
+from ..measured import read_record
+from ..noise import NoiseSpec, noise_generator, noisy
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from .cache import TruthCache, structure_fingerprint
 from .estimators import all_cases, build_estimator, is_user_method, training_records
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 
-__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy", "check_cases"]
+__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy", "check_cases",
+           "noise_generator"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
            *NORM_COLUMNS, "status")
@@ -59,63 +62,32 @@ class UnitResult:
     seconds: float = 0.0
 
 
-@dataclass(frozen=True)
-class NoiseSpec:
-    """Measurement noise on the training data of one sweep point.
-
-    ``level`` is relative: each quantity named in ``on`` (``"W"``, ``"F"``, ``"w0"``,
-    ``"v0"``) of each training response gets independent Gaussian noise of standard deviation
-    ``level × RMS`` of that quantity (a quantity that is identically zero stays zero).
-    ``seed`` selects the realization (see :func:`noisy`).
-    """
-
-    level: float
-    seed: int = 0
-    on: tuple[str, ...] = ("W", "F")
-
-
-def noise_generator(seed: int, *key: str) -> np.random.Generator:
-    """The generator of one noise stream: ``SeedSequence`` entropy ``[seed, h_0 … h_7]``
-    with ``h`` the eight 32-bit words of SHA-256 of the JSON list ``key``. Never the global
-    RNG; identical on every machine, process and thread."""
-    digest = hashlib.sha256(json.dumps(list(key)).encode("utf-8")).digest()
-    words = [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 32, 4)]
-    return np.random.default_rng(np.random.SeedSequence([int(seed), *words]))
-
-
-def noisy(response: Response, noise: NoiseSpec, *key: str) -> Response:
-    """``response`` with relative Gaussian noise on the quantities ``noise.on``.
-
-    The standard normal draws of quantity ``Q`` come from ``noise_generator(noise.seed,
-    *key, Q)`` and are scaled by ``noise.level × RMS(Q)``: the same seed gives the same
-    pattern at every level (common random numbers, so levels, solvers and mode counts are
-    compared on the same realization). The harness uses ``key = (scenario, structure,
-    case)`` with the unit's structure name also for its linear twin, so the nonlinear and
-    the linear data of a case carry the same pattern. Level 0 returns ``response`` itself.
-    """
-    if noise.level == 0:
-        return response
-    arrays = {}
-    for q in ("W", "F", "w0", "v0"):
-        a = np.asarray(getattr(response, q), dtype=float)
-        if q in noise.on:
-            rms = float(np.sqrt(np.mean(a**2))) if a.size else 0.0
-            z = noise_generator(noise.seed, *key, q).standard_normal(a.shape)
-            a = a + (noise.level * rms) * z
-        arrays[q] = a
-    return Response(t=response.t, dt=response.dt, structure=response.structure,
-                    engine=response.engine, label=response.label, **arrays)
-
-
 def _structure_search(scenario: Scenario) -> list[Path]:
     return [scenario.folder, scenario.folder / "structures", Path.cwd() / "structures"]
 
 
+MEASURED = "measured"
+"""The structure entry that means "no structure": every case is a measured record."""
+
+
+class MeasuredStructure:
+    """What ``structures = ["measured"]`` resolves to: no model, nothing to simulate, no
+    linear twin (the sensors are those of the files)."""
+
+    name = MEASURED
+    is_linear = True
+    n_sensors = None
+    sensor_positions = None
+
+
 def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.structures"):
-    """Load a structure named in a scenario (a name, or a path relative to the file).
+    """Load a structure named in a scenario (a name, or a path relative to the file;
+    ``"measured"``: :class:`MeasuredStructure`).
 
     ``field`` is the scenario field that names it (shown in the error message).
     """
+    if entry == MEASURED:
+        return MeasuredStructure()
     variant = scenario.variants.get(entry)
     if variant is not None:  # a structure file with some fields replaced, renamed
         base_entry = variant.structure
@@ -200,6 +172,9 @@ def check_cases(scenario: Scenario, structure, loaded: dict | None = None) -> No
     """
     loaded = {} if loaded is None else loaded
     for cname, case in scenario.cases.items():
+        if case.file is not None or isinstance(structure, MeasuredStructure):
+            read_case(scenario, cname, structure)
+            continue
         refs = {}
         for name, fld in sorted(_references(case).items()):
             if name == structure.name:
@@ -211,28 +186,78 @@ def check_cases(scenario: Scenario, structure, loaded: dict | None = None) -> No
         _check_built(scenario, cname, _build_case(scenario, cname, refs), structure)
 
 
+def read_case(scenario: Scenario, case_name: str, structure) -> Response:
+    """The measured record of case ``case_name`` (``[cases.x] file``), checked against the
+    scenario's ``n_samples`` and ``dt`` and the structure's sensors.
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the scenario, the field ``cases.<case>.file``, the record file and the
+        variable at fault.
+    """
+    case = scenario.cases[case_name]
+    head = f"{_display(scenario.path)}: field `cases.{case_name}.file`"
+    if case.file is None:
+        raise ScenarioFileError(f"{head}: structure \"{MEASURED}\" simulates nothing; give "
+                                "the case a measured record (`file`)")
+    path = Path(case.file)
+    path = path if path.is_absolute() else scenario.folder / path
+    shown = case.file
+
+    def fail(var, message):
+        raise ScenarioFileError(f"{head}: {shown}: variable `{var}`: {message}")
+
+    try:
+        rec = read_record(path)
+    except PodbenchError as exc:
+        msg = " ".join(str(exc).split()).replace(str(path), shown)
+        raise ScenarioFileError(f"{head}: {msg}") from None
+    m, n = rec.W.shape
+    if n != scenario.n_samples:
+        fail("W", f"{n} samples (columns), the scenario's n_samples is {scenario.n_samples}")
+    if abs(rec.dt - scenario.dt) > 1e-9 * scenario.dt:
+        fail("dt", f"{rec.dt!r} s differs from the scenario's dt = {scenario.dt!r} s")
+    if structure.n_sensors is not None and m != structure.n_sensors:
+        fail("W", f"{m} sensors (rows), structure {structure.name!r} has {structure.n_sensors}")
+    pos = structure.sensor_positions
+    if pos is not None and rec.sensor_positions is not None and not np.allclose(
+            rec.sensor_positions, pos, rtol=0, atol=1e-9):
+        fail("sensor_positions", f"{list(rec.sensor_positions)} differ from structure "
+                                 f"{structure.name!r}'s {list(np.asarray(pos))}")
+    w0 = rec.W[:, 0].copy() if rec.w0 is None else rec.w0
+    v0 = np.zeros(m) if rec.v0 is None else rec.v0
+    return Response(t=np.arange(n) * scenario.dt, W=rec.W, F=rec.F, w0=w0, v0=v0,
+                    dt=scenario.dt, structure=structure.name, engine="measured",
+                    label=case_name)
+
+
 class _Truth:
     """Truth responses of one structure (and its linear twin), simulated or cached."""
 
     def __init__(self, scenario: Scenario, structure, cache: TruthCache, engine: str,
-                 noise: NoiseSpec | None = None):
+                 noise: NoiseSpec | None = None, conditioning: Conditioning | None = None):
         self.scenario, self.structure, self.cache, self.engine = scenario, structure, cache, engine
         self.noise = noise
+        self.conditioning = conditioning
         self._refs: dict = {}
         self._store: dict = {}
         self._noisy: dict = {}
         self.simulated = 0
 
     def train(self, case_name: str, linear: bool = False) -> Response:
-        """A training response: the truth, with the sweep's noise if any (targets stay
-        noise-free: a prediction is compared with the clean truth)."""
-        clean = self.get(case_name, linear)
-        if self.noise is None or self.noise.level == 0:
-            return clean
+        """A training response: the truth, with the sweep's noise if any, then conditioned
+        (:mod:`podbench.conditioning`) if the scenario says so — the conditioning sees only
+        the measured arrays. Targets stay noise-free and unconditioned: a prediction is
+        compared with the clean truth."""
         key = (case_name, linear)
         if key not in self._noisy:
-            self._noisy[key] = noisy(clean, self.noise, self.scenario.name,
-                                     self.structure.name, case_name)
+            r = self.get(case_name, linear)
+            if self.noise is not None and not self.noise.is_null:
+                r = noisy(r, self.noise, self.scenario.name, self.structure.name, case_name)
+            if self.conditioning is not None:
+                r = condition(r, self.conditioning)
+            self._noisy[key] = r
         return self._noisy[key]
 
     def _reference(self, name: str, field: str):
@@ -248,6 +273,12 @@ class _Truth:
         if key in self._store:
             return self._store[key]
         sc, case = self.scenario, self.scenario.cases[case_name]
+        if case.file is not None or isinstance(self.structure, MeasuredStructure):
+            if linear:
+                raise ScenarioFileError(f"{_display(sc.path)}: case `{case_name}` is measured: "
+                                        "it has no linear twin")
+            self._store[key] = read_case(sc, case_name, self.structure)
+            return self._store[key]
         s = self.structure.linear_twin() if linear else self.structure
         refs = {n: self._reference(n, f) for n, f in sorted(_references(case).items())}
         where = f"{_display(sc.path)}: case `{case_name}`"
@@ -288,10 +319,15 @@ def _fit(spec, scenario: Scenario, truth: _Truth, linear: bool, basis=None):
     structure if ``linear``), in ``basis`` if given."""
     est = build_estimator(spec, scenario.method, scenario.folder)
     train = training_records(spec, scenario.method, lambda c: truth.train(c, linear))
-    return est.fit(train, basis=basis)
+    est = est.fit(train, basis=basis)
+    cond = truth.conditioning
+    if cond is not None and cond.exponential_window is not None:
+        return WindowCorrected(est, cond.exponential_window)  # predictions un-windowed
+    return est
 
 
 _EXPECTED = (PodbenchError, np.linalg.LinAlgError)
+_SCENARIO = object()  # run_unit's default conditioning: the scenario's own
 
 
 def _failure(exc: BaseException) -> str:
@@ -301,7 +337,7 @@ def _failure(exc: BaseException) -> str:
 
 def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | None = None,
              keep_series: bool = True, *, overrides: dict | None = None,
-             noise: NoiseSpec | None = None) -> UnitResult:
+             noise: NoiseSpec | None = None, conditioning=_SCENARIO) -> UnitResult:
     """Run every method of a scenario on one structure.
 
     Truth for every case the methods and targets need is simulated (or read from the cache in
@@ -316,6 +352,9 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     then also has a ``solver`` entry and the file's label as ``method``; ``noise`` adds
     :class:`NoiseSpec` noise to every training response (twins and linear twins included),
     never to the targets. Without them the behaviour is that of ``podbench run``.
+
+    ``conditioning`` (:class:`podbench.conditioning.Conditioning` or None) replaces the
+    scenario's ``[conditioning]`` table; by default the scenario's applies.
     """
     t_start = time.perf_counter()
     scenario = load_scenario(scenario_path)
@@ -323,13 +362,20 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
         scenario = apply_overrides(scenario, **overrides)
     structure = resolve_structure(structure_entry, scenario)
     cache = TruthCache(cache_dir)
-    truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise)
-    nonlinear = not structure.is_linear
+    if conditioning is _SCENARIO:
+        conditioning = scenario.conditioning
+    if conditioning is not None and conditioning.is_identity:
+        conditioning = None
+    truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise, conditioning)
     res = UnitResult(scenario=scenario.name, structure=structure.name)
 
     needed = set(scenario.targets)
     for m in scenario.methods:
         needed |= all_cases(m, scenario.method)
+    # a measured case has no linear twin: no linearization is computed, its columns are NaN
+    measured = isinstance(structure, MeasuredStructure) or any(
+        scenario.cases[c].file is not None for c in needed)
+    nonlinear = not structure.is_linear and not measured
     for c in sorted(needed):
         truth.get(c)
         if nonlinear:
@@ -401,7 +447,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             row.update(decompose(
                 W, Wh, U, W_twin=None if W_twin is None else W_twin[t], coupled=coupled,
                 W_lin=None if W_lin is None else W_lin[t],
-                W_twin_lin=None if W_twin_lin is None else W_twin_lin[t], nonlinear=nonlinear,
+                W_twin_lin=None if W_twin_lin is None else W_twin_lin[t],
+                nonlinear=nonlinear or measured,
                 W_own_lin=None if W_own_lin is None else W_own_lin[t],
             ))
             row.update(norm_summaries(W, Wh))

@@ -10,13 +10,19 @@ independent pure functions of their arguments, so the table is identical whateve
 them (``jobs = 1``, ``jobs = N`` local processes, or a Dask scheduler) and whatever order
 they finish in.
 
-Noise model (:class:`podbench.harness.runner.NoiseSpec`): Gaussian, standard deviation
-``level × RMS`` of each training matrix, added after the truth is loaded from the cache (so
-the cache stays valid), by default to the training displacements ``W`` and forces ``F``
-(``noise_on`` adds the initial profiles ``w0``/``v0`` on request). Targets are never noisy:
+Noise model (:mod:`podbench.noise`, ``noise_model`` of the ``[sweep]`` table): by default
+``"per_channel"`` — Gaussian, standard deviation ``level × RMS`` of each measured channel's
+own record, on every sensor row of ``W`` and on the instrumented force rows only (the rows of
+``F`` not identically zero: a force channel exists where a load is applied); ``"per_entry_rms"``
+is the former model (``level × RMS`` of the whole matrix on every entry). Noise is added after
+the truth is loaded from the cache (so the cache stays valid), by default to the training
+displacements ``W`` and forces ``F`` (``noise_on`` adds the initial profiles ``w0``/``v0`` on
+request); ``snr_db`` replaces ``noise`` by SNRs in dB; ``force_offset`` / ``force_drift`` add
+a load-cell offset and linear drift (relative to the channel's peak). Targets are never noisy:
 each prediction is made from the target's exact excitation and compared with the noise-free
 truth, so the error is the identification error caused by noisy training data. The draws
-are seeded by ``(seed, scenario, structure, case, quantity)`` through ``SeedSequence``; the
+are seeded by ``(seed, scenario, structure, case, quantity, channel)`` through
+``SeedSequence``; the
 same seed gives the same pattern at every level, for every method, solver and k. A
 noise-free point does not depend on the seed: it is computed once and its rows are repeated
 for every seed (so the table stays rectangular).
@@ -88,6 +94,9 @@ class SweepTask:
     engine: str | None
     first_seed: int
     """The sweep's first seed: a noise-free point is computed for it only."""
+    noise_model: str = "per_channel"
+    force_offset: float = 0.0
+    force_drift: float = 0.0
 
 
 def sweep_axes(scenario: Scenario, *, noise=None, n_modes=None, seeds=None,
@@ -101,6 +110,8 @@ def sweep_axes(scenario: Scenario, *, noise=None, n_modes=None, seeds=None,
         seeds=base.seeds if seeds is None else tuple(int(x) for x in seeds),
         solvers=base.solvers if solvers is None else tuple(solvers),
         noise_on=base.noise_on, coupled_train=base.coupled_train,
+        noise_model=base.noise_model, force_offset=base.force_offset,
+        force_drift=base.force_drift,
     )
     for name, vals in (("noise", out.noise), ("n_modes", out.n_modes or ()),
                        ("seeds", out.seeds)):
@@ -147,12 +158,14 @@ def plan_sweep(paths, *, cache_dir=None, engine=None, **axes) -> tuple[dict, lis
                             structure=entry, noise=level, modes=k, seed=seed,
                             solvers=ax.solvers, noise_on=ax.noise_on,
                             coupled_train=ax.coupled_train, cache_dir=cache, engine=engine,
-                            first_seed=ax.seeds[0]))
+                            first_seed=ax.seeds[0], noise_model=ax.noise_model,
+                            force_offset=ax.force_offset, force_drift=ax.force_drift))
     return scenarios, tasks
 
 
 def _computed(task: SweepTask) -> bool:
-    """Whether the task is computed (a noise-free point only for the first seed)."""
+    """Whether the task is computed (a noise-free point only for the first seed; an offset
+    or drift is deterministic, so a level-0 point with one is noise-free too)."""
     return task.noise > 0 or task.seed == task.first_seed
 
 
@@ -171,7 +184,9 @@ def run_task(task: SweepTask) -> dict:
             "(edited during the run, or a Dask worker with another checkout)")
     overrides = {"n_modes": task.modes, "solvers": task.solvers,
                  "coupled_train": task.coupled_train}
-    noise = NoiseSpec(level=float(task.noise), seed=int(task.seed), on=tuple(task.noise_on))
+    noise = NoiseSpec(level=float(task.noise), seed=int(task.seed), on=tuple(task.noise_on),
+                      model=task.noise_model, force_offset=float(task.force_offset),
+                      force_drift=float(task.force_drift))
     res = run_unit(task.scenario_path, task.structure, task.cache_dir, task.engine, False,
                    overrides=overrides, noise=noise)
     modes = -1 if task.modes is None else int(task.modes)
@@ -257,6 +272,20 @@ def _cell(errors: np.ndarray, n_failed: int) -> str:
     return text + (f" [{n_failed} failed]" if n_failed else "")
 
 
+def _noise_words(scenario: Scenario) -> str:
+    sw = scenario.sweep or Sweep()
+    if sw.noise_model == "per_entry_rms":
+        text = ("Gaussian, standard deviation = level × RMS of each training matrix, on every "
+                "entry (model per_entry_rms)")
+    else:
+        text = ("Gaussian, standard deviation = level × RMS of each measured channel, on every "
+                "sensor row of W and the loaded rows of F (model per_channel)")
+    if sw.force_offset or sw.force_drift:
+        text += (f", force offset {sw.force_offset:g} and drift {sw.force_drift:g} of each "
+                 "force channel's peak")
+    return text
+
+
 def sweep_markdown(df: pd.DataFrame, scenario: Scenario) -> str:
     """Median (max) over seeds of ``total_error``, one row per (structure, method, target,
     k, solver), one column per noise level."""
@@ -266,8 +295,8 @@ def sweep_markdown(df: pd.DataFrame, scenario: Scenario) -> str:
            f"{scenario.title}. *{scenario.source}*\n\n" if scenario.source
            else f"{scenario.title}.\n\n",
            "Total relative error ‖Ŵ − W‖_F/‖W‖_F of each target: median (max) over seeds "
-           f"{', '.join(map(str, seeds))}. Noise: Gaussian, standard deviation = level × RMS "
-           "of each training matrix; targets noise-free (see podbench.harness.sweep). "
+           f"{', '.join(map(str, seeds))}. Noise: {_noise_words(scenario)}; "
+           "targets noise-free (see podbench.noise). "
            "Generated by `podbench sweep` with sweep.csv; do not edit.\n\n"]
     head = ["structure", "method", "target", "k", "solver", *(f"noise {x:g}" for x in levels)]
     out.append("| " + " | ".join(head) + " |\n|" + "---|" * len(head) + "\n")

@@ -109,9 +109,12 @@ def _response(rng, m=40, n=2500):
 
 
 def test_noise_is_relative_gaussian_seeded_and_scales_with_the_level():
+    """The former model (per_entry_rms), kept as a named option; the per-channel default is
+    tested in tests/test_noise.py."""
     r = _response(np.random.default_rng(7))
     rms_w = np.sqrt(np.mean(r.W ** 2))
-    a = noisy(r, NoiseSpec(0.02, seed=3), "sc", "beam", "load1")
+    old = "per_entry_rms"
+    a = noisy(r, NoiseSpec(0.02, seed=3, model=old), "sc", "beam", "load1")
     dW = a.W - r.W
     # standard deviation level × RMS(W), mean zero (100,000 draws: 0.2 % sampling error)
     assert np.std(dW) / rms_w == pytest.approx(0.02, rel=0.01)
@@ -120,16 +123,16 @@ def test_noise_is_relative_gaussian_seeded_and_scales_with_the_level():
     assert np.std(a.F - r.F) / rms_f == pytest.approx(0.02, rel=0.01)
     # initial profiles untouched by default; added on request
     assert np.array_equal(a.w0, r.w0) and np.array_equal(a.v0, r.v0)
-    b = noisy(r, NoiseSpec(0.02, seed=3, on=("v0",)), "sc", "beam", "load1")
+    b = noisy(r, NoiseSpec(0.02, seed=3, on=("v0",), model=old), "sc", "beam", "load1")
     assert np.array_equal(b.W, r.W) and not np.array_equal(b.v0, r.v0)
     # deterministic; the same pattern at every level (common random numbers)
-    again = noisy(r, NoiseSpec(0.02, seed=3), "sc", "beam", "load1")
+    again = noisy(r, NoiseSpec(0.02, seed=3, model=old), "sc", "beam", "load1")
     assert np.array_equal(again.W, a.W)
-    double = noisy(r, NoiseSpec(0.04, seed=3), "sc", "beam", "load1")
+    double = noisy(r, NoiseSpec(0.04, seed=3, model=old), "sc", "beam", "load1")
     np.testing.assert_allclose(double.W - r.W, 2 * dW, rtol=1e-12, atol=1e-14)
     # another seed or another case: independent draws
-    for other in (noisy(r, NoiseSpec(0.02, seed=4), "sc", "beam", "load1"),
-                  noisy(r, NoiseSpec(0.02, seed=3), "sc", "beam", "load2")):
+    for other in (noisy(r, NoiseSpec(0.02, seed=4, model=old), "sc", "beam", "load1"),
+                  noisy(r, NoiseSpec(0.02, seed=3, model=old), "sc", "beam", "load2")):
         corr = np.corrcoef((other.W - r.W).ravel(), dW.ravel())[0, 1]
         assert abs(corr) < 0.02
     assert noisy(r, NoiseSpec(0.0, seed=3), "sc", "beam", "load1") is r
@@ -327,3 +330,21 @@ def test_cli_sweep_bad_input_exits_2_with_one_line(write_scenario, tmp_path, cap
 def test_cli_sweep_missing_path_exits_2(tmp_path, capsys):
     assert cli.main(["sweep", str(tmp_path / "nothing.toml"), "-q"]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+def test_sweep_noise_model_snr_and_force_disturbances_are_read(write_scenario):
+    sc = load_scenario(sweep_file(write_scenario, """
+        snr_db = [40, 20]
+        noise_model = "per_entry_rms"
+        force_offset = 0.01
+        force_drift = -0.02
+    """))
+    assert sc.sweep.noise == pytest.approx((0.01, 0.1), rel=1e-14)
+    assert sc.sweep.noise_model == "per_entry_rms"
+    assert (sc.sweep.force_offset, sc.sweep.force_drift) == (0.01, -0.02)
+    assert load_scenario(sweep_file(write_scenario, "seeds = [0]", "d")).sweep.noise_model == (
+        "per_channel")
+    with pytest.raises(ScenarioFileError, match="not both"):
+        load_scenario(sweep_file(write_scenario, "snr_db = [40]\nnoise = [0.01]", "both"))
+    with pytest.raises(ScenarioFileError, match="noise_model"):
+        load_scenario(sweep_file(write_scenario, 'noise_model = "white"', "bad"))
