@@ -54,6 +54,7 @@ class UnitResult:
     rows: list = field(default_factory=list)
     fits: list = field(default_factory=list)  # one dict per reported method: its diagnostics_
     series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
+    events: list = field(default_factory=list)  # (time in s, description) of Structure.events
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
@@ -311,7 +312,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     cache = TruthCache(cache_dir)
     truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise)
     nonlinear = not structure.is_linear
-    res = UnitResult(scenario=scenario.name, structure=structure.name)
+    res = UnitResult(scenario=scenario.name, structure=structure.name,
+                     events=[(float(e.time), e.description) for e in structure.events])
 
     needed = set(scenario.targets)
     for m in scenario.methods:
