@@ -176,9 +176,9 @@ def _inline(text: str) -> str:
     out = []
     for p in parts:
         if len(p) > 1 and p.startswith("`") and p.endswith("`"):
-            out.append(f"<code>{_e(p[1:-1])}</code>")
+            out.append(f"<code>{_e(' '.join(p[1:-1].split()))}</code>")
             continue
-        s = _e(p)
+        s = _e(re.sub(r"\s+", " ", p))
         s = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", s)
         s = re.sub(r"(?<![\w*])\*(?!\s)(.+?)(?<!\s)\*(?![\w*])", r"<em>\1</em>", s)
         out.append(s)
