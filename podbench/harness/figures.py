@@ -151,10 +151,16 @@ def percent(v: float) -> str:
     return f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.3g}"
 
 
-def _exits(y: np.ndarray, top: float) -> np.ndarray:
-    """Indices where ``y`` rises above ``top`` (the first sample of each excursion)."""
+def _exits(y: np.ndarray, top: float, gap: int = 1) -> np.ndarray:
+    """Indices where ``y`` rises above ``top`` (the first sample of each excursion), one per
+    ``gap`` samples at most (a curve that flickers across the edge gets one mark)."""
     above = y > top
-    return np.flatnonzero(above & ~np.concatenate(([False], above[:-1])))
+    starts = np.flatnonzero(above & ~np.concatenate(([False], above[:-1])))
+    kept: list[int] = []
+    for j in starts:
+        if not kept or j - kept[-1] >= gap:
+            kept.append(int(j))
+    return np.asarray(kept, dtype=int)
 
 
 def _legend_columns(labels) -> int:
@@ -208,6 +214,7 @@ def make_figure(task: FigureTask):
     scale, unit = time_unit(float(t[-1]))
     x = scale * t
     sub = textwrap.wrap(task.subtitle, 92) if task.subtitle else []
+    title = textwrap.wrap(task.title, 68) or [""]
     with plt.rc_context(RC):
         fig, (a1, a2) = plt.subplots(2, 1, figsize=SIZE, sharex=True,
                                      gridspec_kw={"height_ratios": [3, 2]})
@@ -228,7 +235,7 @@ def make_figure(task: FigureTask):
                     peak = float(np.nanmax(y)) / float(np.nanmax(truth))
                     name += f", off scale (peak {peak:.2g}× the truth's)"
                 a1.plot(x, y, color=color, ls=ls, lw=1.6, zorder=4 - 0.1 * i)
-                ex = _exits(y, top)
+                ex = _exits(y, top, gap=max(1, y.size // 25))
                 if ex.size:
                     a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,
                             color=color, clip_on=False, zorder=6)
@@ -239,7 +246,7 @@ def make_figure(task: FigureTask):
                 pe_all.append(pe)
                 a2.plot(x, pe, color=color, ls=ls, lw=1.4)
             a1.set_ylim(bottom, top)
-            a1.set_ylabel("Displacement norm ‖w(t)‖, in")
+            a1.set_ylabel("Norm ‖w(t)‖, in")
             a1.grid(True, alpha=0.3)
             a2.set_yscale("log")
             finite = np.concatenate([p[np.isfinite(p)] for p in pe_all]) if pe_all else []
@@ -263,12 +270,14 @@ def make_figure(task: FigureTask):
                                   "alpha": 0.9})
             ncol = _legend_columns([h.get_label() for h in handles])
             rows = -(-len(handles) // ncol)
-            head = 0.14 + 0.32 + 0.25 * len(sub) + 0.29 * rows + 0.08  # inches above the axes
+            head = 0.14 + 0.3 * len(title) + 0.06 + 0.25 * len(sub) + 0.29 * rows + 0.1
+            # (inches above the axes: margin, title, subtitle, legend rows)
             height = 4.9 + head
             fig.set_size_inches(SIZE[0], height)
             y = 1 - 0.14 / height
-            fig.suptitle(task.title, fontsize=14, fontweight="bold", y=y, va="top")
-            y -= 0.32 / height
+            fig.suptitle("\n".join(title), fontsize=14, fontweight="bold", y=y, va="top",
+                         linespacing=1.2)
+            y -= (0.3 * len(title) + 0.06) / height
             if sub:
                 fig.text(0.5, y, "\n".join(sub), ha="center", va="top", fontsize=12,
                          color="0.15", linespacing=1.25)
@@ -276,7 +285,8 @@ def make_figure(task: FigureTask):
             fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, y),
                        ncol=ncol, frameon=False, handlelength=2.6, columnspacing=1.6,
                        borderaxespad=0.0)
-            fig.subplots_adjust(left=0.105, right=0.975, top=1 - head / height,
+            fig.align_ylabels([a1, a2])
+            fig.subplots_adjust(left=0.11, right=0.975, top=1 - head / height,
                                 bottom=0.6 / height, hspace=0.07)
         except BaseException:
             plt.close(fig)

@@ -142,8 +142,8 @@ def figure_tasks(results, scenarios: dict, fdir: Path, fmt: str = "png",
             words = "" if case is None else describe_case(case, dt=sc.dt, t_end=t_end)
             tasks.append(FigureTask(
                 path=fdir / f"{u.scenario}__{u.structure}__{target}.{fmt}",
-                title=f"{sc.title}: {u.structure}, target {target}",
-                subtitle=words[:1].upper() + words[1:],
+                title=sc.title,
+                subtitle=f"{u.structure}, target {target}" + (f": {words}" if words else ""),
                 series=series,
                 methods=tuple((lab, float(total.get((lab, target), float("nan"))))
                               for lab in labels),
