@@ -59,7 +59,10 @@ body { margin: 0; color: var(--fg); background: var(--bg);
   font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif;
   line-height: 1.5; }
 .wrap { max-width: 1240px; margin: 0 auto; padding: 0 28px 48px; }
-header.top { background: #13293d; color: #fff; padding: 26px 0 20px; margin-bottom: 8px; }
+header.top { background: #13293d; color: #fff; padding: 26px 0 18px; margin-bottom: 8px; }
+header.top .wrap { padding-bottom: 0; }
+header.top p.prov-line { margin-top: 12px; font-size: .85rem; }
+header.top p.prov-line code { background: none; color: #e8eef4; }
 header.top h1 { margin: 0 0 4px; font-size: 1.75rem; font-weight: 650; }
 header.top p { margin: 0; color: #c9d6e2; max-width: 60rem; }
 header.top .stats { display: flex; gap: 28px; flex-wrap: wrap; margin-top: 14px; }
@@ -444,8 +447,8 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
 Proper Orthogonal Decomposition</em>. Units: inch, lbf, second. Errors are percentages of the
 target's ‖W‖<sub>F</sub>; Eq. 4.2 errors are percent errors of the displacement norm.</p>
 <div class="stats">{stat_html}</div>
-<p style="margin-top:12px;font-size:.85rem">commit <code style="background:none;color:#fff">
-{_e(prov['commit'])}</code> · {_e(prov['date'])}</p>
+<p class="prov-line">commit <code>{_e(prov['commit'])}</code> · {_e(prov['date'])} ·
+<code>{_e(prov['command'])}</code></p>
 </div></header>
 <nav class="toc"><div class="wrap">{''.join(toc)}</div></nav>
 <main class="wrap">
