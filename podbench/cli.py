@@ -110,6 +110,9 @@ def _parser() -> argparse.ArgumentParser:
                         "be empty, or be a previous podbench output (holding summary.csv): "
                         "any other folder or a file is refused")
     r.add_argument("--no-figures", action="store_true", help="skip the figures")
+    r.add_argument("--figure-format", choices=("png", "svg", "pdf"), default="png",
+                   help="format of OUT/figures/* (default png, 150 dpi; svg and pdf are "
+                        "vector graphics); report.html embeds the figures in any format")
 
     g = sub.add_parser(
         "regress", help="re-run the study and compare every error with the baseline",
@@ -293,7 +296,8 @@ def cmd_run(args) -> int:
     paths, scenarios, results, secs = _run(args, figures=not args.no_figures)
     claims = _claims_path(paths)
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
-                                figures=not args.no_figures, jobs=args.jobs)
+                                figures=not args.no_figures, jobs=args.jobs,
+                                figure_format=args.figure_format)
     n_sim = sum(u.simulated for u in results)
     n_cached = sum(u.cached for u in results)
     print(f"{len(df)} rows from {len(scenarios)} scenarios in {secs:.1f} s "

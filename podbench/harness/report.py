@@ -1,4 +1,6 @@
-"""Write a study's outputs: ``summary.csv``, ``summary.md``, ``figures/*.png``, ``FINDINGS.md``.
+"""Write a study's outputs: ``summary.csv``, ``summary.md``, ``fits.csv``, ``FINDINGS.md``,
+``figures/*.png`` (:mod:`podbench.harness.figures`) and ``report.html``
+(:mod:`podbench.harness.html_report`).
 
 Everything is written into a temporary folder beside the destination and moved into place
 only when complete, so an interrupted run leaves the previous results (or nothing), never a
@@ -11,16 +13,19 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write_text, replace_dir
+from ..errors import InputError
 from .claims import evaluate_claims, load_claims
 from .executor import execute
+from .figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
+from .html_report import render_report
 from .runner import COLUMNS
 from .sensitivity import base_claims_path, sensitivity_markdown, sensitivity_verdicts
 
-__all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
+__all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT",
+           "figure_tasks"]
 
 FLOAT_FORMAT = "%.6g"
 """Six significant digits: far above the run-to-run noise of the errors, and stable."""
@@ -87,34 +92,6 @@ def summary_markdown(df: pd.DataFrame, scenarios: dict) -> str:
     return "".join(out)
 
 
-def _figure(path: Path, scenario, structure: str, target: str, series: dict, labels):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    t = series["t"]
-    scale, unit = (1e3, "ms") if t[-1] < 1.0 else (1.0, "s")
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.0, 6.0), sharex=True)
-    a1.plot(scale * t, series["truth"], "k-", lw=1.6, label="truth (Newmark)")
-    styles = ["--", "-.", ":", (0, (5, 1, 1, 1))]
-    for i, lab in enumerate(labels):
-        if lab in series:
-            a1.plot(scale * t, series[lab], ls=styles[i % len(styles)], lw=1.3, label=lab)
-            pe = series[lab + "__pe"]
-            a2.semilogy(scale * t, np.where(pe > 0, pe, np.nan), ls=styles[i % len(styles)],
-                        lw=1.1, label=lab)
-    a1.set_ylabel("Displacement norm ‖w(t)‖, in")
-    a1.set_title(f"{scenario.name} · {structure} · target {target}", fontsize=10)
-    a1.legend(fontsize=8)
-    a2.set_ylabel("Percent error of the norm (Eq. 4.2)")
-    a2.set_xlabel(f"Time, {unit}")
-    a2.grid(True, which="major", alpha=0.3)
-    fig.subplots_adjust(left=0.12, right=0.97, top=0.94, bottom=0.09, hspace=0.08)
-    fig.savefig(path, dpi=90, metadata={"Software": None})
-    plt.close(fig)
-
-
 def findings_markdown(evaluated, remarks, claims_path) -> str:
     n = len(evaluated)
     counts = {k: sum(e["verdict"] == k for e in evaluated)
@@ -151,30 +128,60 @@ def findings_markdown(evaluated, remarks, claims_path) -> str:
     return "".join(out)
 
 
-def _draw_one(task):
-    _figure(*task)
+def figure_tasks(results, scenarios: dict, fdir: Path, fmt: str = "png",
+                 embed: bool = False) -> list[FigureTask]:
+    """One :class:`~podbench.harness.figures.FigureTask` per (unit, target), named
+    ``<scenario>__<structure>__<target>.<fmt>`` in ``fdir``."""
+    tasks = []
+    for u in results:
+        sc = scenarios[u.scenario]
+        labels = [m.label for m in sc.reported_methods()]
+        total = {(r["method"], r["target"]): r["total_error"] for r in u.rows}
+        for target, series in u.series.items():
+            t_end = float(series["t"][-1])
+            case = sc.cases.get(target)
+            words = "" if case is None else describe_case(case, dt=sc.dt, t_end=t_end)
+            tasks.append(FigureTask(
+                path=fdir / f"{u.scenario}__{u.structure}__{target}.{fmt}",
+                title=sc.title,
+                subtitle=f"{u.structure}, target {target}" + (f": {words}" if words else ""),
+                series=series,
+                methods=tuple((lab, float(total.get((lab, target), float("nan"))))
+                              for lab in labels),
+                events=tuple(getattr(u, "events", ())), fmt=fmt, embed=embed,
+                meta={"scenario": u.scenario, "structure": u.structure, "target": target,
+                      "words": words},
+            ))
+    return tasks
 
 
-def _draw_all(tasks, jobs: int) -> None:
+def _draw_all(tasks, jobs: int) -> list:
     """Draw the figures, in ``jobs`` spawned processes when more than one and at least four
-    figures (matplotlib's rendering, not the study, dominates a warm-cache run)."""
-    execute(_draw_one, tasks, jobs=jobs if len(tasks) >= 4 else 1)
+    figures (matplotlib's rendering, not the study, dominates a warm-cache run); returns
+    what :func:`~podbench.harness.figures.draw_figure` returned, in task order."""
+    return execute(draw_figure, tasks, jobs=jobs if len(tasks) >= 4 else 1)
 
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
-                jobs: int = 1):
-    """Write every output of a study into ``out_dir`` (replaced as a whole, atomically).
+                jobs: int = 1, figure_format: str = "png", command: str | None = None):
+    """Write every output of a study into ``out_dir`` (replaced as a whole, atomically):
+    the tables, ``FINDINGS.md`` (with a claims file), ``figures/*.<figure_format>`` and the
+    self-contained ``report.html`` (:mod:`podbench.harness.html_report`; ``command`` is
+    shown in it, default this process's command line).
 
     Returns the summary DataFrame and the claim verdicts (or None).
     """
+    if figure_format not in FIGURE_FORMATS:
+        raise InputError(f"Parameter `figure_format`: expected one of "
+                         f"{', '.join(FIGURE_FORMATS)}, got {figure_format!r}")
     df = summary_table(results)
-    evaluated = None
+    fits = fits_table(results)
+    evaluated, remarks = None, []
     with replace_dir(out_dir) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
-        (tmp / "fits.csv").write_text(table_csv(fits_table(results)), encoding="utf-8",
-                                      newline="\n")
+        (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
             evaluated = evaluate_claims(claims, df)
@@ -184,15 +191,20 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
             verdicts = sensitivity_verdicts(load_claims(base_claims)[0], scenarios, df)
             (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
                                              encoding="utf-8", newline="\n")
+        embedded: dict = {}
         if figures:
             fdir = tmp / "figures"
             fdir.mkdir()
-            tasks = []
-            for u in results:
-                sc = scenarios[u.scenario]
-                labels = [m.label for m in sc.reported_methods()]
-                for target, series in u.series.items():
-                    tasks.append((fdir / f"{u.scenario}__{u.structure}__{target}.png", sc,
-                                  u.structure, target, series, labels))
-            _draw_all(tasks, jobs)
+            tasks = figure_tasks(results, scenarios, fdir, figure_format, embed=True)
+            for task, uri in zip(tasks, _draw_all(tasks, jobs), strict=True):
+                m = task.meta
+                embedded.setdefault(m["scenario"], []).append({
+                    "uri": uri, "alt": f"{task.title}. {task.subtitle}",
+                    "caption": f"{m['structure']}, target {m['target']}: {m['words']} "
+                               f"(figures/{task.path.name})"})
+        page = render_report(study=Path(out_dir).name, df=df, fits=fits, scenarios=scenarios,
+                             evaluated=evaluated, remarks=remarks, claims_path=claims_path,
+                             figures=embedded, figure_format=figure_format if figures else None,
+                             command=command)
+        (tmp / "report.html").write_text(page, encoding="utf-8", newline="\n")
     return df, evaluated

@@ -57,6 +57,7 @@ class UnitResult:
     rows: list = field(default_factory=list)
     fits: list = field(default_factory=list)  # one dict per reported method: its diagnostics_
     series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
+    events: list = field(default_factory=list)  # (time in s, description) of Structure.events
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
@@ -78,6 +79,7 @@ class MeasuredStructure:
     is_linear = True
     n_sensors = None
     sensor_positions = None
+    events = ()
 
 
 def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.structures"):
@@ -367,7 +369,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     if conditioning is not None and conditioning.is_identity:
         conditioning = None
     truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise, conditioning)
-    res = UnitResult(scenario=scenario.name, structure=structure.name)
+    res = UnitResult(scenario=scenario.name, structure=structure.name,
+                     events=[(float(e.time), e.description) for e in structure.events])
 
     needed = set(scenario.targets)
     for m in scenario.methods:

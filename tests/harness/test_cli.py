@@ -46,7 +46,7 @@ def test_an_interrupted_run_leaves_the_previous_results(study, tmp_path, monkeyp
     def boom(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(report, "_figure", boom)
+    monkeypatch.setattr(report, "draw_figure", boom)
     assert cli.main(["run", str(study), "--out", str(out), "-q"]) == 130
     assert (out / "summary.csv").read_bytes() == before
     assert not (out / "figures").exists()

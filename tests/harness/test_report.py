@@ -1,0 +1,312 @@
+"""The study's figures and report.html: the load in words, the y-axis fitted to the truth
+with off-scale methods marked, total errors and events on the figure, every format; a
+self-contained, well-formed report page; and (with Chromium) the page as a browser shows it.
+"""
+
+import base64
+import re
+import shutil
+import subprocess
+import textwrap
+from html.parser import HTMLParser
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.image as mpimg  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from conftest import CHAIN_FORCED, CHAIN_FREE  # noqa: E402
+
+from podbench import cli  # noqa: E402
+from podbench.harness.figures import FigureTask, describe_case, draw_figure, make_figure  # noqa: E402
+from podbench.harness.html_report import text_to_html  # noqa: E402
+from podbench.harness.runner import run_unit  # noqa: E402
+from podbench.scenarios import Case  # noqa: E402
+
+CLAIMS = """
+[[claims]]
+id = "chain-mds-exact"
+source = "podbench test"
+quote = "MDS reproduces a new free response of an LTI system exactly when k = m"
+scenario = "chain_free"
+structure = "chain_coupled"
+target = "x6"
+checks = ["MDS.total_error < 0.001"]
+criterion = "total error below 0.1 %"
+
+[[claims]]
+id = "chain-povr-impossible"
+source = "podbench test"
+quote = "a claim made to fail"
+scenario = "chain_free"
+structure = "chain_coupled"
+target = "x6"
+checks = ["POVR.total_error < 0"]
+note = "Fails by construction: *no* error is negative (`total_error` >= 0)."
+"""
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+@pytest.fixture
+def study(write_scenario, tmp_path, monkeypatch):
+    """The two chain scenarios and a claims file, in tmp_path/scenarios."""
+    monkeypatch.chdir(tmp_path)
+    write_scenario(CHAIN_FREE, "chain_free")
+    write_scenario(CHAIN_FORCED, "chain_forced")
+    (tmp_path / "scenarios" / "claims.toml").write_text(CLAIMS, encoding="utf-8")
+    return tmp_path / "scenarios"
+
+
+def _run(study, out, *extra):
+    assert cli.main(["run", str(study), "--out", str(out), "-q", "--no-cache", *extra]) == 0
+    return (out / "report.html").read_text(encoding="utf-8")
+
+
+# ------------------------------------------------------------------------------ words
+@pytest.mark.parametrize("case, dt, t_end, words", [
+    (Case("load5", force=({"kind": "pulse", "location": 23.0, "amplitude": 500.0,
+                           "duration": 5e-4},)), 1e-4, 0.0499,
+     "500-lbf 0.5-ms rectangular pulse at 23 in"),
+    (Case("w3", initial_displacement={"kind": "static_displacement",
+                                      "loads": [[14.0, 2000.0], [18.0, -1300.0]],
+                                      "reference": "lti_beam"}), 1e-4, 0.0499,
+     "initial displacement from static loads: 2000 lbf at 14 in, −1300 lbf at 18 in"),
+    (Case("v8", initial_velocity={"kind": "impulse_velocity", "duration": 0.05,
+                                  "impulses": [["face74.d_bot", 1125.0]]}), 0.05, 9.95,
+     "initial velocity from 0.05-s impulses: 1125 lbf at face74.d_bot"),
+    (Case("f6", force=({"kind": "pulse", "location": 2, "amplitude": 2.0, "duration": 0.06,
+                        "by": "dof", "shape": "half_sine"},)), 0.004, 0.476,
+     "2-lbf 60-ms half-sine pulse at DOF 2"),
+    (Case("late", force=({"kind": "pulse", "location": 3.0, "amplitude": -1.0,
+                          "duration": 0.4, "start": 1.0, "shape": "triangle"},)), 0.05, 9.95,
+     "−1-lbf 0.4-s triangular pulse at 3 in from t = 1 s"),
+])
+def test_the_excitation_is_described_in_words_and_units(case, dt, t_end, words):
+    assert describe_case(case, dt=dt, t_end=t_end) == words
+
+
+def test_several_excitations_are_joined():
+    case = Case("new", initial_displacement={"kind": "static_displacement",
+                                             "loads": [[20.0, 120.0]]},
+                force=({"kind": "pulse", "location": 24.0, "amplitude": 300.0,
+                        "duration": 1e-3, "shape": "half_sine"},))
+    assert describe_case(case, dt=1e-4, t_end=0.0499) == (
+        "initial displacement from static loads: 120 lbf at 20 in; "
+        "300-lbf 1-ms half-sine pulse at 24 in")
+
+
+# ------------------------------------------------------------------------------ figures
+def _task(tmp_path, fmt="png", embed=False, events=((3.0, "element 10 breaks: its "
+                                                     "stiffness is removed"),)):
+    t = 0.05 * np.arange(200)
+    truth = 2.0 + np.sin(t)
+    series = {"t": t, "truth": truth,
+              "A": 1.02 * truth, "A__pe": np.full(t.size, 2.0),
+              "B": 5.0 * truth, "B__pe": np.full(t.size, 400.0)}
+    return FigureTask(path=tmp_path / f"fig.{fmt}", title="Truss, free response: truss, "
+                      "target w6", subtitle="Initial displacement from static loads: 1 lbf",
+                      series=series, methods=(("A", 0.0213), ("B", 4.0), ("C", float("nan"))),
+                      events=events, fmt=fmt, embed=embed)
+
+
+def test_the_figure_is_fitted_to_the_truth_and_marks_what_leaves_it(tmp_path):
+    task = _task(tmp_path)
+    fig = make_figure(task)
+    a1, a2 = fig.axes
+    truth = task.series["truth"]
+    bottom, top = a1.get_ylim()
+    assert bottom == 0.0
+    assert truth.max() < top < 1.2 * truth.max() < task.series["B"].max()
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend == ["truth (simulated)", "A: total error 2.13 %",
+                      "B: total error 400 %, off scale (peak 5× the truth's)",
+                      "C: total error failed"]
+    markers = [ln for ln in a1.lines if ln.get_marker() == "^"]
+    assert len(markers) == 1 and np.all(markers[0].get_ydata() == top)
+    assert fig._suptitle.get_text() == task.title
+    assert task.subtitle in [t.get_text() for t in fig.texts]
+    assert a2.get_yscale() == "log"
+    for ax in (a1, a2):  # the fracture at 3 s, on both panels
+        assert any(len(ln.get_xdata()) == 2 and np.allclose(ln.get_xdata(), 3.0)
+                   for ln in ax.lines)
+    assert "element 10 breaks (t = 3 s)" in [t.get_text() for t in a2.texts]
+    assert a2.get_xlabel() == "Time, s"
+
+
+@pytest.mark.parametrize("fmt, magic, uri", [
+    ("png", b"\x89PNG", "data:image/png;base64,"),
+    ("svg", b"<?xml", "data:image/svg+xml;base64,"),
+    ("pdf", b"%PDF", "data:image/png;base64,"),
+])
+def test_every_format_is_drawn_headless_and_embeddable(tmp_path, fmt, magic, uri):
+    task = _task(tmp_path, fmt, embed=True)
+    out = draw_figure(task)
+    assert task.path.read_bytes().startswith(magic)
+    assert out.startswith(uri)
+    data = base64.b64decode(out.split(",", 1)[1])
+    assert data.startswith(magic if fmt == "svg" else b"\x89PNG")
+    assert plt.get_fignums() == []  # the worker closed its figure
+    if fmt == "png":
+        img = mpimg.imread(task.path)
+        assert img.shape[1] == 1200 and img.shape[0] >= 800  # 150 dpi, 8 in wide
+        assert draw_figure(_task(tmp_path, fmt, embed=False)) is None
+
+
+def test_the_unit_result_carries_the_structures_events(write_scenario):
+    path = write_scenario(textwrap.dedent("""
+        [scenario]
+        name = "{name}"
+        title = "Truss, short free response"
+        structures = ["satellite_truss"]
+        n_samples = 70
+        dt = 0.05
+        targets = ["w2"]
+        [cases.w1]
+        initial_displacement = {{ kind = "static_displacement", loads = [["face44.d_bot", 11.3]] }}
+        [cases.w2]
+        initial_displacement = {{ kind = "static_displacement", loads = [["face4.d_bot", -89.9]] }}
+        [[methods]]
+        label = "POVR"
+        method = "POVR"
+        n_modes = 2
+        train = ["w1"]
+        options = {{ excitation = "displacement" }}
+        """), "truss_short")
+    res = run_unit(path, "satellite_truss")
+    assert [(t, d.split(":")[0]) for t, d in res.events] == [(3.0, "element 10 breaks")]
+
+
+# ------------------------------------------------------------------------------ report.html
+_VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta",
+         "source", "track", "wbr"}
+
+
+class _Checker(HTMLParser):
+    """Every non-void element closed, in order; collects img sources and links."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.stack, self.errors, self.imgs, self.refs, self.ids = [], [], [], [], []
+        self.doctype = None
+
+    def handle_decl(self, decl):
+        self.doctype = decl
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if "id" in a:
+            self.ids.append(a["id"])
+        if tag == "img":
+            self.imgs.append(a)
+        for k in ("src", "href"):
+            if k in a:
+                self.refs.append(a[k])
+        if tag not in _VOID:
+            self.stack.append(tag)
+
+    def handle_endtag(self, tag):
+        if not self.stack or self.stack[-1] != tag:
+            self.errors.append(f"</{tag}> closes <{self.stack[-1] if self.stack else None}>")
+            return
+        self.stack.pop()
+
+
+def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
+    page = _run(study, tmp_path / "results" / "small")
+    p = _Checker()
+    p.feed(page)
+    p.close()
+    assert p.doctype == "DOCTYPE html" and not p.errors and p.stack == []
+    assert len(p.ids) == len(set(p.ids))  # unique anchors
+    assert '<html lang="en">' in page and '<meta charset="utf-8">' in page
+    # nothing loaded from elsewhere: images are data: URIs, links are anchors in the page
+    assert len(p.imgs) == 2 and all(i["src"].startswith("data:image/png;base64,")
+                                    for i in p.imgs)
+    assert all(r.startswith(("data:", "#")) for r in p.refs)
+    assert all("#" + r[1:] in {"#" + i for i in p.ids} for r in p.refs if r.startswith("#"))
+    assert not re.search(r"@import|url\(|https?://", page)
+    # the contents: tables with coloured errors, findings, fits, definitions, provenance
+    for needle in ("chain_free: Coupled chain, free response", "chain_forced",
+                   'class="e0"', "chain-mds-exact", "chain-povr-impossible",
+                   'badge reproduced', 'badge not-reproduced', "<em>no</em>",
+                   "1 of 2 claims reproduced", 'id="fits"', "condition_number",
+                   "subspace_error = ‖Ŵ − P W‖ / N", "<dt>commit</dt>", "<dt>NumPy</dt>",
+                   "<dt>matplotlib</dt>", "Coupled chain, free response (k = m = 5)"):
+        assert needle in page, needle
+    assert "Traceback" not in page
+
+
+def test_the_report_embeds_vector_figures_and_tables_do_not_change(study, tmp_path):
+    out = tmp_path / "results" / "small"
+    page = _run(study, out, "--figure-format", "svg")
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg", ".svg"]
+    assert page.count('src="data:image/svg+xml;base64,') == 2
+    table = (out / "summary.csv").read_bytes()
+    page = _run(study, out, "--figure-format", "pdf")
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf", ".pdf"]
+    assert page.count('src="data:image/png;base64,') == 2
+    assert (out / "summary.csv").read_bytes() == table
+    page = _run(study, out, "--no-figures")
+    assert "<img" not in page and "Figures not drawn" in page
+    assert (out / "summary.csv").read_bytes() == table
+
+
+def test_a_bad_figure_format_is_one_line_and_exit_2(study, capsys):
+    assert cli.main(["run", str(study), "--figure-format", "gif"]) == 2
+    err = capsys.readouterr().err
+    assert "--figure-format" in err and err.count("\n") == 1
+
+
+def test_text_to_html_keeps_lists_code_and_escapes():
+    out = text_to_html("A ``P = U Uᵀ`` <b>.\n\n* one\n  continued\n* **two**")
+    assert out == ("<p>A <code>P = U Uᵀ</code> &lt;b&gt;.</p>\n"
+                   "<ul><li>one continued</li><li><strong>two</strong></li></ul>")
+
+
+# ------------------------------------------------------------------------------ browser
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+@pytest.mark.browser
+def test_the_report_in_a_headless_browser(study, tmp_path):
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("Chromium not installed (apt-get install chromium): the report is not "
+                    "checked in a browser")
+    out = tmp_path / "results" / "small"
+    _run(study, out)
+    n_figures = len(list((out / "figures").iterdir()))
+    url = (out / "report.html").resolve().as_uri()
+    base = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+            "--no-first-run", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", f"--user-data-dir={tmp_path / 'chromium'}",
+            "--virtual-time-budget=5000"]
+    dom = subprocess.run([*base, "--dump-dom", url], capture_output=True, text=True,
+                         timeout=180, check=True).stdout
+    body = re.search(r"<body[^>]*>", dom)
+    assert body, dom[:500]
+    # the page's own script counted the images the browser decoded (naturalWidth > 0)
+    assert f'data-images="{n_figures}"' in body.group(0)
+    assert f'data-images-loaded="{n_figures}"' in body.group(0)
+    assert 'data-ok="yes"' in body.group(0)
+    assert "Traceback" not in dom and "failed:" not in dom
+    shot = tmp_path / "report.png"
+    subprocess.run([*base, f"--screenshot={shot}", "--window-size=1280,2000", url],
+                   capture_output=True, timeout=180, check=True)
+    img = mpimg.imread(shot)[..., :3]
+    assert img.shape[:2] == (2000, 1280)
+    gray = img.mean(axis=2)
+    assert gray.std() > 0.1  # not blank: the dark header, tables and figures
+    assert (gray < 0.5).mean() > 0.05 and (gray > 0.9).mean() > 0.3
