@@ -180,7 +180,8 @@ def test_the_unit_result_carries_the_structures_events(write_scenario):
         options = {{ excitation = "displacement" }}
         """), "truss_short")
     res = run_unit(path, "satellite_truss")
-    assert [(t, d.split(":")[0]) for t, d in res.events] == [(3.0, "element 10 breaks")]
+    assert [(t, d.split(":")[0]) for t, d in res.events] == [
+        (3.0, "element 10 breaks off and disappears")]
 
 
 # ------------------------------------------------------------------------------ report.html
