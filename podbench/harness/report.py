@@ -17,6 +17,7 @@ import pandas as pd
 from .._atomic import atomic_write_text, replace_dir
 from .claims import evaluate_claims, load_claims
 from .executor import execute
+from .progress import as_stage
 from .runner import COLUMNS
 
 __all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT"]
@@ -154,16 +155,21 @@ def _draw_one(task):
     _figure(*task)
 
 
-def _draw_all(tasks, jobs: int) -> None:
+def _draw_all(tasks, jobs: int, progress=None) -> None:
     """Draw the figures, in ``jobs`` spawned processes when more than one and at least four
     figures (matplotlib's rendering, not the study, dominates a warm-cache run)."""
-    execute(_draw_one, tasks, jobs=jobs if len(tasks) >= 4 else 1)
+    with as_stage(progress, "drawing figures", len(tasks), "figure",
+                  every=max(1, len(tasks) // 10)) as stage:
+        execute(_draw_one, tasks, jobs=jobs if len(tasks) >= 4 else 1,
+                progress=lambda *_: stage.advance())
 
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
-                jobs: int = 1):
+                jobs: int = 1, progress=None):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically).
 
+    Only the claims about the ``scenarios`` run are judged (a run of part of a study judges
+    that part). ``progress``: see :func:`podbench.harness.progress.as_stage`.
     Returns the summary DataFrame and the claim verdicts (or None).
     """
     df = summary_table(results)
@@ -176,7 +182,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                                       newline="\n")
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
-            evaluated = evaluate_claims(claims, df)
+            evaluated = evaluate_claims([c for c in claims if c.scenario in scenarios], df)
             (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks, claims_path),
                                              encoding="utf-8", newline="\n")
         if figures:
@@ -189,5 +195,5 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                 for target, series in u.series.items():
                     tasks.append((fdir / f"{u.scenario}__{u.structure}__{target}.png", sc,
                                   u.structure, target, series, labels))
-            _draw_all(tasks, jobs)
+            _draw_all(tasks, jobs, progress)
     return df, evaluated
