@@ -245,16 +245,13 @@ def _scenario_paths(paths, default: str = DEFAULT_STUDY):
 
 
 def _claims_path(paths):
-    from ._resources import display_path
     from .scenarios import CLAIMS_FILE
 
     dirs = {Path(p).resolve() if Path(p).is_dir() else Path(p).resolve().parent for p in paths}
     found = [d / CLAIMS_FILE for d in sorted(dirs) if (d / CLAIMS_FILE).is_file()]
     if len(found) != 1:
         return None
-    # shown in FINDINGS.md: podbench/bundled/... or relative, so that the file does not depend
-    # on where podbench is installed or checked out
-    return Path(display_path(found[0]))
+    return found[0]
 
 
 def _writable_folder(path, option: str) -> Path:
@@ -440,10 +437,17 @@ def _list_scenarios(folder: Path, indent: str) -> None:
         print(f"{indent}(claims: {CLAIMS_FILE}, judged into FINDINGS.md)")
 
 
+def _names_in(folder: Path) -> list[str]:
+    """Structure names of one folder (``sub/name`` for files in sub-folders)."""
+    if not folder.is_dir():
+        return []
+    return sorted(p.relative_to(folder).with_suffix("").as_posix()
+                  for p in folder.rglob("*.toml"))
+
+
 def cmd_list(args) -> int:
     from ._resources import bundled_structures, bundled_studies, display_path
     from .deconvolution import available_solvers
-    from .fem import list_structures
     from .fem.files import structure_dirs
     from .methods import BUILTIN_METHODS
 
@@ -453,7 +457,7 @@ def cmd_list(args) -> int:
         d for d in structure_dirs() if d.resolve() != bundled.resolve()]
     shadow = set()
     for d in folders:
-        names = list_structures([d]) if d.is_dir() else []
+        names = _names_in(d)
         where = "./structures" if d == local else f"{d} (PODBENCH_STRUCTURES)"
         print(f"structures in {where}:")
         for name in names:
@@ -462,7 +466,7 @@ def cmd_list(args) -> int:
             print("  (none)")
         shadow |= set(names)
     print(f"structures bundled with podbench ({display_path(bundled)}):")
-    for name in list_structures([bundled]):
+    for name in _names_in(bundled):
         print(f"  {name}" + ("  (a local file of this name comes first)" if name in shadow
                              else ""))
     local_sc = Path("scenarios")

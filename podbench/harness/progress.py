@@ -27,6 +27,8 @@ class Stage:
         self._lines = lines
         self._t0 = time.perf_counter()
         self._bar = None
+        if lines and not bar and self.total > 0:  # a log shows what is coming, and how much
+            print(f"{desc}: 0/{self.total} {unit}s", file=self.stream, flush=True)
         if bar and self.total > 0:
             from tqdm import tqdm
 

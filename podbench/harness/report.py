@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write_text, replace_dir
+from .._resources import display_path
 from .claims import evaluate_claims, load_claims
 from .executor import execute
 from .progress import as_stage
@@ -183,7 +184,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
             evaluated = evaluate_claims([c for c in claims if c.scenario in scenarios], df)
-            (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks, claims_path),
+            (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
+                                                               display_path(claims_path)),
                                              encoding="utf-8", newline="\n")
         if figures:
             fdir = tmp / "figures"
