@@ -9,7 +9,6 @@ import sys
 import sysconfig
 from pathlib import Path
 
-import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -71,10 +70,11 @@ def test_a_wheel_installed_in_a_fresh_venv_runs_a_bundled_scenario_from_an_empty
     findings = (res / "FINDINGS.md").read_text(encoding="utf-8")
     assert "`podbench/bundled/scenarios/chapter4/claims.toml`" in findings
     # the same numbers as the committed study
-    mine = pd.read_csv(res / "summary.csv")
-    ref = pd.read_csv(ROOT / "results" / "chapter4" / "summary.csv")
-    ref = ref[ref.scenario == "truss_free_displacement"].reset_index(drop=True)
-    pd.testing.assert_frame_equal(mine, ref)
+    mine = (res / "summary.csv").read_text(encoding="utf-8").splitlines()
+    ref = (ROOT / "results" / "chapter4" / "summary.csv").read_text(encoding="utf-8")
+    ref = ref.splitlines()
+    assert mine == ref[:1] + [ln for ln in ref if ln.startswith("truss_free_displacement,")]
+    assert len(mine) == 3
     assert sorted(p.name for p in empty.iterdir()) == ["results"]  # the cache went elsewhere
 
     version = _run([py, "-m", "podbench", "--version"], cwd=empty, env=env).stdout
