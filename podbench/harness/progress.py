@@ -8,6 +8,7 @@ Progress never goes to stdout, so what a command prints on stdout stays determin
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -32,11 +33,21 @@ class Stage:
         if bar and self.total > 0:
             from tqdm import tqdm
 
+            try:  # a pseudo-terminal may report 0 columns: then a fixed width
+                cols = os.get_terminal_size(self.stream.fileno()).columns
+            except (AttributeError, ValueError, OSError):
+                cols = 0
             self._bar = tqdm(total=self.total, desc=desc, unit=f" {unit}", file=self.stream,
-                             dynamic_ncols=True, leave=True, mininterval=0.2)
+                             dynamic_ncols=cols > 0, ncols=None if cols > 0 else 100,
+                             nrows=None if cols > 0 else 20,
+                             leave=True, mininterval=0.2)
 
-    def advance(self, message: str = "") -> None:
+    def advance(self, message: str = "", detail: str = "") -> None:
+        """One more item done: ``message`` names it (on the bar and the lines), ``detail``
+        adds to the plain lines only (a bar keeps its width for the counts)."""
         self.done += 1
+        if detail:
+            message = f"{message}: {detail}" if self._bar is None else message
         if self._bar is not None:
             if message:
                 self._bar.set_postfix_str(message, refresh=False)
@@ -106,8 +117,9 @@ class _CallableStage(Stage):
         super().__init__(desc, total, unit, lines=False, every=every)
         self._say = say
 
-    def advance(self, message: str = "") -> None:
+    def advance(self, message: str = "", detail: str = "") -> None:
         self.done += 1
+        message = f"{message}: {detail}" if detail else message
         if self.done % self.every == 0 or self.done == self.total:
             elapsed = time.perf_counter() - self._t0
             n = 20 * self.done // max(self.total, 1)

@@ -449,8 +449,8 @@ def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None
     stage = as_stage(progress, "simulating and fitting", len(units), "unit")
 
     def report(done, total, elapsed, r):
-        stage.advance(f"{r.scenario} × {r.structure}: {r.simulated} simulated, "
-                      f"{r.cached} from the cache, {r.seconds:.1f} s")
+        stage.advance(f"{r.scenario} × {r.structure}",
+                      f"{r.simulated} simulated, {r.cached} from the cache, {r.seconds:.1f} s")
 
     args = [(str(p), e, None if cache_dir is None else str(cache_dir), engine, keep_series)
             for p, e in units]

@@ -221,8 +221,8 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
     def report(done, total, elapsed, out):
         t = names[out["index"]]
         k = "own" if t.modes is None else t.modes
-        stage.advance(f"{Path(t.scenario_path).stem} × {t.structure}, noise {t.noise:g}, "
-                      f"k {k}, seed {t.seed}: {out['seconds']:.1f} s")
+        stage.advance(f"{Path(t.scenario_path).stem} × {t.structure}",
+                      f"noise {t.noise:g}, k {k}, seed {t.seed}: {out['seconds']:.1f} s")
 
     with stage:
         outs = execute(run_task, todo, jobs=jobs, scheduler=scheduler, progress=report,
