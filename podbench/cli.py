@@ -17,10 +17,13 @@ import time
 import traceback
 from pathlib import Path
 
-DEFAULT_SCENARIOS = Path("scenarios") / "chapter4"
+DEFAULT_STUDY = "chapter4"
+"""The bundled study ``run`` and ``regress`` run without a path (``podbench/bundled/``)."""
+DEFAULT_SWEEPS = "sweeps"
+"""The bundled folder of sweep scenarios ``sweep`` runs without a path."""
 DEFAULT_BASELINE = Path("results") / "baseline.csv"
 DEFAULT_CACHE = Path(".podbench_cache")
-DEFAULT_SWEEPS = Path("scenarios") / "sweeps"
+DEFAULT_RESULTS = Path("results")
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
@@ -78,10 +81,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    def common(sp):
-        sp.add_argument("paths", nargs="*", metavar="PATH",
-                        help=f"scenario files or folders of them (default: {DEFAULT_SCENARIOS}); "
-                             "a folder's claims.toml is checked into FINDINGS.md")
+    def common(sp, paths_help):
+        sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
         sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
                         help="worker processes for the (scenario, structure) units "
                              "(default 1; results do not depend on N)")
@@ -92,23 +93,39 @@ def _parser() -> argparse.ArgumentParser:
         sp.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
                         help="override the scenarios' integration engine (default: each "
                              "scenario's own, normally newmark)")
-        sp.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+        sp.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress on stderr (neither the bar nor the plain lines)")
         sp.add_argument("--debug", action="store_true",
                         help="show the Python traceback of an internal error (exit code 3)")
 
     r = sub.add_parser(
         "run", help="run scenarios and write tables, figures and findings",
-        description="Simulate the truth data (cached), fit every method of every scenario, "
+        description=textwrap.fill(
+                    "Simulate the truth data (cached), fit every method of every scenario, "
                     "predict every target and write OUT/summary.csv, OUT/summary.md, "
-                    "OUT/figures/*.png and (with a claims.toml) OUT/FINDINGS.md. OUT is "
-                    "replaced as a whole only when everything is written.",
-        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    common(r)
+                    "OUT/fits.csv, OUT/figures/*.png and (with a claims.toml beside the "
+                    "scenarios) OUT/FINDINGS.md. OUT is replaced as a whole only when "
+                    "everything is written. A part of a study (a scenario file given alone) "
+                    "is written to its own folder, results/<file name>, never over the "
+                    "study's results/<study>; an existing OUT that holds scenarios this run "
+                    "does not produce is refused.", width=88),
+        epilog=_EPILOG + """
+Examples:
+  podbench run                           # the bundled Chapter 4 study -> results/chapter4
+  podbench run chapter4/beam_forced      # one bundled scenario -> results/beam_forced
+  podbench run my_study/                 # your folder of scenarios -> results/my_study
+  podbench run my_study/a.toml           # one of your files -> results/a
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    common(r, "scenario files or folders of them, or a bundled study (chapter4) or scenario "
+              "(chapter4/beam_forced) by name when no such path exists (default: chapter4); "
+              "the claims.toml beside the scenarios is judged into FINDINGS.md")
     r.add_argument("-o", "--out", default=None, metavar="DIR",
-                   help="output folder (default results/<name of the scenario folder>, "
-                        "e.g. results/chapter4); replaced as a whole, so it must not exist, "
-                        "be empty, or be a previous podbench output (holding summary.csv): "
-                        "any other folder or a file is refused")
+                   help="output folder (default results/<folder name> for a folder, "
+                        "results/<file name> for a single file, the names joined by '+' for "
+                        "several, e.g. results/chapter4 or results/beam_forced, in the "
+                        "current folder); replaced as a whole, so it must not exist, be "
+                        "empty, or be a previous podbench output (holding summary.csv) of "
+                        "the same scenarios or fewer: any other folder or a file is refused")
     r.add_argument("--no-figures", action="store_true", help="skip the figures")
     r.add_argument("--figure-format", choices=("png", "svg", "pdf"), default="png",
                    help="format of OUT/figures/* (default png, 150 dpi; svg and pdf are "
@@ -122,7 +139,8 @@ def _parser() -> argparse.ArgumentParser:
                     "nothing got worse, 1 with a readable diff when something did, 2 on "
                     "unusable input.",
         epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    common(g)
+    common(g, "scenario files or folders of them, or a bundled study or scenario by name "
+              "(default: chapter4); claims are not judged and nothing is written")
     g.add_argument("--baseline", default=str(DEFAULT_BASELINE), metavar="CSV",
                    help=f"baseline table (default {DEFAULT_BASELINE})")
     g.add_argument("--rtol", type=_tolerance, default=0.01,
@@ -150,9 +168,9 @@ def _parser() -> argparse.ArgumentParser:
                     "cluster (--scheduler).", width=88),
         epilog=_EPILOG + """
 Examples:
-  podbench sweep                                   # scenarios/sweeps/*.toml, 1 process
-  podbench sweep scenarios/sweeps/beam_forced_noise.toml --jobs 2
-  podbench sweep scenarios/chapter4/beam_forced.toml --noise 0,0.01 --seeds 0-4 --solvers ls,tls
+  podbench sweep                                   # the bundled sweeps, 1 process
+  podbench sweep sweeps/beam_forced_noise --jobs 2
+  podbench sweep chapter4/beam_forced --noise 0,0.01 --seeds 0-4 --solvers ls,tls
   podbench sweep --scheduler tcp://10.0.0.5:8786   # needs pip install 'podbench[dask]'
 
 [sweep] table of a scenario file (every field optional):
@@ -162,7 +180,8 @@ n_modes replaces every method's k; MDS and ML (k = number of training sets) trai
 first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     w.add_argument("paths", nargs="*", metavar="PATH",
-                   help=f"scenario files or folders of them (default: {DEFAULT_SWEEPS})")
+                   help="scenario files or folders of them, or a bundled study or scenario by "
+                        f"name (default: the bundled {DEFAULT_SWEEPS})")
     w.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
                    help="local worker processes (default 1; the table does not depend on N)")
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -188,14 +207,17 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
     w.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
     w.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
                    help="override the scenarios' integration engine")
-    w.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    w.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress on stderr (neither the bar nor the plain lines)")
     w.add_argument("--debug", action="store_true",
                    help="show the Python traceback of an internal error (exit code 3)")
 
     ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
-                        description="List the structures found (structures/ and "
-                                    f"PODBENCH_STRUCTURES), the scenarios of {DEFAULT_SCENARIOS}, "
-                                    "the built-in methods and the deconvolution solvers.")
+                        description="List the structures and scenarios bundled with podbench "
+                                    "and those of the current folder (./structures, "
+                                    "PODBENCH_STRUCTURES, ./scenarios), each with where it "
+                                    "comes from, the built-in methods and the deconvolution "
+                                    "solvers.")
     ls.add_argument("--debug", action="store_true",
                     help="show the Python traceback of an internal error (exit code 3)")
     return p
@@ -205,15 +227,24 @@ class _Usage(Exception):
     pass
 
 
-def _scenario_paths(paths):
+def _scenario_paths(paths, default: str = DEFAULT_STUDY):
+    """The paths to run (a bundled study or scenario where a name is not an existing path)
+    and their scenario files."""
+    from ._resources import bundled_studies, resolve_bundled
     from .scenarios import find_scenarios
 
-    if not paths:
-        if not DEFAULT_SCENARIOS.is_dir():
-            raise _Usage(f"{DEFAULT_SCENARIOS}: no such folder (run podbench from the project "
-                         "folder, or give scenario paths)")
-        paths = [DEFAULT_SCENARIOS]
-    return paths, find_scenarios(paths)
+    resolved = []
+    for p in paths or [default]:
+        if not paths or not Path(p).exists():
+            b = resolve_bundled(p)
+            if b is None:
+                names = ", ".join(bundled_studies())
+                raise _Usage(f"{p}: no such file or folder, nor a bundled study or scenario "
+                             f"(bundled studies: {names}; podbench list shows every scenario)")
+            resolved.append(b)
+        else:
+            resolved.append(Path(p))
+    return resolved, find_scenarios(resolved)
 
 
 def _claims_path(paths):
@@ -223,10 +254,7 @@ def _claims_path(paths):
     found = [d / CLAIMS_FILE for d in sorted(dirs) if (d / CLAIMS_FILE).is_file()]
     if len(found) != 1:
         return None
-    try:  # shown in FINDINGS.md: relative, so that the file does not depend on the checkout
-        return Path(os.path.relpath(found[0]))
-    except ValueError:  # pragma: no cover - another drive on Windows
-        return found[0]
+    return found[0]
 
 
 def _writable_folder(path, option: str) -> Path:
@@ -261,53 +289,104 @@ def _output_folder(path, option: str, marker: str, *, also=()) -> Path:
 
 
 def _default_out(paths) -> Path:
-    p = Path(paths[0])
-    name = p.name if p.is_dir() else p.resolve().parent.name
-    return Path("results") / name
+    """``results/<folder name>`` for a folder, ``results/<file stem>`` for a single scenario
+    file (a part of a study never goes over the study's folder), names joined by ``+``."""
+    names = [Path(p).resolve().name if Path(p).is_dir() else Path(p).stem for p in paths]
+    return DEFAULT_RESULTS / "+".join(dict.fromkeys(names))
 
 
-def _run(args, *, figures: bool):
-    from .harness.runner import run_study
+def _scenarios_held(out: Path) -> set[str]:
+    """The scenarios of a previous output's ``summary.csv`` (empty if none or unreadable)."""
+    import csv
+
+    try:
+        with open(out / "summary.csv", newline="", encoding="utf-8") as fh:
+            return {row["scenario"] for row in csv.DictReader(fh) if row.get("scenario")}
+    except (OSError, UnicodeDecodeError, KeyError, csv.Error):
+        return set()
+
+
+def _refuse_partial_over(out: Path, names, option: str) -> None:
+    """Refuse to replace an output holding scenarios this run does not produce (running
+    one scenario of a study must not replace the whole study's results)."""
+    lost = sorted(_scenarios_held(out) - set(names))
+    if lost:
+        shown = ", ".join(lost[:4]) + (f" and {len(lost) - 4} more" if len(lost) > 4 else "")
+        raise _Usage(f"{option} {out}: holds the results of {len(lost)} scenario"
+                     f"{'s' if len(lost) != 1 else ''} this run does not produce ({shown}); "
+                     "replacing it would lose them: give another --out, or run them all")
+
+
+def _plural(n: int, word: str, plural: str | None = None) -> str:
+    """``1 response``, ``2 responses``."""
+    return f"{n} {word if n == 1 else (plural or word + 's')}"
+
+
+def _load_all(files) -> dict:
     from .scenarios import load_scenario
 
-    if args.jobs < 1:
-        raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
-    if not args.no_cache:
-        _writable_folder(args.cache, "--cache")
-    paths, files = _scenario_paths(args.paths)
     scenarios = {}
     for f in files:
         sc = load_scenario(f)
         if sc.name in scenarios:
             raise _Usage(f"{f}: a second scenario named {sc.name!r}")
         scenarios[sc.name] = sc
-    say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    return scenarios
+
+
+def _progress(args):
+    from .harness.progress import Progress
+
+    return Progress(quiet=args.quiet)
+
+
+def _run(args, files, *, figures: bool, progress=None):
+    from .harness.runner import run_study
+
+    if args.jobs < 1:
+        raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
+    if not args.no_cache:
+        _writable_folder(args.cache, "--cache")
     t0 = time.perf_counter()
     results = run_study(files, jobs=args.jobs, cache_dir=None if args.no_cache else args.cache,
-                        engine=args.engine, progress=say, keep_series=figures)
-    return paths, scenarios, results, time.perf_counter() - t0
+                        engine=args.engine, progress=progress or _progress(args),
+                        keep_series=figures)
+    return results, time.perf_counter() - t0
 
 
 def cmd_run(args) -> int:
+    from ._resources import display_path
     from .harness.report import write_study
+    from .harness.runner import response_counts
 
-    out = Path(args.out) if args.out else _default_out(_scenario_paths(args.paths)[0])
+    paths, files = _scenario_paths(args.paths)
+    out = Path(args.out) if args.out else _default_out(paths)
     _output_folder(out, "--out", "summary.csv")
-    paths, scenarios, results, secs = _run(args, figures=not args.no_figures)
+    scenarios = _load_all(files)
+    _refuse_partial_over(out, scenarios, "--out")
+    progress = _progress(args)
+    results, secs = _run(args, files, figures=not args.no_figures, progress=progress)
     claims = _claims_path(paths)
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=not args.no_figures, jobs=args.jobs,
-                                figure_format=args.figure_format)
-    n_sim = sum(u.simulated for u in results)
-    n_cached = sum(u.cached for u in results)
-    print(f"{len(df)} rows from {len(scenarios)} scenarios in {secs:.1f} s "
-          f"({n_sim} responses simulated, {n_cached} from the cache) -> {out}/summary.csv")
+                                figure_format=args.figure_format, progress=progress)
+    n_sim, n_cached = response_counts(results)
+    print(f"{_plural(len(df), 'row')} from {_plural(len(scenarios), 'scenario')} in {secs:.1f} s "
+          f"({_plural(n_sim, 'response')} simulated, {n_cached} from the cache) -> "
+          f"{out}/summary.csv")
     if evaluated is not None:
         n_ok = sum(e["verdict"] == "reproduced" for e in evaluated)
         print(f"claims: {n_ok} of {len(evaluated)} reproduced -> {out}/FINDINGS.md")
     failed = df[df.status != "ok"]
     if len(failed):
-        print(f"note: {len(failed)} rows have a failed method or twin (see summary.md)")
+        print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
+              "(see summary.md)")
+    parts = [p for p in paths if not Path(p).is_dir()]
+    if parts and not args.out:
+        folders = dict.fromkeys(Path(p).resolve().parent for p in parts)
+        for folder in folders:
+            print(f"part of the study in {display_path(folder)}: written to {out}/, "
+                  f"{DEFAULT_RESULTS / folder.name}/ left as it was")
     return 0
 
 
@@ -315,8 +394,9 @@ def cmd_regress(args) -> int:
     from .harness.regress import compare, read_table
     from .harness.report import atomic_write_text, summary_table, table_csv
 
+    files = None
     if not args.table:
-        _scenario_paths(args.paths)  # a missing scenario path is reported first
+        files = _scenario_paths(args.paths)[1]  # a missing scenario path is reported first
     baseline = Path(args.baseline)
     if args.update:  # checked before any work: the new baseline can be written
         if baseline.is_dir():
@@ -330,7 +410,8 @@ def cmd_regress(args) -> int:
     if args.table:
         new = read_table(args.table)
     else:
-        _, _, results, _ = _run(args, figures=False)
+        _load_all(files)
+        results, _ = _run(args, files, figures=False)
         new = summary_table(results)
     if args.update:
         atomic_write_text(args.baseline, table_csv(new))
@@ -341,23 +422,70 @@ def cmd_regress(args) -> int:
     return 1 if cmp.failed else 0
 
 
-def cmd_list(args) -> int:
-    from .deconvolution import available_solvers
-    from .fem import list_structures
-    from .methods import BUILTIN_METHODS
-    from .scenarios import find_scenarios, load_scenario
+def _list_scenarios(folder: Path, indent: str) -> None:
+    from .errors import PodbenchError
+    from .scenarios import CLAIMS_FILE, load_scenario
 
-    print("structures:")
-    for name in list_structures():
-        print(f"  {name}")
-    print(f"scenarios ({DEFAULT_SCENARIOS}):")
-    if DEFAULT_SCENARIOS.is_dir():
-        for f in find_scenarios([DEFAULT_SCENARIOS]):
+    for f in sorted(folder.glob("*.toml")):
+        if f.name == CLAIMS_FILE:
+            continue
+        try:
             sc = load_scenario(f)
-            methods = ", ".join(m.label for m in sc.reported_methods())
-            print(f"  {sc.name}: {sc.title} [{', '.join(sc.structures)}; {methods}]")
-    else:
-        print("  (folder not found: run podbench from the project folder)")
+        except PodbenchError as exc:
+            print(f"{indent}{f.stem}: (unreadable: {_one_line(exc, 200)})")
+            continue
+        methods = ", ".join(m.label for m in sc.reported_methods())
+        sweep = "; [sweep]" if getattr(sc, "sweep", None) else ""
+        print(f"{indent}{sc.name}: {sc.title} [{', '.join(sc.structures)}; {methods}{sweep}]")
+    if (folder / CLAIMS_FILE).is_file():
+        print(f"{indent}(claims: {CLAIMS_FILE}, judged into FINDINGS.md)")
+
+
+def _names_in(folder: Path) -> list[str]:
+    """Structure names of one folder (``sub/name`` for files in sub-folders)."""
+    if not folder.is_dir():
+        return []
+    return sorted(p.relative_to(folder).with_suffix("").as_posix()
+                  for p in folder.rglob("*.toml"))
+
+
+def cmd_list(args) -> int:
+    from ._resources import bundled_structures, bundled_studies, display_path
+    from .deconvolution import available_solvers
+    from .fem.files import structure_dirs
+    from .methods import BUILTIN_METHODS
+
+    bundled = bundled_structures()
+    local = Path("structures")
+    folders = ([local] if local.is_dir() else []) + [
+        d for d in structure_dirs() if d.resolve() != bundled.resolve()]
+    shadow = set()
+    for d in folders:
+        names = _names_in(d)
+        where = "./structures" if d == local else f"{d} (PODBENCH_STRUCTURES)"
+        print(f"structures in {where}:")
+        for name in names:
+            print(f"  {name}")
+        if not names:
+            print("  (none)")
+        shadow |= set(names)
+    print(f"structures bundled with podbench ({display_path(bundled)}):")
+    for name in _names_in(bundled):
+        print(f"  {name}" + ("  (a local file of this name comes first)" if name in shadow
+                             else ""))
+    local_sc = Path("scenarios")
+    if local_sc.is_dir():
+        studies = [d for d in sorted(local_sc.iterdir()) if d.is_dir() and any(d.glob("*.toml"))]
+        if any(local_sc.glob("*.toml")):
+            studies.insert(0, local_sc)
+        for d in studies:
+            print(f"scenarios in ./{d.as_posix()} (podbench run {d.as_posix()}):")
+            _list_scenarios(d, "  ")
+    for name, d in bundled_studies().items():
+        cmd = "sweep" if name == DEFAULT_SWEEPS else "run"
+        print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
+              f"podbench {cmd} {name}, or {name}/<scenario> for one):")
+        _list_scenarios(d, "  ")
     print("methods:")
     for name, cls in BUILTIN_METHODS.items():
         est = cls()
@@ -428,7 +556,7 @@ has at least one mode, noise seeds are non-negative (``numpy.random.SeedSequence
 def cmd_sweep(args) -> int:
     from .deconvolution import available_solvers
     from .harness.sweep import run_sweep, write_sweep
-    from .scenarios import SolverChoice, find_scenarios, load_scenario
+    from .scenarios import SolverChoice, load_scenario
 
     if args.jobs < 1:
         raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
@@ -444,36 +572,31 @@ def cmd_sweep(args) -> int:
                 raise _Usage(f"--solvers: unknown solver {name!r}; solvers: "
                              f"{', '.join(available_solvers())}")
         axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
-    paths = args.paths
-    if not paths:
-        if not DEFAULT_SWEEPS.is_dir():
-            raise _Usage(f"{DEFAULT_SWEEPS}: no such folder (run podbench from the project "
-                         "folder, or give scenario paths)")
-        paths = [DEFAULT_SWEEPS]
-    files = find_scenarios(paths)
+    _, files = _scenario_paths(args.paths, default=DEFAULT_SWEEPS)
     if not args.no_cache:
         _writable_folder(args.cache, "--cache")
     _writable_folder(args.out, "--out")
     for f in files:  # each scenario writes OUT/<name>/sweep.csv, sweep.md
         _output_folder(Path(args.out) / load_scenario(f).name, "--out", "sweep.csv",
                        also=("sweep.md",))
-    say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     t0 = time.perf_counter()
     scenarios, df = run_sweep(files, jobs=args.jobs, scheduler=args.scheduler,
                               cache_dir=None if args.no_cache else args.cache,
-                              engine=args.engine, progress=say, **axes)
+                              engine=args.engine, progress=_progress(args), **axes)
     secs = time.perf_counter() - t0
-    where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} process(es)"
-    print(f"{len(df)} rows from {df.attrs.get('tasks', 0)} points in {secs:.1f} s on {where} "
-          f"({df.attrs.get('simulated', 0)} responses simulated, "
-          f"{df.attrs.get('cached', 0)} from the cache)")
+    where = (f"Dask scheduler {args.scheduler}" if args.scheduler
+             else _plural(args.jobs, "process", "processes"))
+    print(f"{_plural(len(df), 'row')} from {_plural(df.attrs.get('tasks', 0), 'point')} in "
+          f"{secs:.1f} s on {where} ({_plural(df.attrs.get('simulated', 0), 'response')} "
+          f"simulated, {df.attrs.get('cached', 0)} from the cache)")
     for name, sc in scenarios.items():
         csv, _ = write_sweep(df[df["scenario"] == name].reset_index(drop=True),
                              Path(args.out) / name, sc)
         print(f"  {name} -> {csv} and sweep.md")
     failed = df[df.status != "ok"]
     if len(failed):
-        print(f"note: {len(failed)} rows have a failed method or twin (see sweep.md)")
+        print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
+              "(see sweep.md)")
     return 0
 
 
@@ -496,6 +619,9 @@ def main(argv=None) -> int:
     from .errors import PodbenchError
 
     prog = f"podbench {args.command}"
+    from ._warnfmt import one_line_warnings
+
+    one_line_warnings(prog)
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list}[args.command](args)

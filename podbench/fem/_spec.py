@@ -160,9 +160,9 @@ class Table:
             return value
         if positive:
             minimum = 1 if minimum is None else max(minimum, 1)
-        word = "positive integer" if positive else "integer"
+        word = "a positive integer" if positive else "an integer"
         if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-            self.fail(key, f"expected a {word}, got {_show(value)}")
+            self.fail(key, f"expected {word}, got {_show(value)}")
         value = int(value)
         if minimum is not None and value < minimum:
             if positive and minimum == 1:

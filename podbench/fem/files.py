@@ -42,6 +42,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
+from .._resources import bundled_structures
 from .._userimport import UserImportError, import_module_or_file
 from ..errors import InputError, StructureFileError, UnknownNameError
 from ._spec import Table, fail
@@ -76,7 +77,6 @@ __all__ = [
 UNITS = "inch, lbf, second"
 
 _ENV = "PODBENCH_STRUCTURES"
-_DEFAULT_DIR = Path(__file__).resolve().parents[2] / "structures"
 
 
 @dataclass(frozen=True)
@@ -122,8 +122,8 @@ def structure_dirs(search_path=None) -> list[Path]:
     """Folders searched for structure names, in order.
 
     ``search_path`` (a folder or a list of folders), then the folders of the environment
-    variable ``PODBENCH_STRUCTURES`` (``os.pathsep``-separated), then the repository's
-    ``structures/`` folder (next to the ``podbench`` package) if it exists.
+    variable ``PODBENCH_STRUCTURES`` (``os.pathsep``-separated), then the structures
+    bundled with podbench (``podbench/bundled/structures``).
     """
     dirs: list[Path] = []
     if search_path is not None:
@@ -132,8 +132,9 @@ def structure_dirs(search_path=None) -> list[Path]:
         dirs += [Path(p) for p in search_path]
     env = os.environ.get(_ENV, "")
     dirs += [Path(p) for p in env.split(os.pathsep) if p]
-    if _DEFAULT_DIR.is_dir():
-        dirs.append(_DEFAULT_DIR)
+    bundled = bundled_structures()
+    if bundled.is_dir():
+        dirs.append(bundled)
     seen, out = set(), []
     for d in dirs:
         key = d.resolve()
@@ -202,7 +203,7 @@ def load_structure(name_or_path, *, search_path=None, overrides=None,
         A bare name (looked up as ``<dir>/<name>.toml`` in :func:`structure_dirs`; names of
         files in sub-folders read ``"examples/my_builder"``) or the path of a ``.toml`` file.
     search_path : path or list of paths, optional
-        Folders searched before ``PODBENCH_STRUCTURES`` and the repository's ``structures/``.
+        Folders searched before ``PODBENCH_STRUCTURES`` and the bundled structures.
     overrides : dict, optional
         ``{"tip_mass.mean": 0.1, …}``: dotted fields of the file replaced before the
         structure is built (a variant; every field must exist in the file).

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from multiprocessing import get_context
 
 from .._threads import single_blas_thread
+from .._warnfmt import one_line_warnings
 from ..errors import InputError, PodbenchError
 
 __all__ = ["execute"]
@@ -160,7 +161,8 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | 
                 out = func(task)  # the original exception, traceback and all
             finished(i, out)
     else:
-        ex = ProcessPoolExecutor(max_workers=min(jobs, total), mp_context=get_context("spawn"))
+        ex = ProcessPoolExecutor(max_workers=min(jobs, total), mp_context=get_context("spawn"),
+                                 initializer=one_line_warnings)
         try:
             pending = {ex.submit(_call, func, task): i for i, task in enumerate(tasks)}
             while pending:

@@ -16,11 +16,13 @@ from pathlib import Path
 import pandas as pd
 
 from .._atomic import atomic_write_text, replace_dir
+from .._resources import display_path
 from ..errors import InputError
 from .claims import evaluate_claims, load_claims
 from .executor import execute
 from .figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
 from .html_report import render_report
+from .progress import as_stage
 from .runner import COLUMNS
 from .sensitivity import base_claims_path, sensitivity_markdown, sensitivity_verdicts
 
@@ -155,20 +157,26 @@ def figure_tasks(results, scenarios: dict, fdir: Path, fmt: str = "png",
     return tasks
 
 
-def _draw_all(tasks, jobs: int) -> list:
+def _draw_all(tasks, jobs: int, progress=None) -> list:
     """Draw the figures, in ``jobs`` spawned processes when more than one and at least four
     figures (matplotlib's rendering, not the study, dominates a warm-cache run); returns
     what :func:`~podbench.harness.figures.draw_figure` returned, in task order."""
-    return execute(draw_figure, tasks, jobs=jobs if len(tasks) >= 4 else 1)
+    with as_stage(progress, "drawing figures", len(tasks), "figure",
+                  every=max(1, len(tasks) // 10)) as stage:
+        return execute(draw_figure, tasks, jobs=jobs if len(tasks) >= 4 else 1,
+                       progress=lambda *_: stage.advance())
 
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
-                jobs: int = 1, figure_format: str = "png", command: str | None = None):
+                jobs: int = 1, figure_format: str = "png", command: str | None = None,
+                progress=None):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically):
     the tables, ``FINDINGS.md`` (with a claims file), ``figures/*.<figure_format>`` and the
     self-contained ``report.html`` (:mod:`podbench.harness.html_report`; ``command`` is
     shown in it, default this process's command line).
 
+    Only the claims about the ``scenarios`` run are judged (a run of part of a study judges
+    that part). ``progress``: see :func:`podbench.harness.progress.as_stage`.
     Returns the summary DataFrame and the claim verdicts (or None).
     """
     if figure_format not in FIGURE_FORMATS:
@@ -184,8 +192,9 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
-            evaluated = evaluate_claims(claims, df)
-            (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks, claims_path),
+            evaluated = evaluate_claims([c for c in claims if c.scenario in scenarios], df)
+            (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
+                                                               display_path(claims_path)),
                                              encoding="utf-8", newline="\n")
         elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
             verdicts = sensitivity_verdicts(load_claims(base_claims)[0], scenarios, df)
@@ -196,7 +205,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
             fdir = tmp / "figures"
             fdir.mkdir()
             tasks = figure_tasks(results, scenarios, fdir, figure_format, embed=True)
-            for task, uri in zip(tasks, _draw_all(tasks, jobs), strict=True):
+            for task, uri in zip(tasks, _draw_all(tasks, jobs, progress), strict=True):
                 m = task.meta
                 embedded.setdefault(m["scenario"], []).append({
                     "uri": uri, "alt": f"{task.title}. {task.subtitle}",

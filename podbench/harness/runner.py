@@ -35,9 +35,10 @@ from .cache import TruthCache, structure_fingerprint
 from .estimators import all_cases, build_estimator, is_user_method, training_records
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
+from .progress import as_stage
 
-__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "NoiseSpec", "noisy", "check_cases",
-           "noise_generator"]
+__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "response_counts", "NoiseSpec",
+           "noisy", "check_cases", "noise_generator"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
            *NORM_COLUMNS, "status")
@@ -61,6 +62,8 @@ class UnitResult:
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
+    simulated_keys: list = field(default_factory=list)  # cache keys of the responses simulated
+    cached_keys: list = field(default_factory=list)  # and of those read from the cache
 
 
 def _structure_search(scenario: Scenario) -> list[Path]:
@@ -246,6 +249,8 @@ class _Truth:
         self._store: dict = {}
         self._noisy: dict = {}
         self.simulated = 0
+        self.simulated_keys: list[str] = []
+        self.cached_keys: list[str] = []
 
     def train(self, case_name: str, linear: bool = False) -> Response:
         """A training response: the truth, with the sweep's noise if any, then conditioned
@@ -296,7 +301,9 @@ class _Truth:
         )
         shape = (s.n_sensors, sc.n_samples)
         arrays = self.cache.load(ckey, shape)
-        if arrays is None:
+        if arrays is not None:
+            self.cached_keys.append(ckey)
+        else:
             force = None
             if forces:
                 force = sum(f.sample(s, sc.n_samples, sc.dt) for f in forces)
@@ -307,6 +314,7 @@ class _Truth:
             except PodbenchError as exc:
                 raise ScenarioFileError(f"{where} on {s.name}: {exc}") from None
             self.simulated += 1
+            self.simulated_keys.append(ckey)
             arrays = {"W": r.W, "F": r.F, "w0": r.w0, "v0": r.v0, "t": r.t}
             self.cache.store(ckey, arrays)
         r = Response(t=arrays["t"], W=arrays["W"], F=arrays["F"], w0=arrays["w0"],
@@ -332,9 +340,17 @@ _EXPECTED = (PodbenchError, np.linalg.LinAlgError)
 _SCENARIO = object()  # run_unit's default conditioning: the scenario's own
 
 
+_STATUS_LIMIT = 300
+
+
 def _failure(exc: BaseException) -> str:
+    """``failed: Type: message`` on one line, at most 300 characters, shortened at a word
+    boundary with an ellipsis (never cut mid-word)."""
     msg = " ".join(str(exc).split())
-    return f"failed: {type(exc).__name__}: {msg}"[:300]
+    text = f"failed: {type(exc).__name__}: {msg}"
+    if len(text) > _STATUS_LIMIT:
+        text = text[:_STATUS_LIMIT - 1].rsplit(" ", 1)[0].rstrip(",;:") + " …"
+    return text
 
 
 def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | None = None,
@@ -462,6 +478,7 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
                 res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
     res.simulated = truth.simulated
     res.cached = cache.hits
+    res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
     res.seconds = time.perf_counter() - t_start
     return res
 
@@ -489,15 +506,25 @@ def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None
               progress=None, keep_series: bool = True) -> list[UnitResult]:
     """Run every unit of the scenario files ``paths`` (in ``jobs`` processes, see
     :func:`podbench.harness.executor.execute`); results in deterministic order.
-    ``progress`` is called with one line per finished unit."""
+    ``progress``: a :class:`~podbench.harness.progress.Progress` (a bar or lines per
+    finished unit) or a callable given one line per finished unit."""
     units = plan(paths)
-    say = progress or (lambda *_: None)
+    stage = as_stage(progress, "simulating and fitting", len(units), "unit")
 
     def report(done, total, elapsed, r):
-        bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
-        say(f"[{bar}] {done}/{total}  {r.scenario} × {r.structure}: {r.simulated} simulated, "
-            f"{r.cached} from cache, {r.seconds:.1f} s (elapsed {elapsed:.1f} s)")
+        stage.advance(f"{r.scenario} × {r.structure}",
+                      f"{r.simulated} simulated, {r.cached} from the cache, {r.seconds:.1f} s")
 
     args = [(str(p), e, None if cache_dir is None else str(cache_dir), engine, keep_series)
             for p, e in units]
-    return execute(_unit_worker, args, jobs=jobs, progress=report)
+    with stage:
+        return execute(_unit_worker, args, jobs=jobs, progress=report)
+
+
+def response_counts(results) -> tuple[int, int]:
+    """``(simulated, from the cache)`` of a run: distinct truth responses, each counted once
+    however many units used it; a response simulated in this run and read again by another
+    unit counts as simulated, not as a cache hit."""
+    simulated = {k for u in results for k in u.simulated_keys}
+    cached = {k for u in results for k in u.cached_keys} - simulated
+    return len(simulated), len(cached)

@@ -60,6 +60,7 @@ from ..errors import InputError, ScenarioFileError
 from ..scenarios import Scenario, SolverChoice, Sweep, load_scenario
 from .executor import execute
 from .metrics import ERROR_COLUMNS, NORM_COLUMNS
+from .progress import as_stage
 from .report import table_csv
 from .runner import SWEEP_DIAGNOSTICS, NoiseSpec, check_cases, resolve_structure, run_unit
 
@@ -193,7 +194,8 @@ def run_task(task: SweepTask) -> dict:
     rows = [{**r, "noise": float(task.noise), "modes": modes, "seed": int(task.seed)}
             for r in res.rows]
     return {"index": task.index, "rows": rows, "seconds": time.perf_counter() - t0,
-            "simulated": res.simulated, "cached": res.cached}
+            "simulated": res.simulated, "cached": res.cached,
+            "simulated_keys": res.simulated_keys, "cached_keys": res.cached_keys}
 
 
 def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=None,
@@ -211,8 +213,9 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
         its workers (module docstring: what the workers need).
     cache_dir : path, optional
         Truth-data cache folder (made absolute for the workers).
-    progress : callable, optional
-        Called with one line per finished task.
+    progress : Progress or callable, optional
+        A :class:`~podbench.harness.progress.Progress` (a bar or plain lines), or a callable
+        given one line per finished task.
     connect_timeout : float
         Seconds to wait for the scheduler.
     **axes
@@ -227,19 +230,18 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
         raise InputError(f"jobs: expected a positive integer, got {jobs}")
     scenarios, tasks = plan_sweep(paths, cache_dir=cache_dir, engine=engine, **axes)
     todo = [t for t in tasks if _computed(t)]
-    say = progress or (lambda *_: None)
     names = {t.index: t for t in todo}
+    stage = as_stage(progress, "sweep points", len(todo), "point")
 
     def report(done, total, elapsed, out):
         t = names[out["index"]]
-        bar = "#" * (20 * done // total) + "-" * (20 - 20 * done // total)
         k = "own" if t.modes is None else t.modes
-        say(f"[{bar}] {done}/{total}  {Path(t.scenario_path).stem} × {t.structure}, noise "
-            f"{t.noise:g}, k {k}, seed {t.seed}: {out['seconds']:.1f} s "
-            f"(elapsed {elapsed:.1f} s)")
+        stage.advance(f"{Path(t.scenario_path).stem} × {t.structure}",
+                      f"noise {t.noise:g}, k {k}, seed {t.seed}: {out['seconds']:.1f} s")
 
-    outs = execute(run_task, todo, jobs=jobs, scheduler=scheduler, progress=report,
-                   connect_timeout=connect_timeout)
+    with stage:
+        outs = execute(run_task, todo, jobs=jobs, scheduler=scheduler, progress=report,
+                       connect_timeout=connect_timeout)
     results = {t.index: out for t, out in zip(todo, outs, strict=True)}
     # table order; a noise-free point's rows are repeated for every seed
     source = {_noise_free_source(t): t.index for t in todo if t.noise == 0}
@@ -248,8 +250,11 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
         i = t.index if _computed(t) else source[_noise_free_source(t)]
         rows.extend({**r, "seed": int(t.seed)} for r in results[i]["rows"])
     df = sweep_table(rows)
-    df.attrs["simulated"] = sum(o["simulated"] for o in results.values())
-    df.attrs["cached"] = sum(o["cached"] for o in results.values())
+    # distinct responses: one simulated by a point and read again by another is not a hit
+    simulated = {k for o in results.values() for k in o.get("simulated_keys", ())}
+    cached = {k for o in results.values() for k in o.get("cached_keys", ())} - simulated
+    df.attrs["simulated"] = len(simulated)
+    df.attrs["cached"] = len(cached)
     df.attrs["tasks"] = len(todo)
     return scenarios, df
 
@@ -264,11 +269,11 @@ def sweep_table(rows) -> pd.DataFrame:
     return df
 
 
-def _cell(errors: np.ndarray, n_failed: int) -> str:
+def _cell(errors: np.ndarray, n_failed: int, single: bool = False) -> str:
     ok = errors[np.isfinite(errors)]
     if ok.size == 0:
         return "failed" if n_failed else "—"
-    text = f"{np.median(ok):.3g} ({np.max(ok):.3g})"
+    text = f"{np.median(ok):.3g}" if single else f"{np.median(ok):.3g} ({np.max(ok):.3g})"
     return text + (f" [{n_failed} failed]" if n_failed else "")
 
 
@@ -291,11 +296,19 @@ def sweep_markdown(df: pd.DataFrame, scenario: Scenario) -> str:
     k, solver), one column per noise level."""
     levels = list(dict.fromkeys(df["noise"]))
     seeds = list(dict.fromkeys(df["seed"]))
+    # a noise-free point runs once; its rows are repeated for every seed in sweep.csv
+    df = df[(df["noise"] != 0) | (df["seed"] == seeds[0])] if seeds else df
+    noisy_levels = [x for x in levels if x != 0]
+    if noisy_levels:
+        over = (f"median (max) over seeds {', '.join(map(str, seeds))}"
+                + ("; noise 0: one noise-free run, no seed" if 0 in levels else ""))
+    else:
+        over = "one noise-free run per point (no seed)"
     out = [f"# podbench sweep: {scenario.name}\n\n",
            f"{scenario.title}. *{scenario.source}*\n\n" if scenario.source
            else f"{scenario.title}.\n\n",
-           "Total relative error ‖Ŵ − W‖_F/‖W‖_F of each target: median (max) over seeds "
-           f"{', '.join(map(str, seeds))}. Noise: {_noise_words(scenario)}; "
+           f"Total relative error ‖Ŵ − W‖_F/‖W‖_F of each target: {over}. "
+           f"Noise: {_noise_words(scenario)}; "
            "targets noise-free (see podbench.noise). "
            "Generated by `podbench sweep` with sweep.csv; do not edit.\n\n"]
     head = ["structure", "method", "target", "k", "solver", *(f"noise {x:g}" for x in levels)]
@@ -312,13 +325,14 @@ def sweep_markdown(df: pd.DataFrame, scenario: Scenario) -> str:
         for x in levels:
             g = sub[sub["noise"] == x]
             cells.append(_cell(g["total_error"].to_numpy(float),
-                               int((g["status"] != "ok").sum())) if len(g) else "—")
+                               int((g["status"] != "ok").sum()), single=x == 0)
+                         if len(g) else "—")
         out.append("| " + " | ".join([structure, method, target, k, solver or "—", *cells])
                    + " |\n")
     bad = df[df["status"] != "ok"]
     if len(bad):
         out.append("\nFailures (the first message of each; the count is over noise levels and "
-                   "seeds):\n\n")
+                   "seeds, a noise-free point counted once):\n\n")
         sizes = df.groupby(keys, sort=False).size()
         for key, g in bad.groupby(keys, sort=False):
             structure, method, target, modes, solver = key

@@ -1,12 +1,12 @@
 """The §4.1 beams against Euler–Bernoulli theory and their stated properties."""
 
 import pickle
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
+from podbench._resources import bundled_structures
 from podbench.fem import cantilever_beam, load_structure
 from podbench.fem.laws import SineLaw
 
@@ -133,7 +133,7 @@ def test_builder_rejects_bad_arguments():
     ],
 )
 def test_tip_mass_laws_from_files(tmp_path, table, expected):
-    text = (Path(__file__).resolve().parents[2] / "structures" / "lti_beam.toml").read_text(
+    text = (bundled_structures() / "lti_beam.toml").read_text(
         encoding="utf-8").replace('name = "lti_beam"', 'name = "tm"')
     p = tmp_path / "tm.toml"
     p.write_text(text + "\n[tip_mass]\n" + table + "\n", encoding="utf-8")

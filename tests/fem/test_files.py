@@ -5,11 +5,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from podbench._resources import bundled_structures
 from podbench.errors import StructureFileError, UnknownNameError
 from podbench.fem import build_structure, list_structures, load_structure
 from podbench.fem.files import KINDS, structure_dirs
 
-REPO_STRUCTURES = Path(__file__).resolve().parents[2] / "structures"
+REPO_STRUCTURES = bundled_structures()
 
 BEAM = """\
 # Units: inch, lbf, second

@@ -1,16 +1,16 @@
 """User matrices (.npz/.mat/.mtx/.npy) and user builders (kind "python")."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.io
 import scipy.sparse as sp
 
+from podbench._resources import bundled_structures
 from podbench.errors import InputError, StructureFileError
 from podbench.fem import from_matrices, load_structure
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "structures" / "examples"
+EXAMPLES = bundled_structures() / "examples"
 
 
 def small_system():

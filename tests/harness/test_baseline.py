@@ -8,12 +8,13 @@ from pathlib import Path
 import pytest
 
 from podbench import cli
+from podbench._resources import bundled_scenarios
 from podbench.harness.regress import compare, read_table
 from podbench.harness.report import summary_table
 from podbench.harness.runner import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
-CH4 = ROOT / "scenarios" / "chapter4"
+CH4 = bundled_scenarios() / "chapter4"
 QUICK = ["beam_free_displacement", "beam_free_velocity", "truss_free_displacement",
          "truss_free_velocity", "truss_forced"]
 

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from podbench._resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
 from podbench.harness.claims import evaluate_claims, load_claims
 from podbench.harness.metrics import decompose, norm_summaries
@@ -101,11 +102,10 @@ def test_percent_error_conclusions_are_judged_on_the_percent_error_alone():
     """§4.3: "accurate predictions with percent error generally less than 10% for initial
     displacements and loads and 20% for initial velocities" defines "accurate" by the Eq. 4.2
     percent error; those claims check norm_pe_median only (issue 11, item 6)."""
-    from pathlib import Path
 
     from podbench.harness.claims import CHECK_RE
 
-    path = Path(__file__).resolve().parents[2] / "scenarios" / "chapter4" / "claims.toml"
+    path = bundled_scenarios() / "chapter4" / "claims.toml"
     claims, _ = load_claims(path)
     chosen = [c for c in claims if "with percent error generally less than 10%" in c.quote]
     assert {c.id for c in chosen} == {

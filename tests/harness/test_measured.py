@@ -9,13 +9,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from podbench._resources import bundled_scenarios
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.runner import MeasuredStructure, read_case, resolve_structure, run_unit
 from podbench.measured import read_record, write_record
 from podbench.scenarios import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLE = ROOT / "scenarios" / "examples" / "measured" / "measured_chain.toml"
+EXAMPLE = bundled_scenarios() / "examples" / "measured" / "measured_chain.toml"
 N, DT = 120, 0.004
 
 SCENARIO = """

@@ -1,7 +1,8 @@
-"""The regularized structured solvers on the committed noisy scenario
-(scenarios/sweeps/beam_forced_noise.toml, LTI beam, ML trained on loads 1–4, predicting
-load 5 from noisy W and F): the prediction stays bounded where least squares blows up, and
-the GCV parameter is as good as the best fixed parameter chosen with knowledge of the truth.
+"""The regularized structured solvers on the bundled noisy scenario
+(podbench/bundled/scenarios/sweeps/beam_forced_noise.toml, LTI beam, ML trained on loads 1–4,
+predicting load 5 from noisy W and F): the prediction stays bounded where least squares blows
+up, and the GCV parameter is as good as the best fixed parameter chosen with knowledge of the
+truth.
 
 Measured (seeds 0–2, total error of the load-5 prediction, docs/methods.md):
 noise 0: ls 0.041, cgls (GCV) 0.041, fixed reg 1e-2 0.63; 0.1 %: ls 0.042–0.047, cgls
@@ -15,15 +16,15 @@ the laboratory's per-channel model (the default since issue 12) ML [cgls] has me
 (max 0.10) at 1 % and 0.21 (0.33) at 5 % over seeds 0–4 (docs/noise.md).
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from podbench._resources import bundled_scenarios
 from podbench.harness.runner import NoiseSpec, run_unit
 from podbench.scenarios import SolverChoice
 
-SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "sweeps" / "beam_forced_noise.toml"
+SCENARIO = bundled_scenarios() / "sweeps" / "beam_forced_noise.toml"
 OLD = "per_entry_rms"  # the model these numbers were measured with (module docstring)
 GRID = (3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 

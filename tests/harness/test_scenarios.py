@@ -5,12 +5,13 @@ from pathlib import Path
 import pytest
 from conftest import CHAIN_FREE
 
+from podbench._resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
 from podbench.harness.claims import load_claims
 from podbench.scenarios import find_scenarios, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
-CH4 = ROOT / "scenarios" / "chapter4"
+CH4 = bundled_scenarios() / "chapter4"
 
 
 def test_the_seven_chapter4_studies_load_as_the_dissertation_defines_them():
@@ -36,7 +37,7 @@ def test_the_seven_chapter4_studies_load_as_the_dissertation_defines_them():
     assert sc["truss_forced"].n_samples == 200 and sc["truss_forced"].dt == 0.05
 
 
-VARIANTS = ROOT / "scenarios" / "chapter4_variants"
+VARIANTS = bundled_scenarios() / "chapter4_variants"
 
 
 def _without(d, *keys):

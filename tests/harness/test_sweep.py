@@ -11,6 +11,7 @@ import pytest
 from conftest import CHAIN_FORCED
 
 from podbench import cli
+from podbench._resources import bundled_scenarios
 from podbench.data import Response
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.runner import NoiseSpec, noisy, run_unit
@@ -91,7 +92,7 @@ def test_malformed_sweep_tables_name_the_file_and_field(write_scenario, table, f
 
 
 def test_example_sweep_file_loads_and_plans():
-    path = ROOT / "scenarios" / "sweeps" / "beam_forced_noise.toml"
+    path = bundled_scenarios() / "sweeps" / "beam_forced_noise.toml"
     sc = load_scenario(path)
     assert [c.solver for c in sc.sweep.solvers] == ["ls", "tls", "cgls", "fft"]
     _, tasks = plan_sweep([path])
@@ -219,7 +220,7 @@ def test_mode_axis_and_coupled_training_sets(write_scenario):
 
 
 def test_solver_axis_expands_deconvolving_methods_and_their_twins():
-    mixed = load_scenario(ROOT / "scenarios" / "chapter4" / "beam_mixed.toml")
+    mixed = load_scenario(bundled_scenarios() / "chapter4" / "beam_mixed.toml")
     from podbench.scenarios import SolverChoice
 
     sc = apply_overrides(mixed, solvers=[SolverChoice("ls", "ls"),

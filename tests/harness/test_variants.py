@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 from podbench import cli, load_structure
+from podbench._resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
 from podbench.fem.beam import beam_mass
 from podbench.harness.runner import resolve_structure, run_unit
 from podbench.scenarios import find_scenarios, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
-CH4 = ROOT / "scenarios" / "chapter4"
+CH4 = bundled_scenarios() / "chapter4"
 
 
 def _write(tmp_path, name, text):
@@ -108,7 +109,7 @@ def test_a_base_cycle_and_a_missing_base_are_errors(tmp_path):
 
 
 def test_the_sensitivity_studies_load_and_span_the_stated_ranges():
-    files = find_scenarios([ROOT / "scenarios" / "sensitivity"])
+    files = find_scenarios([bundled_scenarios() / "sensitivity"])
     assert len(files) >= 4
     means, anchors = set(), set()
     for f in files:

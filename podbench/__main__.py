@@ -1,0 +1,8 @@
+"""``python -m podbench``: the same command line as ``podbench``."""
+
+import sys
+
+from .cli import main
+
+if __name__ == "__main__":
+    sys.exit(main())

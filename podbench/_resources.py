@@ -1,0 +1,78 @@
+"""The data podbench ships with: structure files, the Chapter 4 study and the sweeps.
+
+They live in the package (``podbench/bundled/structures/``, ``podbench/bundled/scenarios/<study>/``)
+so that an installed podbench (a wheel, not only this checkout) finds them through
+:mod:`importlib.resources`; ``podbench run chapter4`` names a bundled study from any folder,
+``podbench run chapter4/beam_forced`` one of its scenarios.
+"""
+
+from __future__ import annotations
+
+import os
+from importlib import resources
+from pathlib import Path
+
+__all__ = ["bundled_root", "bundled_structures", "bundled_scenarios", "bundled_studies",
+           "resolve_bundled", "display_path", "DEFAULT_STUDY", "SWEEPS_STUDY"]
+
+DEFAULT_STUDY = "chapter4"
+"""The study ``podbench run`` runs without a path."""
+SWEEPS_STUDY = "sweeps"
+"""The folder of scenarios with a ``[sweep]`` table that ``podbench sweep`` runs without a path."""
+
+
+def bundled_root() -> Path:
+    """The folder of the bundled data (``podbench/bundled`` of the installed package)."""
+    root = resources.files("podbench").joinpath("bundled")
+    if not isinstance(root, Path) or not root.is_dir():  # e.g. a zip import
+        raise RuntimeError(f"podbench's bundled data are not a folder on disk ({root}); "
+                            "install podbench as files (pip install), not as a zip")
+    return root
+
+
+def bundled_structures() -> Path:
+    """``podbench/bundled/structures``: the structure files found by name."""
+    return bundled_root() / "structures"
+
+
+def bundled_scenarios() -> Path:
+    """``podbench/bundled/scenarios``: one sub-folder per bundled study."""
+    return bundled_root() / "scenarios"
+
+
+def bundled_studies() -> dict[str, Path]:
+    """Bundled study name → its folder of scenario files, sorted by name."""
+    return {p.name: p for p in sorted(bundled_scenarios().iterdir())
+            if p.is_dir() and any(p.glob("*.toml"))}
+
+
+def resolve_bundled(name: str) -> Path | None:
+    """The bundled folder or file a name means (``chapter4``, ``chapter4/beam_forced`` or
+    ``chapter4/beam_forced.toml``), or None."""
+    parts = str(name).replace("\\", "/").strip("/").split("/")
+    studies = bundled_studies()
+    if len(parts) == 1 and parts[0] in studies:
+        return studies[parts[0]]
+    if len(parts) == 2 and parts[0] in studies:
+        stem = parts[1][:-5] if parts[1].endswith(".toml") else parts[1]
+        f = studies[parts[0]] / f"{stem}.toml"
+        if f.is_file() and stem != "claims":
+            return f
+    return None
+
+
+def display_path(path) -> str:
+    """How a file is named in generated outputs and messages: ``podbench/bundled/...`` for a
+    bundled file (the same in a checkout and an installed package), otherwise relative to
+    the current folder when below it, else absolute."""
+    p = Path(path).resolve()
+    try:
+        rel = p.relative_to(bundled_root().resolve())
+        return (Path("podbench") / "bundled" / rel).as_posix()
+    except ValueError:
+        pass
+    try:
+        rel = os.path.relpath(p)
+    except ValueError:  # pragma: no cover - another drive on Windows
+        return str(p)
+    return str(p) if rel.startswith("..") else rel
