@@ -61,8 +61,9 @@ def study(write_scenario, tmp_path, monkeypatch):
 
 
 def _tree(folder: Path) -> dict:
+    """The study's files and contents; report.html carries the date and is left out."""
     return {p.relative_to(folder).as_posix(): p.read_bytes()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != "report.html"}
 
 
 # ------------------------------------------------------------------------- bundled data
@@ -74,7 +75,8 @@ def test_bundled_data_are_package_resources():
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
     assert Path(str(root)) == bundled_root()
     assert bundled_structures() == bundled_root() / "structures"
-    assert list(bundled_studies()) == ["chapter4", "sweeps"]
+    assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "peers", "sensitivity",
+                                      "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
     # nothing is found relative to the source tree any more
     assert not (ROOT / "structures").exists() and not (ROOT / "scenarios").exists()
@@ -96,7 +98,7 @@ def test_an_unknown_name_is_one_line_naming_the_bundled_studies(tmp_path, monkey
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert "chapter5: no such file or folder, nor a bundled study or scenario" in err
-    assert "chapter4, sweeps" in err
+    assert "chapter4, chapter4_variants, peers, sensitivity, sweeps" in err
     assert not (tmp_path / "results").exists()
 
 
@@ -272,7 +274,7 @@ def test_sweep_md_says_the_noise_free_column_is_one_run():
     assert list(df.columns) == list(SWEEP_COLUMNS)
 
     class Sc:
-        name, title, source = "s", "A sweep", ""
+        name, title, source, sweep = "s", "A sweep", "", None
 
     md = sweep_markdown(df, Sc)
     assert "median (max) over seeds 0, 1; noise 0: one noise-free run, no seed" in md
