@@ -65,7 +65,8 @@ def test_a_wheel_installed_in_a_fresh_venv_runs_a_bundled_scenario_from_an_empty
     assert f"-> {Path('results') / 'truss_free_displacement'}/summary.csv" in r.stdout
     assert "claims: " in r.stdout
     assert sorted(p.name for p in res.iterdir()) == ["FINDINGS.md", "figures", "fits.csv",
-                                                     "summary.csv", "summary.md"]
+                                                     "report.html", "summary.csv", "summary.md"]
+    assert "<img" in (res / "report.html").read_text(encoding="utf-8")  # the study's report
     assert len(list((res / "figures").glob("*.png"))) == 1
     findings = (res / "FINDINGS.md").read_text(encoding="utf-8")
     assert "`podbench/bundled/scenarios/chapter4/claims.toml`" in findings
