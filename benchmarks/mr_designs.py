@@ -4,7 +4,8 @@
 For each structure: the rule ``κ`` (:func:`podbench.methods.mixed_design.design_conditioning`,
 training records only) of each of the 60 designs, MR's relative error ``‖W − Ŵ‖_F / ‖W‖_F``
 on each target, and the median and quartiles over the admissible designs beside the design
-the rule picks (smallest ``κ``) and podbench's former design (impulses 19, 11, 3 in)::
+the rule picks on that structure (smallest ``κ``), the Chapter 4 design (the pick on the LTI
+beam, impulses 3, 19, 11 in) and podbench's former design (19, 11, 3 in)::
 
     PYTHONPATH=. python benchmarks/mr_designs.py [--cache DIR] [--structures lti_beam ...]
 """
@@ -26,6 +27,7 @@ from podbench.scenarios import load_scenario
 SCENARIO = (Path(__file__).resolve().parents[1] / "podbench" / "bundled" / "scenarios"
             / "mr_designs" / "beam_mixed_designs.toml")
 OLD = "MR 19 11 3"
+CH4 = "MR 3 19 11"  # the rule's pick on the LTI beam (the profiles' reference): Chapter 4's
 SCALINGS = ("finite_difference", "ratio")
 
 
@@ -73,12 +75,13 @@ def summary(rows: dict, targets, scaling="finite_difference") -> str:
              f"(κ = {rows[chosen]['kappa']:.3g}); old {OLD!r} κ = {rows[OLD]['kappa']:.3g}, "
              f"rank {rank_old}/{len(rows)}",
              f"  {'target':10s} {'q25':>8s} {'median':>8s} {'q75':>8s} "
-             f"{'chosen':>8s} {'old':>8s}   ({scaling})"]
+             f"{'chosen':>8s} {'ch4':>8s} {'old':>8s}   ({scaling}; ch4 = {CH4!r})"]
     for t in targets:
         e = np.array([r["errors"][scaling][t] for r in adm.values()])
         q = np.nanpercentile(e, [25, 50, 75])
         lines.append(f"  {t:10s} {q[0]:8.3g} {q[1]:8.3g} {q[2]:8.3g} "
                      f"{rows[chosen]['errors'][scaling][t]:8.3g} "
+                     f"{rows[CH4]['errors'][scaling][t]:8.3g} "
                      f"{rows[OLD]['errors'][scaling][t]:8.3g}")
     return "\n".join(lines)
 
