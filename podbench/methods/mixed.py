@@ -37,10 +37,15 @@ Prediction (superposition): ``W̃ = U [D ∘ s_d + V ∘ s_v + c * q̃]`` with, 
   ``u_iᵀw̃0 / D[0]`` because ``D[0] = u_iᵀw0_a`` when ``W_a[:, 0] = w0_a`` and the forces
   start at zero);
 * ``s_v``, chosen by ``velocity_scaling``:
-  ``"ratio"`` (default): ``u_iᵀẇ̃0 / u_iᵀẇ0_a``, the ratio implied by Eqs. 3.60–3.61; exact
-  under the method's assumptions;
-  ``"finite_difference"``: ``u_iᵀẇ̃0 / V̇(0)`` with ``V̇(0) ≈ (V[1] − V[0])/Δt`` (Eq. 3.64, as
-  the MATLAB); biased by the one-sided difference (error of order ``ω Δt``).
+  ``"finite_difference"`` (default): ``u_iᵀẇ̃0 / V̇(0)`` with ``V̇(0) ≈ (V[1] − V[0])/Δt``
+  (Eq. 3.64, the text's and the appendix MATLAB's scaling); biased by the one-sided
+  difference (error of order ``ω Δt``);
+  ``"ratio"``: ``u_iᵀẇ̃0 / u_iᵀẇ0_a``, the ratio implied by Eqs. 3.60–3.61; exact under the
+  method's assumptions (podbench's option, not the text's).
+
+Which training sets to use: §3.4 asks only for "three distinct sets … separate combinations"
+whose equations "may be solved"; :mod:`podbench.methods.mixed_design` measures that from the
+training records (:func:`~podbench.methods.mixed_design.design_conditioning`).
 """
 
 from __future__ import annotations
@@ -94,7 +99,7 @@ class MixedResponse(PODMethod):
         Keyword options of the solver.
     velocity_scaling : {"ratio", "finite_difference"}
         How a new initial velocity scales the velocity histories (module docstring);
-        default ``"ratio"``.
+        default ``"finite_difference"`` (Eq. 3.64, as the text and its MATLAB).
     tol : float
         Guard (default 1e-6): ``fit`` raises :class:`IllConditionedError` if
         ``|u_iᵀw0_a| <= tol·‖w0_a‖`` or ``|u_iᵀv0_a| <= tol·‖v0_a‖`` (division in
@@ -146,7 +151,7 @@ class MixedResponse(PODMethod):
     n_records = (3, 3)
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
-                 velocity_scaling="ratio", tol=1e-6, max_growth=1e8):
+                 velocity_scaling="finite_difference", tol=1e-6, max_growth=1e8):
         self.n_modes = n_modes
         self.energy = energy
         self.solver = solver

@@ -51,7 +51,10 @@ def _parts(model, mc):
 
 
 def _fit(mc, **kw):
+    """MR fitted on ``mc``; velocity scaling ``"ratio"`` unless given (the exact one: these
+    tests check the method's exactness; the default, Eq. 3.64, has an O(ωΔt) bias)."""
     basis = kw.pop("basis", None)
+    kw.setdefault("velocity_scaling", "ratio")
     return MixedResponse(**kw).fit(mc.W, w0=mc.w0, v0=mc.v0, F=mc.F, dt=mc.dt, basis=basis)
 
 
@@ -223,3 +226,114 @@ def test_solvers_agree_on_clean_data(solver):
     mc = mixed_case("ideal")
     errs = _parts(_fit(mc, basis=eigenmodes(mc.M, mc.K), solver=solver), mc)
     assert max(errs.values()) < 1e-8, errs
+
+
+# --- Eq. 3.64 as the default; the design rule (podbench.methods.mixed_design) ---------------
+
+def test_default_velocity_scaling_is_the_finite_difference_of_eq_3_64():
+    """The text's and the appendix MATLAB's scaling is the default; "ratio" stays an option."""
+    assert MixedResponse().velocity_scaling == "finite_difference"
+    mc = mixed_case("ideal")
+    recs = [Record(W=mc.W[j], F=mc.F[j], w0=mc.w0[j], v0=mc.v0[j], dt=mc.dt) for j in range(3)]
+    fd = MixedResponse(n_modes=3).fit(recs)
+    assert fd.velocity_scaling_ == "finite_difference"
+    s = (fd.modes_.T @ mc.v0_new) / fd.velocity_derivative_
+    np.testing.assert_allclose(fd.predict(v0=mc.v0_new),
+                               fd.modes_ @ (fd.vel_histories_ * s[:, None]), rtol=1e-12)
+    ratio = MixedResponse(n_modes=3, velocity_scaling="ratio").fit(recs)
+    assert not np.allclose(fd.predict(v0=mc.v0_new), ratio.predict(v0=mc.v0_new))
+
+
+def _records(mc):
+    return [Record(W=mc.W[j], F=mc.F[j], w0=mc.w0[j], v0=mc.v0[j], dt=mc.dt) for j in range(3)]
+
+
+def test_design_conditioning_is_the_worst_cancellation_of_mr_elimination():
+    """κ = max_i max(κ_sep, κ_g), recomputed here from its definition; it agrees with the
+    ratios MR itself uses (pov_ratios_)."""
+    from podbench.methods.mixed_design import design_conditioning
+
+    mc = mixed_case("coupled")
+    recs = _records(mc)
+    cond = design_conditioning(recs, 3)
+    model = MixedResponse(n_modes=3).fit(recs)
+    r_bd, r_bv, r_cd, r_cv = model.pov_ratios_.T
+    U = model.modes_
+    q = [U.T @ r.F for r in recs]
+    R = (r_cv - r_cd) / (r_bv - r_bd)
+    k_sep = (abs(r_bv) + abs(r_bd)) / abs(r_bv - r_bd)
+    qn = [np.linalg.norm(x, axis=1) for x in q]
+    g = q[2] - r_cd[:, None] * q[0] - R[:, None] * (q[1] - r_bd[:, None] * q[0])
+    k_g = (qn[2] + abs(r_cd) * qn[0] + abs(R) * (qn[1] + abs(r_bd) * qn[0])) \
+        / np.linalg.norm(g, axis=1)
+    np.testing.assert_allclose(cond.separation, k_sep, rtol=1e-12)
+    np.testing.assert_allclose(cond.force, k_g, rtol=1e-12)
+    assert cond.value == pytest.approx(max(k_sep.max(), k_g.max()), rel=1e-12)
+    assert cond.n_modes == 3 and cond.admissible and cond.value >= 1
+
+
+def test_design_conditioning_uses_the_training_records_only():
+    """W_b, W_c do not enter (only W_a's POMs, w0, v0, F); a target cannot enter (the
+    function has no such input), and the study's κ of a design does not change when the
+    targets do."""
+    from podbench.methods.mixed_design import design_conditioning
+
+    mc = mixed_case("coupled")
+    recs = _records(mc)
+    ref = design_conditioning(recs, 3).value
+    recs2 = [recs[0]] + [Record(W=np.zeros_like(r.W), F=r.F, w0=r.w0, v0=r.v0, dt=r.dt)
+                         for r in recs[1:]]
+    assert design_conditioning(recs2, 3).value == ref
+    v0b = 2.0 * mc.v0[1]
+    recs3 = [recs[0], Record(W=mc.W[1], F=mc.F[1], w0=mc.w0[1], v0=v0b, dt=mc.dt), recs[2]]
+    assert design_conditioning(recs3, 3).value != ref
+
+
+def test_inseparable_design_is_inadmissible():
+    """Case b = 2 × case a's initial conditions: r_bv = r_bd, D and V cannot be separated."""
+    from podbench.methods.mixed_design import design_conditioning
+
+    mc = mixed_case("coupled")
+    recs = _records(mc)
+    recs[1] = Record(W=mc.W[1], F=mc.F[1], w0=2.0 * mc.w0[0], v0=2.0 * mc.v0[0], dt=mc.dt)
+    cond = design_conditioning(recs, 3)
+    assert not cond.admissible and cond.value > 1e6
+
+
+def test_choose_design_is_the_argmin_of_the_rule():
+    from podbench.methods.mixed_design import choose_design, design_conditioning
+
+    cands = {}
+    for seed in range(6):
+        cands[f"seed{seed}"] = _records(mixed_case("coupled", seed))
+    best, values = choose_design(cands, 3)
+    assert values == {k: design_conditioning(v, 3).value for k, v in cands.items()}
+    assert best == min(values, key=values.get)
+
+
+@pytest.mark.slow
+def test_chapter4_mr_design_is_the_rules_choice_over_the_60_designs():
+    """scenarios/mr_designs: 5·4·3 = 60 ordered impulse triples, all admissible on the LTI
+    beam; the rule (training records only) picks impulses 3, 19, 11 in, the Chapter 4
+    scenario's sets a, b, c; the former design 19, 11, 3 in ranks 59th.
+    Measured (LTI beam, finite difference): κ = 1.28 (chosen), 66.4 (former)."""
+    from podbench._resources import bundled_scenarios
+    from podbench.harness.cache import TruthCache
+    from podbench.harness.runner import _Truth, resolve_structure
+    from podbench.methods.mixed_design import choose_design
+    from podbench.scenarios import load_scenario
+
+    sc = load_scenario(bundled_scenarios() / "mr_designs" / "beam_mixed_designs.toml")
+    assert len(sc.methods) == 60
+    assert len({m.train for m in sc.methods}) == 60
+    truth = _Truth(sc, resolve_structure("lti_beam", sc), TruthCache(None), sc.engine)
+    cands = {m.label: [truth.train(c) for c in m.train] for m in sc.methods}
+    best, values = choose_design(cands, 4)
+    assert best == "MR 3 19 11"
+    assert values[best] == pytest.approx(1.28, abs=0.01)
+    assert values["MR 19 11 3"] == pytest.approx(66.4, abs=0.1)
+    assert sorted(values, key=values.get).index("MR 19 11 3") == 58
+    assert max(values.values()) < 1e6
+    ch4 = load_scenario(bundled_scenarios() / "chapter4" / "beam_mixed.toml")
+    picked = [ch4.cases[c].initial_velocity["impulses"][0][0] for c in "abc"]
+    assert picked == [3.0, 19.0, 11.0]
