@@ -44,7 +44,7 @@ from .base import (
 
 __all__ = ["SingleLoad", "MultipleLoad", "KERNEL_TAIL", "kernel_lags"]
 
-KERNEL_TAIL = 1e-3
+KERNEL_TAIL = 1e-6
 """The ``n_lags="auto"`` rule: the smallest ``L`` whose kernel tail carries at most this
 fraction of the identified kernel's energy, ``Σ_{s≥L} ‖C(t_s)‖²_F <= KERNEL_TAIL ·
 Σ_s ‖C(t_s)‖²_F`` (fixed in advance; it reads only the kernel fitted on the training records)."""
@@ -136,8 +136,8 @@ class _ForcedMethod(PODMethod):
         if F.shape[1] > n and getattr(self, "n_lags_", None) is None:
             raise DimensionError(
                 f"Parameter `F_new`: {F.shape[1]} samples, expected n' <= {n} (the kernel was "
-                f"identified from {n} samples and is unknown beyond); set `n_lags` (an int or 'auto') to truncate the "
-                "kernel, which then predicts records of any length"
+                f"identified from {n} samples and is unknown beyond); set `n_lags` (an int "
+                "or 'auto') to truncate the kernel, which then predicts records of any length"
             )
         return F
 
