@@ -1,7 +1,8 @@
-"""The benchmark groups: structured deconvolution (``deconv``), POD of tall matrices (``pod``)
-and Newmark at scale (``newmark``). Each ``bench_*`` function measures its cases in fresh
-processes (:func:`measure.run_isolated`) and returns CSV rows (:func:`report.row`) with
-speed-ups against the group's baseline measured in the same run.
+"""The benchmark groups: structured deconvolution (``deconv``), POD of tall matrices (``pod``),
+Newmark at scale (``newmark``) and the identification methods side by side (``methods``).
+Each ``bench_*`` function measures its cases in fresh processes (:func:`measure.run_isolated`)
+and returns CSV rows (:func:`report.row`) with speed-ups against the group's baseline
+measured in the same run.
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from .measure import available_bytes, mb, measure, rel_diff, run_isolated, speed
 from .report import row
 
 __all__ = ["DECONV_SIZES", "DECONV_SIZES_QUICK", "POD_SIZE", "POD_SIZE_QUICK",
-           "bench_deconv", "bench_pod", "bench_newmark", "NEWMARK_STORAGE"]
+           "bench_deconv", "bench_pod", "bench_newmark", "NEWMARK_STORAGE",
+           "METHODS_N", "METHODS_N_QUICK", "bench_methods"]
 
 DECONV_SIZES = ((500, 4), (1000, 6), (2000, 8), (8000, 16))
 DECONV_SIZES_QUICK = ((500, 4), (1000, 6))
@@ -385,4 +387,85 @@ def bench_newmark(quick: bool, max_gb: float, log):
                         speedup=f"{speedup(base['time_s'], out['time_s']):.3g}" if cmp else "",
                         max_rel_diff=f"{rel_diff(out['W'], base['W']):.1e}" if cmp else "",
                         reference="previous" if cmp else "", note=note))
+    return rows
+
+
+METHODS_N = 500
+METHODS_N_QUICK = 200
+"""Samples of the ``methods`` group: the peers study's 500 (0.05 s at Δt = 0.1 ms)."""
+
+METHOD_CASES = (
+    ("ML", "ML", {"solver": "block"}),
+    ("ML (basis all)", "ML", {"solver": "block", "basis": "all"}),
+    ("ML (n_lags auto)", "ML", {"solver": "block", "n_lags": "auto"}),
+    ("ML (ls)", "ML", {"solver": "ls"}),
+    ("SL", "SL", {"n_modes": 4, "solver": "block"}),
+    ("ERA", "ERA", {}),
+    ("DMDc", "DMDc", {}),
+    ("OpInf", "OpInf", {}),
+)
+"""(label, method, options) of the ``methods`` group; ML (block) is the baseline."""
+
+
+def _methods_task(n: int):
+    """Every method of :data:`METHOD_CASES` on the peers study's data (LTI beam, 500-lbf,
+    0.5-ms pulses at 2, 7, 11, 16 in; target: the pulse at 23 in), fit + predict timed in
+    this one process."""
+    import numpy as np
+
+    import podbench as pb
+    from podbench.excitations import Pulse
+    from podbench.methods import BUILTIN_METHODS
+
+    s = pb.load_structure("lti_beam")
+    train = [pb.simulate(s, n_samples=n, dt=DT, force=Pulse(x, 500.0, 5e-4))
+             for x in (2.0, 7.0, 11.0, 16.0)]
+    new = pb.simulate(s, n_samples=n, dt=DT, force=Pulse(23.0, 500.0, 5e-4))
+    out = {}
+    for label, name, options in METHOD_CASES:
+        est = BUILTIN_METHODS[name](**options)
+        recs = train[:1] if name == "SL" else train
+
+        def run(est=est, recs=recs):
+            return est.fit(recs).predict(new)
+
+        try:
+            pred, t, peak = measure(run)
+        except Exception as exc:  # noqa: BLE001 (a missing extra, a failing fit: reported)
+            out[label] = {"error": f"{type(exc).__name__}: {exc}".splitlines()[0]}
+            continue
+        err = float(np.linalg.norm(pred - new.W) / np.linalg.norm(new.W))
+        out[label] = {"time_s": t, "peak": peak, "error": None, "rel_err": err,
+                      "k": int(est.n_modes_), "m": int(pred.shape[0])}
+    return out
+
+
+def bench_methods(quick: bool, log, n: int | None = None):
+    """Fit + predict time of every identification method (:data:`METHOD_CASES`) on the same
+    records, as ratios to ML (``solver="block"``) measured in the same process."""
+    n = n or (METHODS_N_QUICK if quick else METHODS_N)
+    log(f"  methods, n = {n} ...")
+    status, out = run_isolated(_methods_task, (n,), 3600)
+    if status != "ok":
+        log(f"    {status}: {out.splitlines()[0]}")
+        return [row(group="methods", case="all", n=n, status=status,
+                    note=out.splitlines()[0])]
+    base = out.get("ML", {}).get("time_s")
+    rows = []
+    for label, _, _ in METHOD_CASES:
+        r = out[label]
+        if r.get("error"):
+            rows.append(row(group="methods", case=label, n=n, solver=label, status="error",
+                            note=r["error"]))
+            log(f"    {label}: {r['error']}")
+            continue
+        speed = speedup(base, r["time_s"]) if base else None
+        rows.append(row(
+            group="methods", case=label, n=n, k=r["k"], m=r["m"], solver=label, status="ok",
+            time_s=f"{r['time_s']:.4g}", peak_mb=mb(r["peak"]), baseline="ML",
+            baseline_time_s=f"{base:.4g}" if base else "",
+            speedup=f"{speed:.3g}" if speed else "",
+            error_vs_truth=f"{r['rel_err']:.3g}",
+            note="fit on load1 only" if label == "SL" else ""))
+        log(f"    {label}: {r['time_s']:.3g} s")
     return rows

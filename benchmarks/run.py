@@ -9,7 +9,7 @@ Options:
 
 ``--quick``              (n, k) ∈ {(500, 4), (1000, 6)} with the dense pseudo-inverse at
                          (500, 4) only; POD 20,000 × 500; Newmark 10,000 DOFs.
-``--only GROUP ...``     any of ``deconv``, ``pod``, ``newmark`` (default: all).
+``--only GROUP ...``     any of ``deconv``, ``pod``, ``newmark``, ``methods`` (default: all).
 ``--out PATH``           CSV file (default ``results/benchmarks.csv``), written atomically
                          (temporary file + ``os.replace``).
 ``--readme PATH``        Markdown file whose block between ``<!-- results:start -->`` and
@@ -77,6 +77,9 @@ def main(argv=None) -> int:
     if "newmark" in args.only:
         log("Newmark on a large sparse chain:")
         rows += groups.bench_newmark(args.quick, args.newmark_max_gb, log)
+    if "methods" in args.only:
+        log("Identification methods on the same data:")
+        rows += groups.bench_methods(args.quick, log)
     kept = []
     if set(args.only) != set(report.GROUPS) and not args.no_merge and args.out.exists():
         kept = [r for r in report.read_csv(args.out) if r["group"] not in args.only]

@@ -48,3 +48,18 @@ def test_a_failing_case_comes_back_as_an_error_message_not_an_exception():
     # 10 × 20 snapshots cannot carry the 40 POVs of the test matrix
     status, msg = measure.run_isolated(groups._pod_task, (10, 20, 30, "svd"), 120)
     assert status == "error" and msg.splitlines()[0].startswith("ValueError: matmul")
+
+
+@pytest.mark.slow
+def test_methods_group_at_a_small_size_times_every_method_against_ml():
+    lines = []
+    rows = groups.bench_methods(False, lines.append, n=60)
+    labels = [label for label, _, _ in groups.METHOD_CASES]
+    assert [r["case"] for r in rows] == labels
+    ok = {r["case"]: r for r in rows if r["status"] == "ok"}
+    assert {"ML", "ML (basis all)", "ML (n_lags auto)", "SL", "ERA"} <= set(ok)
+    for r in ok.values():
+        assert r["baseline"] == "ML" and float(r["time_s"]) > 0 and float(r["speedup"]) > 0
+        assert 0 <= float(r["error_vs_truth"]) < 1.5
+    assert ok["ML"]["speedup"] == "1"
+    assert "**Identification methods on the same data**" in report.table(rows)

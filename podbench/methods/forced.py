@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validation import as_finite_array, check_choice
 from ..deconvolution import convolution_product, convolve, convolve_kernel
-from ..errors import IllConditionedError, InputError
+from ..errors import DimensionError, IllConditionedError, InputError
 from ..records import is_record
 from .base import (
     PODMethod,
@@ -32,7 +33,6 @@ from .base import (
     check_max_cond,
     check_max_growth,
     check_n_modes,
-    check_new_force,
     check_snapshots,
     check_tol,
     is_record_input,
@@ -42,7 +42,53 @@ from .base import (
     solve_deconvolution,
 )
 
-__all__ = ["SingleLoad", "MultipleLoad"]
+__all__ = ["SingleLoad", "MultipleLoad", "KERNEL_TAIL", "kernel_lags"]
+
+KERNEL_TAIL = 1e-6
+"""The ``n_lags="auto"`` rule: the smallest ``L`` whose kernel tail carries at most this
+fraction of the identified kernel's energy, ``Σ_{s≥L} ‖C(t_s)‖²_F <= KERNEL_TAIL ·
+Σ_s ‖C(t_s)‖²_F`` (fixed in advance; it reads only the kernel fitted on the training records)."""
+
+_BASES = ("first", "all")
+
+
+def kernel_lags(kernel: np.ndarray, tail: float = KERNEL_TAIL) -> int:
+    """Number of lags ``L`` of the ``n_lags="auto"`` rule (:data:`KERNEL_TAIL`).
+
+    Parameters
+    ----------
+    kernel : (k, k, n) ndarray
+        Identified kernel ``C(t_s) = kernel[:, :, s]`` (in/(lbf·s)).
+    tail : float
+        Largest energy fraction left beyond ``L``.
+
+    Returns
+    -------
+    int
+        ``1 <= L <= n``.
+    """
+    e = np.sum(kernel.reshape(-1, kernel.shape[-1]) ** 2, axis=0)
+    total = float(e.sum())
+    if total == 0:
+        return 1
+    beyond = total - np.cumsum(e)  # beyond[L-1] = energy of samples L … n−1
+    return int(np.flatnonzero(beyond <= tail * total)[0]) + 1
+
+
+def _check_n_lags(n_lags):
+    if n_lags is None or n_lags == "auto":
+        return n_lags
+    if isinstance(n_lags, bool) or not isinstance(n_lags, (int, np.integer)) or n_lags < 1:
+        raise InputError(f"Parameter `n_lags`: expected None, 'auto' or an integer >= 1, "
+                         f"got {n_lags!r}")
+    return int(n_lags)
+
+
+def _all_records_basis(Ws, k: int):
+    """The ``k`` leading POMs of all records side by side, ``[¹W ²W …]`` (``basis="all"``),
+    with the POVs and POCs of the first record in it."""
+    U_all, _, _ = select_basis(np.hstack(Ws), k, None)
+    return select_basis(Ws[0], None, U_all)
 
 
 def _relative_residual(Qs, X, B, dt) -> float:
@@ -66,6 +112,50 @@ class _ForcedMethod(PODMethod):
         if is_record(record):
             return self._target_record(record).F
         return record
+
+    def _truncate(self, kernel: np.ndarray) -> np.ndarray:
+        """Apply ``n_lags``: the kernel set to zero from lag ``n_lags_`` on (in place)."""
+        n_lags = _check_n_lags(self.n_lags)
+        n = kernel.shape[2]
+        if n_lags == "auto":
+            n_lags = kernel_lags(kernel)
+        elif n_lags is not None:
+            n_lags = min(n_lags, n)
+        if n_lags is not None:
+            kernel[:, :, n_lags:] = 0.0
+        self.n_lags_ = n_lags
+        return kernel
+
+    def _check_new_force(self, F) -> np.ndarray:
+        """The new force matrix: ``m`` rows; at most ``n`` samples unless the kernel is
+        truncated (``n_lags``), then any length (the kernel is zero beyond ``n_lags_``)."""
+        F = as_finite_array(F, "F_new", ndim=2)
+        m, n = self.modes_.shape[0], self.kernel_.shape[2]
+        if F.shape[0] != m or F.shape[1] < 1:
+            raise DimensionError(f"Parameter `F_new`: expected shape ({m}, n'), got {F.shape}")
+        if F.shape[1] > n and getattr(self, "n_lags_", None) is None:
+            raise DimensionError(
+                f"Parameter `F_new`: {F.shape[1]} samples, expected n' <= {n} (the kernel was "
+                f"identified from {n} samples and is unknown beyond); set `n_lags` (an int "
+                "or 'auto') to truncate the kernel, which then predicts records of any length"
+            )
+        return F
+
+    def _kernel_for(self, n_new: int) -> np.ndarray:
+        """The kernel zero-padded to ``n_new`` samples (beyond ``n_lags_`` it is zero)."""
+        kern = self.kernel_
+        if n_new > kern.shape[2]:
+            kern = np.concatenate([kern, np.zeros(kern.shape[:2] + (n_new - kern.shape[2],))],
+                                  axis=2)
+        return kern
+
+    @property
+    def diagnostics_(self) -> dict:
+        """The base diagnostics and ``n_lags`` (when the kernel is truncated)."""
+        out = super().diagnostics_
+        if getattr(self, "n_lags_", None) is not None:
+            out["n_lags"] = int(self.n_lags_)
+        return out
 
 
 class SingleLoad(_ForcedMethod):
@@ -102,6 +192,13 @@ class SingleLoad(_ForcedMethod):
         would be amplified noise or model error (e.g. one record with random forces, whose
         convolution matrix is ill-conditioned). The value reached is
         ``solver_info_["amplification"]``.
+    n_lags : None, int or "auto"
+        Kernel truncation (beyond the dissertation): the identified kernel is set to zero
+        from lag ``n_lags`` on, ``C(t_s) = 0`` for ``s >= n_lags``. ``"auto"``: the rule
+        :data:`KERNEL_TAIL` on the fitted kernel. None (default, the dissertation's): no
+        truncation. With a truncated kernel ``predict`` accepts records of any length
+        (``Ṽ = Δt Σ_{p<n_lags} C(t_p) q̃[s−p]`` is defined for every ``s``); without it a
+        record longer than the training ones is refused (the kernel is unknown beyond).
 
     Attributes
     ----------
@@ -109,7 +206,9 @@ class SingleLoad(_ForcedMethod):
     povs_ : (k,) ndarray
     pocs_ : (n, k) ndarray
     kernel_ : (k, k, n) ndarray
-        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); diagonal for SL.
+        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); diagonal for SL; zero from ``n_lags_`` on.
+    n_lags_ : int or None
+        Lags kept (None: no truncation).
     fit_residual_ : float
         Relative residual of the deconvolutions, ``‖Q̌ c − v̂‖ / ‖v̂‖`` over all modes.
     dt_ : float
@@ -121,13 +220,14 @@ class SingleLoad(_ForcedMethod):
     n_records = (1, 1)
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
-                 tol=1e-6, max_growth=1e8):
+                 tol=1e-6, max_growth=1e8, n_lags=None):
         self.n_modes = n_modes
         self.energy = energy
         self.solver = solver
         self.solver_options = solver_options
         self.tol = tol
         self.max_growth = max_growth
+        self.n_lags = n_lags
 
     def _validate_params(self) -> None:
         check_n_modes(self.n_modes)
@@ -135,6 +235,7 @@ class SingleLoad(_ForcedMethod):
         make_method_solver(self.solver, self.solver_options)
         check_tol(self.tol)
         check_max_growth(self.max_growth)
+        _check_n_lags(self.n_lags)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -142,7 +243,7 @@ class SingleLoad(_ForcedMethod):
     def coupled_twin(self) -> MultipleLoad:
         """ML with the same solver (the full kernel ``C(t)`` instead of its diagonal)."""
         return MultipleLoad(n_modes=self.n_modes, solver=self.solver,
-                            solver_options=self.solver_options)
+                            solver_options=self.solver_options, n_lags=self.n_lags)
 
     def fit(self, records, F=None, *, dt=None, basis=None) -> SingleLoad:
         """Identify the diagonal kernel from one forced response that starts at rest.
@@ -208,7 +309,7 @@ class SingleLoad(_ForcedMethod):
         self.modes_ = U
         self.povs_ = povs
         self.pocs_ = pocs
-        self.kernel_ = kernel
+        self.kernel_ = self._truncate(kernel)
         self.fit_residual_ = float(np.sqrt(num) / nv) if nv > 0 else float(np.sqrt(num))
         self.dt_ = dt
         self.n_modes_ = k
@@ -221,8 +322,8 @@ class SingleLoad(_ForcedMethod):
         ----------
         record : record, or (m, n') array_like
             A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
-            training one), or the force matrix itself; ``n' <= n`` samples, column 0 at
-            ``t = 0``.
+            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
+            ``n_lags``), column 0 at ``t = 0``.
 
         Returns
         -------
@@ -230,11 +331,10 @@ class SingleLoad(_ForcedMethod):
             Predicted displacements (in).
         """
         self._check_is_fitted()
-        m, k, n = self.modes_.shape[0], self.n_modes_, self.kernel_.shape[2]
-        F = check_new_force(self._new_force(record), m, n, "F_new")
+        F = self._check_new_force(self._new_force(record))
         q = self.modes_.T @ F
-        idx = np.arange(k)
-        v = convolve(self.kernel_[idx, idx], q, self.dt_)
+        idx = np.arange(self.n_modes_)
+        v = convolve(self._kernel_for(F.shape[1])[idx, idx], q, self.dt_)
         return self.modes_ @ v
 
 
@@ -275,17 +375,32 @@ class MultipleLoad(_ForcedMethod):
         would be amplified noise or model error (e.g. one record with random forces, whose
         convolution matrix is ill-conditioned). The value reached is
         ``solver_info_["amplification"]``.
+    basis : {"first", "all"}
+        Where the POMs come from when ``fit`` gets no ``basis=``: ``"first"`` (default, the
+        dissertation's) the POMs of the first load case; ``"all"`` the leading POMs of all
+        training records side by side, ``[¹W ²W …]`` (the peers' basis; beyond the
+        dissertation). ``fit(…, basis=U)`` overrides both.
+    n_lags : None, int or "auto"
+        Kernel truncation (beyond the dissertation): the identified kernel is set to zero
+        from lag ``n_lags`` on, ``C(t_s) = 0`` for ``s >= n_lags``. ``"auto"``: the rule
+        :data:`KERNEL_TAIL` on the fitted kernel. None (default, the dissertation's): no
+        truncation. With a truncated kernel ``predict`` accepts records of any length
+        (``Ṽ = Δt Σ_{p<n_lags} C(t_p) q̃[s−p]`` is defined for every ``s``); without it a
+        record longer than the training ones is refused (the kernel is unknown beyond).
 
     Attributes
     ----------
     modes_ : (m, k) ndarray
-        POMs of the first load case.
+        POMs of the first load case (or of all, ``basis="all"``).
     povs_ : (k,) ndarray
     pocs_ : (n, k) ndarray
     kernel_ : (k, k, n) ndarray
-        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); ``kernel_[l, i] = c_li``.
+        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); ``kernel_[l, i] = c_li``; zero from
+        ``n_lags_`` on.
     Cbar_ : (k·n, k) ndarray
-        ``C̄`` of Eq. 3.42.
+        ``C̄`` of Eq. 3.42 (as solved, before truncation).
+    n_lags_ : int or None
+        Lags kept (None: no truncation).
     condition_number_ : float
         Condition number of the load cases' modal-force histories (see ``max_cond``).
     fit_residual_ : float
@@ -300,18 +415,22 @@ class MultipleLoad(_ForcedMethod):
     records_per_mode = True
 
     def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
-                 max_growth=1e8):
+                 max_growth=1e8, basis="first", n_lags=None):
         self.n_modes = n_modes
         self.solver = solver
         self.solver_options = solver_options
         self.max_cond = max_cond
         self.max_growth = max_growth
+        self.basis = basis
+        self.n_lags = n_lags
 
     def _validate_params(self) -> None:
         check_n_modes(self.n_modes)
         make_method_solver(self.solver, self.solver_options)
         check_max_cond(self.max_cond)
         check_max_growth(self.max_growth)
+        check_choice(self.basis, "basis", _BASES)
+        _check_n_lags(self.n_lags)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -329,7 +448,8 @@ class MultipleLoad(_ForcedMethod):
         dt : float, optional
             Array form only: the sampling interval (s).
         basis : (m, k) array_like, optional
-            Orthonormal basis to use instead of the POMs of the first record.
+            Orthonormal basis to use instead of the POMs (overrides the ``basis``
+            hyperparameter).
 
         Returns
         -------
@@ -363,7 +483,8 @@ class MultipleLoad(_ForcedMethod):
                 f"each load case adds only k·n equations (Eq. 3.48), so k = {k} cases are needed"
             )
         if basis is None:
-            U, povs, pocs = select_basis(Ws[0], k, None)
+            U, povs, pocs = (select_basis(Ws[0], k, None) if self.basis == "first"
+                             else _all_records_basis(Ws, k))
         Qs = [U.T @ Fj for Fj in Fs]
         L = np.stack([Qj.ravel() for Qj in Qs])  # n_sets × k·n
         s = np.linalg.svd(L, compute_uv=False)
@@ -386,7 +507,7 @@ class MultipleLoad(_ForcedMethod):
         self.povs_ = povs
         self.pocs_ = pocs
         self.Cbar_ = Cbar
-        self.kernel_ = kernel
+        self.kernel_ = self._truncate(kernel)
         self.condition_number_ = cond
         self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
         self.dt_ = dt
@@ -400,8 +521,8 @@ class MultipleLoad(_ForcedMethod):
         ----------
         record : record, or (m, n') array_like
             A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
-            training one), or the force matrix itself; ``n' <= n`` samples, column 0 at
-            ``t = 0``.
+            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
+            ``n_lags``), column 0 at ``t = 0``.
 
         Returns
         -------
@@ -409,7 +530,6 @@ class MultipleLoad(_ForcedMethod):
             Predicted displacements (in).
         """
         self._check_is_fitted()
-        m, n = self.modes_.shape[0], self.kernel_.shape[2]
-        F = check_new_force(self._new_force(record), m, n, "F_new")
-        v = convolve_kernel(self.kernel_, self.modes_.T @ F, self.dt_)
+        F = self._check_new_force(self._new_force(record))
+        v = convolve_kernel(self._kernel_for(F.shape[1]), self.modes_.T @ F, self.dt_)
         return self.modes_ @ v

@@ -253,11 +253,16 @@ class MDS(PODMethod):
         ``fit`` raises :class:`IllConditionedError` if the 2-norm condition number of
         ``V̂0`` exceeds this (default 1e10): the initial profiles are (nearly) linearly
         dependent in the POM basis.
+    basis : {"first", "all"}
+        Where the POMs come from when ``fit`` gets no ``basis=``: ``"first"`` (default, the
+        dissertation's) the POMs of the first data set; ``"all"`` the leading POMs of all
+        data sets side by side, ``[¹W ²W …]`` (beyond the dissertation). ``fit(…, basis=U)``
+        overrides both. (POVR has one data set: there the two coincide.)
 
     Attributes
     ----------
     modes_ : (m, k) ndarray
-        POMs of the first data set.
+        POMs of the first data set (or of all, ``basis="all"``).
     povs_ : (k,) ndarray
         POVs of the first data set (in).
     pocs_ : (n, k) ndarray
@@ -276,15 +281,18 @@ class MDS(PODMethod):
     coupled = True
     records_per_mode = True
 
-    def __init__(self, *, excitation="displacement", n_modes=None, max_cond=1e10):
+    def __init__(self, *, excitation="displacement", n_modes=None, max_cond=1e10,
+                 basis="first"):
         self.excitation = excitation
         self.n_modes = n_modes
         self.max_cond = max_cond
+        self.basis = basis
 
     def _validate_params(self) -> None:
         check_choice(self.excitation, "excitation", _EXCITATIONS)
         check_n_modes(self.n_modes)
         check_max_cond(self.max_cond)
+        check_choice(self.basis, "basis", ("first", "all"))
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
@@ -344,7 +352,10 @@ class MDS(PODMethod):
                 f"MDS: fewer data sets ({n_sets}) than modes ({k}); Φ (k × k) needs at least "
                 f"k = {k} responses to linearly independent initial {word}s (Eq. 3.26)"
             )
-        if basis is None:
+        if basis is None and self.basis == "all":
+            U_all, _, _ = select_basis(np.hstack(Ws), k, None)
+            U, povs, pocs = select_basis(Ws[0], None, U_all)
+        elif basis is None:
             U, povs, pocs = select_basis(Ws[0], k, None)
         V0 = U.T @ X0  # k × n_sets
         s = np.linalg.svd(V0, compute_uv=False)

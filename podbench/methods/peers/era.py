@@ -21,13 +21,37 @@ with ``H(1) = [h_{a+b+2}]``. A new load is predicted by simulating ``(A, B, C, D
 with its modal forces, ``Ŵ = U Ŷ``. For a linear time-invariant system sampled by any
 one-step map (Newmark included), ``k = m``, enough lags (``p·k ≥`` the state dimension) and
 ``N`` equal to the state dimension, the prediction is exact.
+
+**Free decay** (``excitation="displacement"`` or ``"velocity"``, beside MDS). A free response
+of a linear time-invariant system sampled by a one-step map is ``x_{t+1} = A x_t``,
+``y_t = C x_t``, and its initial state is linear in the initial profile, ``x_0 = B u`` with
+``u = Uᵀx0`` (``x0 = w0``, in, or ``v0``, in/s). Hence
+
+    ``y_t = h_t u``,  ``h_t = C A^t B``  (``k × k``, ``t = 0 … n−1``),               (4)
+
+the free-decay "Markov parameters". From ``R ≥ k`` records with independent profiles,
+stacked as ``Y_t = [¹y_t … ᴿy_t]`` and ``X_0 = [¹u … ᴿu]``,
+
+    ``h_t = Y_t X_0⁺``                                                              (5)
+
+(MDS's ``Φ(t)``, Eq. 3.27/3.32). ERA factors the Hankel matrix ``H(0) = [h_{a+b}]`` of these
+(the sequence shifted by one against the forced case, ``h_t`` playing ``h_{t+1}``) and (3)
+gives ``(A, B, C)`` of order ``N``. A new profile ``ũ = Uᵀx̃0`` is predicted by
+``ŷ_t = C A^t x̂_0`` with ``x̂_0 = B ũ``: the initial state of order ``N`` that (4) ties to
+the profile (for displacements it carries the zero initial velocity the records had, which
+a least-squares fit ``C x̂_0 ≈ ũ`` of the first sample alone would not know). Unlike MDS's
+``Φ(t_i)``, one per sample of the training records, the realization predicts any length.
+For a linear structure, ``k = m`` and ``N`` = the state dimension (``2m`` for Newmark's
+``(w, ẇ)``) the prediction is exact.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..._validation import check_choice
 from ...errors import InputError
+from ...records import is_record
 from ._common import (
     PeerMethod,
     check_holdout,
@@ -35,7 +59,39 @@ from ._common import (
     simulate,
 )
 
-__all__ = ["ERA", "okid_markov", "era_realization"]
+__all__ = ["ERA", "okid_markov", "era_realization", "free_markov"]
+
+_EXCITATIONS = ("forced", "displacement", "velocity")
+_X0 = {"displacement": "w0", "velocity": "v0"}
+
+
+def free_markov(Ys, X0) -> np.ndarray:
+    """Free-decay Markov parameters ``h_t = Y_t X_0⁺`` (Eq. 5).
+
+    Parameters
+    ----------
+    Ys : (R, k, n) ndarray
+        Outputs of ``R`` free decays (in).
+    X0 : (R, k) ndarray
+        Their initial profiles in the basis (in or in/s).
+
+    Returns
+    -------
+    (n, k, k) ndarray
+        ``h_t`` (dimensionless for displacements, s for velocities).
+    """
+    return np.einsum("rkt,rl->tkl", Ys, np.linalg.pinv(X0.T))
+
+
+def simulate_free(A, B, C, X0, n: int) -> np.ndarray:
+    """``y_t = C A^t B u`` for the profiles ``X0`` (``(R, k)``); returns ``(R, k, n)``."""
+    X = B @ X0.T  # (N, R)
+    out = np.empty((X0.shape[0], C.shape[0], n))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for t in range(n):
+            out[:, :, t] = (C @ X).T
+            X = A @ X
+    return out
 
 
 def _regressors(Ys, Us, lags: int):
@@ -163,6 +219,11 @@ class ERA(PeerMethod):
         deadbeat observer of any order considered exists (Juang et al. 1993: ``p·k ≥ N``).
     holdout : float
         Fraction of each training record held out by the order rule (0.25).
+    excitation : {"forced", "displacement", "velocity"}
+        ``"forced"`` (default): ERA/OKID from forced records that start at rest.
+        ``"displacement"`` / ``"velocity"``: ERA from free decays (Eqs. 4–5; records with
+        ``w0`` or ``v0``, beside MDS); ``lags`` is then unused and the order rule holds out
+        the last ``holdout`` of every decay.
 
     Attributes
     ----------
@@ -184,12 +245,32 @@ class ERA(PeerMethod):
 
     abbreviation = "ERA"
 
-    def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25):
+    def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
+                 excitation="forced"):
         self.n_modes = n_modes
         self.order = order
         self.max_order = max_order
         self.lags = lags
         self.holdout = holdout
+        self.excitation = excitation
+
+    @property
+    def excitation_kind(self) -> str:
+        """``"free"`` for the free-decay variant, else ``"forced"``."""
+        return "forced" if self.excitation == "forced" else "free"
+
+    def required_fields(self) -> tuple[str, ...]:
+        if self.excitation in _X0:
+            return ("W", _X0[self.excitation])
+        return ("W", "F", "dt")
+
+    def coupled_twin(self):
+        """ML in the peer's basis (forced), MDS (free decay)."""
+        if self.excitation in _X0:
+            from ..free import MDS
+
+            return MDS(excitation=self.excitation, n_modes=self.n_modes)
+        return super().coupled_twin()
 
     def _validate_params(self) -> None:
         check_int_or_none(self.n_modes, "n_modes")
@@ -198,6 +279,7 @@ class ERA(PeerMethod):
             raise InputError("Parameter `max_order`: must be an integer >= 1, got None")
         check_int_or_none(self.lags, "lags")
         check_holdout(self.holdout)
+        check_choice(self.excitation, "excitation", _EXCITATIONS)
 
     # ------------------------------------------------------------------ identification
     def _lags(self, k: int) -> int:
@@ -232,6 +314,9 @@ class ERA(PeerMethod):
         -------
         self
         """
+        self._validate_params()
+        if self.excitation in _X0:
+            return self._fit_free(records, basis)
         recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
         k, n = U.shape[1], Ys.shape[2]
         lags = self._lags(k)
@@ -268,8 +353,95 @@ class ERA(PeerMethod):
         self.fit_residual_ = residual
         return self
 
+    def _fit_free(self, records, basis) -> ERA:
+        """ERA from free decays (Eqs. 4–5, then 3); the order by the hold-out rule."""
+        from ..free import _first_column_w0
+
+        recs = self._training_records(_first_column_w0(records, self.excitation))
+        U, povs, pocs = self._basis(recs, basis)
+        field = _X0[self.excitation]
+        k = U.shape[1]
+        Ys = np.stack([U.T @ r.W for r in recs])  # (R, k, n)
+        X0 = np.stack([U.T @ getattr(r, field) for r in recs])  # (R, k)
+        if np.linalg.matrix_rank(X0) < k:
+            raise InputError(f"ERA: the {len(recs)} initial profiles span fewer than k = {k} "
+                             "directions of the basis; give more independent free decays or "
+                             "fewer modes (`n_modes`)")
+        n = Ys.shape[2]
+        # the profile as an impulse at t_0, so that the shared hold-out rule can cut records
+        Us = np.zeros_like(Ys)
+        Us[:, :, 0] = X0
+
+        def factor(Yf, X0f):
+            h = free_markov(Yf, X0f)
+            hh = np.concatenate([np.zeros((1, k, k)), h])  # hh[t+1] = h_t = C A^t B
+            blocks = max(1, (hh.shape[0] - 1) // 2)
+            return h, era_realization(hh, blocks)
+
+        def respond(mdl, Uin):
+            A, B, C = mdl
+            return simulate_free(A, B, C, Uin[:, :, 0], Uin.shape[2])
+
+        errors = None
+        h, (P, sv, Qt, H1) = factor(Ys, X0)
+        rank_cap = P.shape[1]
+        if self.order is None:
+            cache: dict = {}
+
+            def identify(Yf, Uf, cand):
+                if not cache:
+                    cache["f"] = factor(Yf, Uf[:, :, 0])
+                _, (Pf, svf, Qtf, H1f) = cache["f"]
+                N = min(cand, int(np.sum(svf > 0)))
+                return realize(Pf, svf, Qtf, H1f, np.zeros((k, k)), N)[:3]
+
+            candidates = list(range(1, min(self.max_order, rank_cap) + 1))
+            order, errors = self._select_by_holdout(Ys, Us, candidates, identify, respond,
+                                                    self.holdout)
+        else:
+            order = self.order
+            if order > rank_cap:
+                raise InputError(f"Parameter `order`: {order} exceeds the {rank_cap} rows of "
+                                 "the free-decay Hankel matrix")
+        A, B, C, D = realize(P, sv, Qt, H1, np.zeros((k, k)), order)
+        Yhat = simulate_free(A, B, C, X0, n)
+        ny = float(np.linalg.norm(Ys))
+        self._set_basis(U, povs, pocs, recs[0].dt)
+        self.A_, self.B_, self.C_, self.D_ = A, B, C, D
+        self.markov_ = h
+        self.hankel_sv_ = sv
+        self.order_ = int(order)
+        self.lags_ = 0
+        self.n_samples_ = n
+        self.holdout_errors_ = errors
+        self.fit_residual_ = float(np.linalg.norm(Yhat - Ys) / ny) if ny > 0 else 0.0
+        return self
+
+    def _predict_free(self, record) -> np.ndarray:
+        n = self.n_samples_
+        if is_record(record):
+            rec = self._target_record(record)
+            x = getattr(rec, _X0[self.excitation])
+            if x is None and self.excitation == "displacement":
+                x = rec.W[:, 0]
+            n = rec.W.shape[1]
+        else:
+            x = np.asarray(record, dtype=float)
+        m = self.modes_.shape[0]
+        if x.shape != (m,):
+            raise InputError(f"Parameter `x0_new`: expected shape ({m},) (one value per "
+                             f"sensor), got {x.shape}")
+        u = (self.modes_.T @ x)[None]
+        return self.modes_ @ simulate_free(self.A_, self.B_, self.C_, u, n)[0]
+
     def predict(self, record) -> np.ndarray:
-        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
+        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in.
+        Free decay: the response to the record's ``w0`` / ``v0`` (or a profile array),
+        ``Ŵ_t = U C A^t B Uᵀx̃0``, as many samples as the record's ``W`` (or the training
+        records')."""
+        self._check_is_fitted()
+        if self.excitation in _X0:
+            return self._predict_free(record)
         Uin = self._new_inputs(record)
         return self.modes_ @ simulate(self.A_, self.B_, self.C_, self.D_, Uin)
 
@@ -277,7 +449,8 @@ class ERA(PeerMethod):
     def diagnostics_(self) -> dict:
         """``n_modes``, ``order`` and ``lags`` (the rules' choices), ``fit_residual`` (OKID),
         ``holdout_error`` (of the chosen order), ``hankel_sv_ratio`` ``σ_{N+1}/σ_1`` and
-        ``spectral_radius`` of ``A``."""
+        ``spectral_radius`` of ``A``. ``fit_residual`` of the free variant: the realization's
+        relative error on the training decays."""
         out = super().diagnostics_
         out["order"] = self.order_
         out["lags"] = self.lags_
