@@ -61,6 +61,10 @@ ERROR_COLUMNS = (
     "linear_diagonalization_error",
 )
 NORM_COLUMNS = ("norm_pe_median", "norm_pe_p90", "norm_pe_max", "norm_peak_ratio")
+TWIN_RTOL = 1e-6
+"""A twin "exceeds" the method's total error only beyond this relative margin: a twin equal
+to the method up to round-off (e.g. ERA-free against MDS in one basis) leaves the
+attribution defined."""
 
 
 def _fro(A) -> float:
@@ -116,7 +120,7 @@ def decompose(W, W_hat, U=None, *, W_twin=None, coupled: bool = False, W_lin=Non
     if twin is None:
         return out
     out["twin_error"] = _fro(twin - W) / N
-    undefined = out["twin_error"] > out["total_error"] * (1 + 1e-12)
+    undefined = out["twin_error"] > out["total_error"] * (1 + TWIN_RTOL)
     diag = 0.0 if coupled else _fro(W_hat - twin) / N
     if not nonlinear:
         lin, resid, lin_diag = 0.0, _fro(twin - PW) / N, (nan if undefined else diag)
@@ -130,7 +134,7 @@ def decompose(W, W_hat, U=None, *, W_twin=None, coupled: bool = False, W_lin=Non
         if coupled:
             lin_diag = 0.0
         elif W_own_lin is not None and _fro(W_twin_lin - W_lin) <= _fro(W_own_lin - W_lin) * (
-                1 + 1e-12):
+                1 + TWIN_RTOL):
             lin_diag = _fro(W_own_lin - W_twin_lin) / N
     out["linear_diagonalization_error"] = lin_diag
     if not undefined:
