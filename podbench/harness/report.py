@@ -198,8 +198,9 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                                              encoding="utf-8", newline="\n")
         elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
             verdicts = sensitivity_verdicts(load_claims(base_claims)[0], scenarios, df)
-            (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
-                                             encoding="utf-8", newline="\n")
+            if verdicts:  # derived scenarios without variants judge nothing again
+                (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
+                                                 encoding="utf-8", newline="\n")
         embedded: dict = {}
         if figures:
             fdir = tmp / "figures"
