@@ -48,8 +48,13 @@ from .system import ConvolutionSystem
 
 __all__ = ["KernelRegularized", "kernel_matrix", "log_marginal_likelihood", "DEFAULT_N_HYPER"]
 
-DEFAULT_N_HYPER = 512
-"""Samples on which the evidence is maximized by default (the whole record if shorter)."""
+DEFAULT_N_HYPER = None
+"""Default ``n_hyper`` of :class:`KernelRegularized`: ``None``, i.e. ``m = min(n, max(32,
+MAX_HYPER_UNKNOWNS // k))`` samples for the evidence (the whole record if shorter)."""
+
+MAX_HYPER_UNKNOWNS = 1024
+"""Unknowns ``k·m`` of the evidence's eigen-decomposition with the default ``n_hyper``
+(``O((k m)³)`` per shape tried: about 0.3 s at 1024 here)."""
 
 _LAM_BOUNDS = (np.log(1e-6), np.log(0.5))    # a = log(1 − λ): λ from 0.5 to 1 − 1e-6
 _RHO_BOUNDS = (np.log(1e-4), np.log(0.99))   # b = log(1 − ρ): ρ from 0.01 to 1 − 1e-4
@@ -219,19 +224,23 @@ class KernelRegularized(Solver):
     ----------
     kernel : {"dc", "tc"}
         Prior covariance shape: DC ``λ^{(p+q)/2} ρ^{|p−q|}`` (default) or TC ``λ^{max(p,q)}``.
-    n_hyper : int
-        Samples on which the evidence is maximized (default :data:`DEFAULT_N_HYPER`).
+    n_hyper : int, optional
+        Samples on which the evidence is maximized (default: ``min(n, max(32, 1024 // k))``,
+        :data:`MAX_HYPER_UNKNOWNS`); when shorter than the record the full system is then
+        solved by conjugate gradients with the chosen hyper-parameters.
     lam, rho, gamma : float, optional
         Fix the shape ``λ``, the correlation ``ρ`` (DC only) or ``γ = σ²/c`` (all columns)
         instead of maximizing the evidence over them (for tests and oracle studies).
     tol : float
-        Relative tolerance of the conjugate-gradient solve (only when ``n > n_hyper``).
+        Relative tolerance of the conjugate-gradient solve (only when ``n > n_hyper``),
+        on the normal-equation residual (default 1e-6).
     max_iter : int
         Its iteration limit (the iterate is returned, ``converged`` false, if reached).
 
     Diagnostics (``info``): ``lam``, ``rho``, ``gamma`` (geometric mean over columns),
-    ``c``, ``sigma2`` (geometric means), ``noise_floor`` (``σ/rms(y)``, largest over
-    columns), ``log_evidence`` (``log p(B)``, summed over columns), ``evaluations`` (shapes
+    ``c``, ``sigma2`` (geometric means), ``noise_floor`` and ``noise_floor_min``
+    (``σ_l/rms(y_l)``, largest and smallest over the columns), ``log_evidence``
+    (``log p(B)``, summed over columns), ``evaluations`` (shapes
     tried), ``n_hyper`` (the ``m`` used), ``iterations`` and ``converged`` (CG, 0 / True
     when ``m = n``), ``reg_rule`` = ``"evidence"``.
     """
@@ -239,9 +248,9 @@ class KernelRegularized(Solver):
     name = "kernel"
     structured = True
 
-    def __init__(self, *, kernel: str = "dc", n_hyper: int = DEFAULT_N_HYPER,
+    def __init__(self, *, kernel: str = "dc", n_hyper: int | None = DEFAULT_N_HYPER,
                  lam: float | None = None, rho: float | None = None,
-                 gamma: float | None = None, tol: float = 1e-8, max_iter: int = 2000):
+                 gamma: float | None = None, tol: float = 1e-6, max_iter: int = 2000):
         self.kernel = kernel
         self.n_hyper = n_hyper
         self.lam = lam
@@ -252,7 +261,8 @@ class KernelRegularized(Solver):
 
     def _validate_params(self) -> None:
         check_choice(self.kernel, "kernel", ("dc", "tc"))
-        check_positive(self.n_hyper, "n_hyper", integer=True)
+        if self.n_hyper is not None:
+            check_positive(self.n_hyper, "n_hyper", integer=True)
         if self.lam is not None and not 0 < self.lam < 1:
             raise InputError(f"Parameter `lam`: must be in (0, 1), got {self.lam!r}")
         if self.rho is not None:
@@ -267,7 +277,7 @@ class KernelRegularized(Solver):
 
     # ------------------------------------------------------------------ hyper-parameters
     def _hyper(self, system: ConvolutionSystem, scale: np.ndarray):
-        m = min(system.n, int(self.n_hyper))
+        m = self._n_hyper(system)
         ev = _Evidence(system, m, scale)
         kernel = self.kernel
 
@@ -326,20 +336,40 @@ class KernelRegularized(Solver):
         return ev, f, lam, rho, d, V, S, z, lg
 
     # ------------------------------------------------------------------ solve
-    def _solve(self, system: ConvolutionSystem):
-        n, k, r = system.n, system.k, system.n_rhs
+    def _n_hyper(self, system: ConvolutionSystem) -> int:
+        if self.n_hyper is None:
+            return min(system.n, max(32, MAX_HYPER_UNKNOWNS // system.k))
+        return min(system.n, int(self.n_hyper))
+
+    def hyperparameters(self, system: ConvolutionSystem) -> dict:
+        """Maximize the evidence on the first ``m`` samples (no full solve).
+
+        Returns
+        -------
+        dict
+            ``info`` keys of the solver (``lam``, ``rho``, ``gamma``, ``c``, ``sigma2``,
+            ``noise_floor``, ``log_evidence``, ``evaluations``, ``n_hyper``) and, under the
+            private key ``"_state"``, what :meth:`_solve` needs to finish.
+        """
+        self._validate_params()
+        r = system.n_rhs
         scale = _scales(system)
         ev, f, lam, rho, d, V, S, z, lg = self._hyper(system, scale)
         sigma2, c = _noise_and_scale(ev, d, z, lg)
-        g = np.exp(lg)
-        m = ev.m
-        info = {"reg_rule": "evidence", "kernel": self.kernel, "lam": lam, "rho": rho,
+        floors = np.sqrt(sigma2 * ev.N / np.maximum(ev.yy, 1e-300))
+        return {"reg_rule": "evidence", "kernel": self.kernel, "lam": lam, "rho": rho,
                 "gamma": float(np.exp(np.mean(lg))),
                 "c": float(np.exp(np.mean(np.log(np.maximum(c, 1e-300))))),
                 "sigma2": float(np.exp(np.mean(np.log(np.maximum(sigma2, 1e-300))))),
-                "noise_floor": float(np.max(np.sqrt(sigma2 * ev.N / np.maximum(ev.yy, 1e-300)))),
+                "noise_floor": float(np.max(floors)), "noise_floor_min": float(np.min(floors)),
                 "log_evidence": float(-0.5 * (np.sum(f) + r * ev.N * (1 + np.log(2 * np.pi)))),
-                "evaluations": ev.evaluations, "n_hyper": m}
+                "evaluations": ev.evaluations, "n_hyper": ev.m,
+                "_state": (scale, ev.m, lam, rho, d, V, S, z, np.exp(lg))}
+
+    def _solve(self, system: ConvolutionSystem, hyper: dict | None = None):
+        n, k, r = system.n, system.k, system.n_rhs
+        info = dict(self.hyperparameters(system) if hyper is None else hyper)
+        scale, m, lam, rho, d, V, S, z, g = info.pop("_state")
         if m == n:
             E = V @ (z / (d[:, None] + g[None, :]))  # whitened (k·m, r)
             Xb = np.einsum("pa,iar->pir", S, E.reshape(k, m, r))  # (n, k, r)
@@ -351,12 +381,22 @@ class KernelRegularized(Solver):
         return system.stack(Xb), info
 
     def _cg(self, system, scale, lam, rho, g):
-        """CGLS in the whitened variable on the full system (per-column ``γ``)."""
+        """Preconditioned CG on the whitened normal equations ``(SᵀAᵀAS + γ_l I) e = SᵀAᵀy``
+        (per column ``γ_l``). Preconditioner: the same operator for the circulant
+        embeddings, ``|Ŝ(ω)|² Ĝ(ω)ᴴĜ(ω) + γ_l I`` with ``Ŝ(ω) = √(1−ρ²)/(1 − ρe^{−iω})`` the
+        AR(1) filter (exact up to the record's ends when ``λ^n ≈ 1``), inverted per
+        frequency and column (stored in complex64)."""
         G, Y, dt = system.G, system.Y, system.dt
         n, n_cases, k = G.shape
+        r = Y.shape[2]
         N = scipy.fft.next_fast_len(2 * n - 1, real=True)
         Gh = dt * scipy.fft.rfft(G / scale[None, None, :], N, axis=0)
         GhT = np.ascontiguousarray(Gh.transpose(0, 2, 1))
+        w = 2 * np.pi * np.arange(Gh.shape[0]) / N
+        s2 = (1.0 - rho**2) / np.abs(1.0 - rho * np.exp(-1j * w)) ** 2
+        H = s2[:, None, None] * (GhT.conj() @ Gh)  # (F, k, k)
+        eye = np.eye(k)
+        Minv = np.stack([np.linalg.inv(H + gl * eye) for gl in g], axis=1).astype(np.complex64)
 
         def A(E):
             X = _apply_S(E, lam, rho)
@@ -366,23 +406,33 @@ class KernelRegularized(Solver):
             X = scipy.fft.irfft(GhT @ scipy.fft.rfft(Z[::-1], N, axis=0), N, axis=0)[:n][::-1]
             return _apply_St(X, lam, rho)
 
+        def precond(R):  # R (n, k, r)
+            Rh = scipy.fft.rfft(R, N, axis=0)  # (F, k, r)
+            Zh = np.einsum("frij,fjr->fir", Minv, Rh)
+            return scipy.fft.irfft(Zh, N, axis=0)[:n]
+
         def dot(X, Z):
             return np.sum(X * Z, axis=(0, 1))
 
-        r = Y.shape[2]
         E = np.zeros((n, k, r))
         R = At(np.asarray(Y))
-        P = R.copy()
-        rr = dot(R, R)
-        stop = self.tol**2 * rr
+        r0 = dot(R, R)
+        stop = self.tol**2 * r0
+        Z = precond(R)
+        P = Z.copy()
+        rz = dot(R, Z)
+        active = r0 > stop
         it = 0
-        while np.any(rr > stop) and it < self.max_iter:
+        while np.any(active) and it < self.max_iter:
             Qp = At(A(P)) + g * P
-            alpha = np.where(rr > stop, rr / np.maximum(dot(P, Qp), 1e-300), 0.0)
+            alpha = np.where(active, rz / np.where(active, dot(P, Qp), 1.0), 0.0)
             E += alpha * P
             R -= alpha * Qp
-            rr_new = dot(R, R)
-            P = R + np.where(rr > stop, rr_new / np.maximum(rr, 1e-300), 0.0) * P
-            rr = rr_new
+            Z = precond(R)
+            rz_new = dot(R, Z)
+            beta = np.where(active, rz_new / np.where(rz != 0, rz, 1.0), 0.0)
+            P = np.where(active, Z + beta * P, 0.0)
+            rz = np.where(active, rz_new, rz)
+            active = active & (dot(R, R) > stop)
             it += 1
-        return _apply_S(E, lam, rho), it, bool(np.all(rr <= stop))
+        return _apply_S(E, lam, rho), it, not bool(np.any(active))
