@@ -59,6 +59,7 @@ from ._api import (
     structured_solvers,
 )
 from ._base import INFO_KEYS, Solver, SolverResult, UnknownOptionError
+from .auto import AUTO_THRESHOLD, Auto
 from .block import BlockSubstitution, block_substitution
 from .convolution import (
     block_convolution_matrix,
@@ -76,6 +77,12 @@ from .dense import (
     least_squares,
     tls_rank,
     truncated_tls,
+)
+from .kernel import (
+    DEFAULT_N_HYPER,
+    KernelRegularized,
+    kernel_matrix,
+    log_marginal_likelihood,
 )
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
@@ -109,7 +116,11 @@ __all__ = [
     "BlockSubstitution",
     "FFTTikhonov",
     "CGLS",
+    "KernelRegularized",
+    "Auto",
     "make_solver",
+    "kernel_matrix",
+    "log_marginal_likelihood",
     # function forms
     "least_squares",
     "truncated_tls",
@@ -130,4 +141,6 @@ __all__ = [
     "TRIAL_ITER",
     "TLS_MAX_COLUMNS",
     "DENSE_MAX_BYTES",
+    "DEFAULT_N_HYPER",
+    "AUTO_THRESHOLD",
 ]

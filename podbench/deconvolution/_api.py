@@ -12,8 +12,10 @@ from pathlib import Path
 
 from ..errors import InputError, UnknownNameError
 from ._base import Solver, SolverResult, UnknownOptionError
+from .auto import Auto
 from .block import BlockSubstitution
 from .dense import DenseSolver, LeastSquares, TruncatedTLS
+from .kernel import KernelRegularized
 from .system import ConvolutionSystem
 from .tikhonov import CGLS, FFTTikhonov
 
@@ -32,6 +34,8 @@ _BUILTIN: dict[str, type[Solver]] = {
     "block": BlockSubstitution,
     "fft": FFTTikhonov,
     "cgls": CGLS,
+    "kernel": KernelRegularized,
+    "auto": Auto,
 }
 
 

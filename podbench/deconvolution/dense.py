@@ -107,6 +107,8 @@ def tls_rank(
     Exactly one rule applies (giving more than one is an error):
 
     * ``rank=p``: keep ``p`` directly;
+    * ``rank="gap"``: keep the ``p`` before the largest gap ``σ_p/σ_{p+1}`` of the spectrum
+      (``p ≤ n_unknowns``; a rule from the data, no level to choose);
     * ``noise_level=s_e``: keep ``σ_i > s_e (√N + √M')``, the expected largest singular
       value of an ``N × M'`` matrix of independent noise with standard deviation ``s_e``
       (``[A | B]`` is ``N × M'``); ``s_e`` is the noise per entry of ``[A | B]``, in their
@@ -129,7 +131,9 @@ def tls_rank(
     """
     _check_rule(rcond, noise_level, rank)
     s = np.asarray(s, dtype=float)
-    if rank is not None:
+    if isinstance(rank, str):
+        p = _gap_rank(s, n_unknowns, rank)
+    elif rank is not None:
         p = check_positive(rank, "rank", integer=True, allow_zero=True)
     elif noise_level is not None:
         noise_level = check_positive(noise_level, "noise_level")
@@ -141,6 +145,18 @@ def tls_rank(
             raise InputError(f"Parameter `rcond`: must be below 1, got {rcond!r}")
         p = int(np.count_nonzero(s >= rcond * s[0])) if s.size and s[0] > 0 else 0
     return int(min(p, n_unknowns, s.size))
+
+
+def _gap_rank(s: np.ndarray, n_unknowns: int, rule: str) -> int:
+    """Rank before the largest ratio ``σ_p/σ_{p+1}`` (``1 ≤ p ≤ n_unknowns``)."""
+    if rule != "gap":
+        raise InputError(f"Parameter `rank`: expected an integer or 'gap', got {rule!r}")
+    q = min(n_unknowns, s.size - 1)
+    if q < 1 or s[0] <= 0:
+        return int(min(n_unknowns, s.size))
+    floor = np.finfo(float).eps * s[0] * max(s.size, 1)
+    ratios = np.maximum(s[:q], floor) / np.maximum(s[1:q + 1], floor)
+    return int(np.argmax(ratios)) + 1
 
 
 def _check_rule(rcond, noise_level, rank) -> None:
@@ -167,15 +183,26 @@ def _check_tls_size(N: int, M: int, r: int, limit: int) -> None:
         )
 
 
-def _tls(A, B, rcond, noise_level, rank):
-    """Truncated TLS of :func:`truncated_tls` (``B`` 2-D) with its diagnostics."""
+def _column_scales(A: np.ndarray) -> np.ndarray:
+    """Column 2-norms of ``A`` (1 for a zero column)."""
+    s = np.linalg.norm(A, axis=0)
+    return np.where(s > 0, s, 1.0)
+
+
+def _tls(A, B, rcond, noise_level, rank, scale=False):
+    """Truncated TLS of :func:`truncated_tls` (``B`` 2-D) with its diagnostics; ``scale``
+    equilibrates the columns of ``A`` and of ``B`` first (undone on ``X``)."""
+    if scale:
+        da, db = _column_scales(A), _column_scales(B)
+        X, info = _tls(A / da, B / db, rcond, noise_level, rank)
+        return X / da[:, None] * db[None, :], {**info, "scaled": True}
     M, r = A.shape[1], B.shape[1]
     Cmat = np.hstack([A, B])
     _, s, Vt = scipy.linalg.svd(Cmat, full_matrices=False, lapack_driver="gesdd")
     p = tls_rank(s, Cmat.shape, M, rcond=rcond, noise_level=noise_level, rank=rank)
     info = {
         "rank": p,
-        "rank_rule": ("rank" if rank is not None else
+        "rank_rule": (rank if isinstance(rank, str) else "rank" if rank is not None else
                       "noise_level" if noise_level is not None else "rcond"),
         "rcond": (DEFAULT_TLS_RCOND if rcond is None else float(rcond))
         if rank is None and noise_level is None else None,
@@ -202,8 +229,9 @@ def truncated_tls(
     *,
     rcond: float | None = None,
     noise_level: float | None = None,
-    rank: int | None = None,
+    rank: int | str | None = None,
     max_columns: int | None = None,
+    scale: bool = False,
 ) -> np.ndarray:
     """Truncated total least squares solution of ``A X ≈ B`` (Eqs. 3.77–3.80).
 
@@ -229,6 +257,11 @@ def truncated_tls(
     max_columns : int, optional
         Size limit (default :data:`TLS_MAX_COLUMNS`): a ``[A | B]`` with more columns raises
         :class:`InputError` instead of starting an SVD of cubic cost.
+    scale : bool
+        Equilibrate first: divide each column of ``A`` and of ``B`` by its 2-norm, solve,
+        undo (``X = D_A⁻¹ X' D_B``). TLS is not invariant to column scaling (it weighs the
+        errors of every column alike); with ``scale`` a column of ``A`` multiplied by ``α``
+        gives the row of ``X`` divided by ``α`` exactly. Default False (the dissertation).
 
     Returns
     -------
@@ -237,7 +270,7 @@ def truncated_tls(
     """
     A, B, vector = _as_system(A, B)
     _check_tls_size(A.shape[0], A.shape[1], B.shape[1], _tls_limit(max_columns))
-    X = _tls(A, B, rcond, noise_level, rank)[0]
+    X = _tls(A, B, rcond, noise_level, rank, scale)[0]
     return X[:, 0] if vector else X
 
 
@@ -331,10 +364,14 @@ class TruncatedTLS(DenseSolver):
     Parameters
     ----------
     rcond, noise_level, rank
-        Truncation rule, at most one (see :func:`tls_rank`; default ``rcond=1e-3``).
+        Truncation rule, at most one (see :func:`tls_rank`; default ``rcond=1e-3``, the
+        dissertation's; ``rank="gap"`` chooses the rank from the singular-value gap).
     max_columns : int, optional
         Largest ``[A | B]`` (columns) accepted (default :data:`TLS_MAX_COLUMNS`); checked
         before ``A`` is formed.
+    scale : bool
+        Equilibrate the columns of ``A`` and ``B`` before the SVD and undo after (see
+        :func:`truncated_tls`; default False, the dissertation's unscaled TLS).
     max_dense_bytes : float
         Largest dense matrix formed (default :data:`DENSE_MAX_BYTES`, 2 GiB).
 
@@ -346,12 +383,13 @@ class TruncatedTLS(DenseSolver):
     name = "tls"
 
     def __init__(self, *, rcond: float | None = None, noise_level: float | None = None,
-                 rank: int | None = None, max_columns: int | None = None,
-                 max_dense_bytes: float = DENSE_MAX_BYTES):
+                 rank: int | str | None = None, max_columns: int | None = None,
+                 scale: bool = False, max_dense_bytes: float = DENSE_MAX_BYTES):
         self.rcond = rcond
         self.noise_level = noise_level
         self.rank = rank
         self.max_columns = max_columns
+        self.scale = scale
         self.max_dense_bytes = max_dense_bytes
 
     def _validate_params(self) -> None:
@@ -363,8 +401,14 @@ class TruncatedTLS(DenseSolver):
                 raise InputError(f"Parameter `rcond`: must be below 1, got {self.rcond!r}")
         if self.noise_level is not None:
             check_positive(self.noise_level, "noise_level")
-        if self.rank is not None:
+        if isinstance(self.rank, str):
+            if self.rank != "gap":
+                raise InputError(
+                    f"Parameter `rank`: expected an integer or 'gap', got {self.rank!r}")
+        elif self.rank is not None:
             check_positive(self.rank, "rank", integer=True, allow_zero=True)
+        if not isinstance(self.scale, (bool, np.bool_)):
+            raise InputError(f"Parameter `scale`: expected True or False, got {self.scale!r}")
         _tls_limit(self.max_columns)
 
     def _solve(self, system: ConvolutionSystem):
@@ -374,4 +418,4 @@ class TruncatedTLS(DenseSolver):
 
     def _solve_matrix(self, A, B):
         _check_tls_size(A.shape[0], A.shape[1], B.shape[1], _tls_limit(self.max_columns))
-        return _tls(A, B, self.rcond, self.noise_level, self.rank)
+        return _tls(A, B, self.rcond, self.noise_level, self.rank, bool(self.scale))
