@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shlex
 import sys
 import textwrap
 import time
@@ -372,7 +373,8 @@ def cmd_run(args) -> int:
     claims = _claims_path(paths)
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=not args.no_figures, jobs=args.jobs,
-                                figure_format=args.figure_format, progress=progress)
+                                figure_format=args.figure_format, progress=progress,
+                                command=shlex.join(["podbench", *map(str, args.argv)]))
     n_sim, n_cached = response_counts(results)
     print(f"{_plural(len(df), 'row')} from {_plural(len(scenarios), 'scenario')} in {secs:.1f} s "
           f"({_plural(n_sim, 'response')} simulated, {n_cached} from the cache) -> "
@@ -619,6 +621,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # shown in the report
     from .errors import PodbenchError
 
     prog = f"podbench {args.command}"

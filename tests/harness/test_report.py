@@ -4,6 +4,7 @@ self-contained, well-formed report page; and (with Chromium) the page as a brows
 """
 
 import base64
+import html
 import re
 import shutil
 import subprocess
@@ -311,3 +312,11 @@ def test_the_report_in_a_headless_browser(study, tmp_path):
     gray = img.mean(axis=2)
     assert gray.std() > 0.1  # not blank: the dark header, tables and figures
     assert (gray < 0.5).mean() > 0.05 and (gray > 0.9).mean() > 0.3
+
+
+def test_the_report_names_the_command_that_made_it(study, tmp_path):
+    """The command line given to `podbench run` (not the Python process's) is in the page."""
+    out = tmp_path / "results" / "cmd"
+    page = _run(study, out, "--no-figures")
+    expected = f"podbench run {study} --out {out} -q --no-cache --no-figures"
+    assert html.escape(expected, quote=False) in page
