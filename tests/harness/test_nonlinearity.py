@@ -111,3 +111,16 @@ def test_homogeneous_band_gives_null_checks_on_the_beam():
     A = np.max(np.abs(data.tip[-1, data.t <= T0]))
     data = impulse_responses(band_variant(s, slack=0.5 * A), (0.36, 1.8), t_end=0.4)
     assert phase_lags(data, [0.2], T0)[0, 0] > 0.5
+
+
+def test_response_nonlinearity_is_zero_when_the_band_never_engages():
+    from podbench.excitations import Pulse
+    from podbench.harness.nonlinearity import response_nonlinearity
+
+    s = load_structure("rubber_band_beam")
+    f = Pulse(4.0, 1.8, 1e-3, shape="half_sine")
+    # a slack far beyond the tip amplitude: the structure is its own twin (the bare beam)
+    assert response_nonlinearity(band_variant(s, slack=1.0), f, 400, 1e-4) < 1e-12
+    # a pre-stretch far beyond the amplitude: the band never goes slack, twin = two-sided band
+    assert response_nonlinearity(band_variant(s, prestretch=1.0), f, 400, 1e-4) < 1e-12
+    assert response_nonlinearity(s, f, 400, 1e-4) > 0.01
