@@ -9,7 +9,14 @@ from .chain import chain
 from .files import build_structure, list_structures, load_structure, register_kind
 from .laws import ConstantLaw, LinearLaw, SineLaw
 from .matrices import from_matrices, read_matrix
-from .structure import CubicSpring, NonlinearElement, StiffnessEvent, Structure, VariableMass
+from .structure import (
+    CubicSpring,
+    NonlinearElement,
+    OneSidedSpring,
+    StiffnessEvent,
+    Structure,
+    VariableMass,
+)
 from .truss import TubeSection, face_dof, satellite_truss, truss_dof
 
 __all__ = [
@@ -18,6 +25,7 @@ __all__ = [
     "StiffnessEvent",
     "NonlinearElement",
     "CubicSpring",
+    "OneSidedSpring",
     "ConstantLaw",
     "SineLaw",
     "LinearLaw",

@@ -1,4 +1,5 @@
-"""Euler–Bernoulli cantilever beams (dissertation §4.1): LTI, time-varying tip mass, cubic spring.
+"""Euler–Bernoulli cantilever beams (dissertation §4.1, §5): LTI, time-varying tip mass, cubic
+spring, the one-sided rubber band of §5.2.
 
 Hermite-cubic elements with consistent mass, two DOFs per node: the vertical displacement
 ``w`` (in) and the rotation ``θ`` (rad). The root node is clamped and removed, so a beam of
@@ -19,7 +20,7 @@ import scipy.sparse as sp
 from .._validation import check_choice, check_positive
 from ..errors import InputError
 from .laws import scaled_law
-from .structure import CubicSpring, Structure, VariableMass
+from .structure import CubicSpring, OneSidedSpring, Structure, VariableMass
 
 __all__ = [
     "G0_IN_PER_S2",
@@ -140,6 +141,7 @@ def cantilever_beam(
     tip_mass=None,
     tip_k3: float | None = None,
     tip_dashpot: float | None = None,
+    tip_band: dict | None = None,
     description: str = "",
     source: str = "",
 ) -> Structure:
@@ -168,6 +170,13 @@ def cantilever_beam(
         Coefficient (lbf/in³) of a grounded cubic spring ``g = k3 w_tip³`` at the tip.
     tip_dashpot : float, optional
         Grounded viscous dashpot (lbf·s/in) on the tip ``w`` DOF (the only damping).
+    tip_band : dict, optional
+        The rubber band of §5.2, a grounded one-sided spring on the tip ``w`` DOF
+        (:class:`podbench.fem.OneSidedSpring`): ``k`` (lbf/in), ``side`` (``"positive"``:
+        stiff when the tip moves in +w, the band being attached on the −w side;
+        ``"negative"`` the reverse; or ±1), optional ``slack`` and ``prestretch`` (in, at most
+        one non-zero; default 0, the text's words) and ``twin`` (the linear twin's rule:
+        ``"tangent"``, ``"free"``, ``"two_sided"``).
     description, source : str
         Stored on the structure.
 
@@ -222,6 +231,8 @@ def cantilever_beam(
     nonlinear = ()
     if tip_k3 is not None:
         nonlinear = (CubicSpring(dof=tip, k3=check_positive(tip_k3, "tip_k3", allow_zero=True)),)
+    if tip_band is not None:
+        nonlinear = nonlinear + (_tip_band(tip, tip_band),)
 
     x = np.linspace(0.0, length, n + 1)
     sensor_dofs = np.concatenate([[-1], 2 * np.arange(n)]).astype(np.int64)
@@ -241,8 +252,39 @@ def cantilever_beam(
         metadata["k3"] = float(tip_k3)
     if tip_dashpot is not None:
         metadata["tip_dashpot"] = float(tip_dashpot)
+    if tip_band is not None:
+        band = nonlinear[-1]
+        metadata["tip_band"] = {"k": band.k, "side": band.side, "slack": band.slack,
+                                "prestretch": band.prestretch, "twin": band.twin}
     return Structure(
         name=name, M=M, K=K, C=C, sensor_dofs=sensor_dofs, variable_mass=variable_mass,
         nonlinear=nonlinear, sensor_positions=x, sensor_labels=sensor_labels,
         dof_labels=dof_labels, description=description, source=source, metadata=metadata,
+    )
+
+
+_SIDES = {"positive": 1, "negative": -1, 1: 1, -1: -1}
+
+
+def _tip_band(tip: int, spec) -> OneSidedSpring:
+    """The :class:`OneSidedSpring` of ``cantilever_beam(tip_band=spec)`` on DOF ``tip``."""
+    if not isinstance(spec, dict):
+        raise InputError(f"Parameter `tip_band`: expected a dict with `k`, `side`, ... "
+                         f"got {spec!r}")
+    unknown = sorted(set(spec) - {"k", "side", "slack", "prestretch", "twin"})
+    if unknown:
+        raise InputError(f"Parameter `tip_band`: unknown field(s) {', '.join(unknown)}")
+    if "k" not in spec:
+        raise InputError("Parameter `tip_band`: the stiffness `k` (lbf/in) is required")
+    side = spec.get("side", "positive")
+    if isinstance(side, bool) or side not in _SIDES:
+        raise InputError(f"Parameter `tip_band.side`: expected \"positive\", \"negative\", "
+                         f"+1 or -1, got {side!r}")
+    return OneSidedSpring(
+        dof=tip, k=check_positive(spec["k"], "tip_band.k", allow_zero=True),
+        side=_SIDES[side],
+        slack=check_positive(spec.get("slack", 0.0), "tip_band.slack", allow_zero=True),
+        prestretch=check_positive(spec.get("prestretch", 0.0), "tip_band.prestretch",
+                                  allow_zero=True),
+        twin=spec.get("twin", "tangent"),
     )

@@ -14,8 +14,9 @@ A structure file is a TOML document with four common top-level fields and the ta
 
 Kinds (see ``docs/structures.md`` for every field):
 
-``cantilever_beam``  §4.1 beams: ``[beam]``, optional ``[tip_mass]``, ``[tip_spring]``,
-                     ``[tip_dashpot]`` (:func:`podbench.fem.beam.cantilever_beam`)
+``cantilever_beam``  §4.1 and §5 beams: ``[beam]``, optional ``[tip_mass]``, ``[tip_spring]``,
+                     ``[tip_dashpot]``, ``[tip_band]`` (the §5.2 rubber band;
+                     :func:`podbench.fem.beam.cantilever_beam`)
 ``satellite_truss``  §4.2 truss: ``[truss]`` with ``[truss.longeron|batten|diagonal]``,
                      optional ``[fracture]`` (:func:`podbench.fem.truss.satellite_truss`)
 ``chain``            spring–mass chain: ``[chain]``, optional ``[damping]``
@@ -399,6 +400,19 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
     if td is not None:
         kw["tip_dashpot"] = td.number("c", nonnegative=True)
         td.close()
+
+    tb = top.table("tip_band")
+    if tb is not None:
+        band = {"k": tb.number("k", nonnegative=True),
+                "side": tb.string("side", choices=("positive", "negative")),
+                "slack": tb.number("slack", 0.0, nonnegative=True),
+                "prestretch": tb.number("prestretch", 0.0, nonnegative=True),
+                "twin": tb.string("twin", "tangent", choices=("tangent", "free", "two_sided"))}
+        if band["slack"] > 0 and band["prestretch"] > 0:
+            tb.fail("prestretch", f"both `slack` ({band['slack']!r} in) and `prestretch` "
+                                  f"({band['prestretch']!r} in) are non-zero; at most one may be")
+        tb.close()
+        kw["tip_band"] = band
     return cantilever_beam(name=ctx.name, **kw)
 
 

@@ -12,7 +12,8 @@ with
   time has been reached (element fracture removes the element's stiffness and, when the
   element disappears, its mass; coordinates that only the element connected leave the
   model, see :meth:`Structure.matrices_at`);
-* ``g`` the sum of the :class:`NonlinearElement` s' restoring forces (cubic springs);
+* ``g`` the sum of the :class:`NonlinearElement` s' restoring forces (cubic springs, the
+  one-sided rubber band of §5.2);
 * ``T`` the sensor-to-DOF injection: forces are sampled at the sensors (the dissertation's
   force matrix ``F`` of Eq. 3.37 lives on the same points as the snapshot matrix ``W``).
 
@@ -38,6 +39,8 @@ __all__ = [
     "StiffnessEvent",
     "NonlinearElement",
     "CubicSpring",
+    "OneSidedSpring",
+    "TWIN_RULES",
 ]
 
 
@@ -125,6 +128,94 @@ class CubicSpring:
         return np.array([[3.0 * self.k3 * float(q[0]) ** 2]])
 
     def damping(self, q, v):
+        return np.zeros((1, 1))
+
+
+TWIN_RULES = ("tangent", "free", "two_sided")
+"""How :meth:`Structure.linear_twin` linearizes a :class:`OneSidedSpring` (see there)."""
+
+
+@dataclass(frozen=True)
+class OneSidedSpring:
+    """A grounded spring on one DOF that pulls only when stretched: the rubber band of §5.2.
+
+    §5.2: "a rubber band with stiffness of 0.12 lb/in was attached to the tip of the linear
+    beam ... it provides linear stiffness when the beam tip deflects away from where the rubber
+    band is attached ... but then provides zero stiffness when the beam tip deflects toward the
+    rubber band attachment point (the rubber band buckles)". With ``q`` the DOF's
+    displacement (in) from the static equilibrium, ``s = side`` (+1: the band is stretched
+    when ``q`` grows, i.e. it is attached on the negative side; −1 the reverse) and
+    ``δ = slack − prestretch`` (in), the band's stretch beyond its free length is
+    ``s q − δ`` and the restoring force is
+
+        ``g(q) = s k [ (s q − δ)₊ − (−δ)₊ ]``      (lbf; ``(x)₊ = max(x, 0)``)
+
+    * ``slack = prestretch = 0`` (the text's words, the default): ``g = s k (s q)₊``, a
+      bilinear spring that is *positively homogeneous*: ``g(λq) = λ g(q)`` for ``λ > 0``,
+      so scaling a load from rest scales the whole response exactly.
+    * ``slack > 0``: the band is loose by ``slack`` (in) at rest and engages only once
+      ``s q > slack`` — linear (no band) at small amplitude, stiffer at large amplitude.
+    * ``prestretch > 0``: the band is pre-stretched by ``prestretch`` (in) at rest (tension
+      ``k·prestretch`` lbf, balanced by a static deflection of the beam that is not part of
+      ``q``: ``q`` is measured from the preloaded equilibrium, so ``g(0) = 0``). It acts as
+      a two-sided spring ``k`` while ``s q > −prestretch`` and goes slack beyond —
+      stiffer at small amplitude, softer at large.
+
+    ``twin`` chooses the linear twin's spring (:meth:`linear_stiffness`): ``"tangent"`` (the
+    default) the tangent at rest, ``k·[δ < 0]`` (no band for slack ≥ 0, a two-sided ``k`` with
+    pre-stretch); ``"free"`` never a band; ``"two_sided"`` always ``k``.
+
+    The tangent at the kink (stretch exactly 0) is taken as 0 (the slack branch); Newton's
+    method on this convex (``s = +1``) or concave (``s = −1``) piecewise-linear force
+    converges in a finite number of steps (tested against the closed-form bilinear period).
+    """
+
+    dof: int
+    k: float
+    side: int = 1
+    slack: float = 0.0
+    prestretch: float = 0.0
+    twin: str = "tangent"
+
+    def __post_init__(self):
+        if self.side not in (1, -1):
+            raise InputError(f"Parameter `side`: expected +1 or -1, got {self.side!r}")
+        for name in ("k", "slack", "prestretch"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v < 0:
+                raise InputError(f"Parameter `{name}`: expected a finite number >= 0, got {v!r}")
+        if self.slack > 0 and self.prestretch > 0:
+            raise InputError("Parameters `slack` and `prestretch`: at most one may be non-zero "
+                             f"(got slack = {self.slack!r}, prestretch = {self.prestretch!r})")
+        if self.twin not in TWIN_RULES:
+            raise InputError(f"Parameter `twin`: expected one of {', '.join(TWIN_RULES)}, "
+                             f"got {self.twin!r}")
+
+    @property
+    def dofs(self) -> np.ndarray:
+        return np.array([self.dof])
+
+    @property
+    def offset(self) -> float:
+        """``δ = slack − prestretch`` (in): the stretch-free position of ``s q``."""
+        return float(self.slack) - float(self.prestretch)
+
+    def force(self, q, v):
+        s, d = self.side, self.offset
+        x = s * np.asarray(q, dtype=float) - d
+        return s * self.k * (np.maximum(x, 0.0) - max(-d, 0.0))
+
+    def stiffness(self, q, v):
+        x = self.side * float(q[0]) - self.offset
+        return np.array([[self.k if x > 0.0 else 0.0]])
+
+    def damping(self, q, v):
+        return np.zeros((1, 1))
+
+    def linear_stiffness(self) -> np.ndarray:
+        """The (1, 1) stiffness (lbf/in) the linear twin puts on ``dof`` (see ``twin``)."""
+        if self.twin == "two_sided" or (self.twin == "tangent" and self.offset < 0.0):
+            return np.array([[float(self.k)]])
         return np.zeros((1, 1))
 
 
@@ -364,10 +455,24 @@ class Structure:
         return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi)
 
     def linear_twin(self) -> Structure:
-        """The same structure with every nonlinear element removed (dampers kept)."""
+        """The same structure with every nonlinear element removed (dampers kept).
+
+        An element with a ``linear_stiffness()`` method (e.g. :class:`OneSidedSpring`) leaves
+        that linear part in ``K`` (a cubic spring has none: its tangent at rest is zero).
+        """
         if self.is_linear:
             return self
-        return replace(self, name=f"{self.name}[linear twin]", nonlinear=())
+        K = self.K
+        for el in self.nonlinear:
+            lin = getattr(el, "linear_stiffness", None)
+            if lin is None:
+                continue
+            kl = np.asarray(lin(), dtype=float)
+            if np.any(kl):
+                d = np.asarray(el.dofs, dtype=np.int64)
+                r, c = np.meshgrid(d, d, indexing="ij")
+                K = K + sp.csr_matrix((kl.ravel(), (r.ravel(), c.ravel())), shape=K.shape)
+        return replace(self, name=f"{self.name}[linear twin]", nonlinear=(), K=K)
 
     def __repr__(self) -> str:
         kind = []
