@@ -17,6 +17,11 @@ Format::
     title = "..."
     text = "..."
 
+    sensitivity = "../sensitivity"         # optional (top level): the folder of the study
+                                           # that varies the unstated parameters; its
+                                           # verdicts are linked from FINDINGS.md
+    [[bounds]]                             # optional: see podbench.harness.bounds
+
 A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and each operand a
 number or ``METHOD.metric`` (a method label and a column of the summary table). A claim is
 *reproduced* when every check holds on every (structure, target) row, *not reproduced* when
@@ -36,7 +41,8 @@ import tomllib
 from ..errors import ScenarioFileError, StructureFileError
 from ..fem._spec import Table
 
-__all__ = ["Claim", "load_claims", "evaluate_claims", "CHECK_RE"]
+__all__ = ["Claim", "ClaimsFile", "load_claims", "load_claims_file", "evaluate_claims",
+           "CHECK_RE"]
 
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 _OPERAND = r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[^\s<>=.][^<>=]*?\.[a-z_0-9]+)"
@@ -66,8 +72,28 @@ def _listify(t: Table, key: str) -> tuple[str, ...]:
     return ()  # pragma: no cover
 
 
+@dataclass(frozen=True)
+class ClaimsFile:
+    """Everything a claims file declares; ``sensitivity`` is the resolved folder or None."""
+
+    path: Path
+    claims: list
+    remarks: list
+    bounds: list
+    sensitivity: Path | None
+
+
 def load_claims(path) -> tuple[list[Claim], list[dict]]:
     """Claims and remarks of a claims file (clear errors naming the file and field)."""
+    f = load_claims_file(path)
+    return f.claims, f.remarks
+
+
+def load_claims_file(path) -> ClaimsFile:
+    """The claims, remarks, bounds and sensitivity folder of a claims file (clear errors
+    naming the file and field)."""
+    from .bounds import parse_bounds
+
     path = Path(path)
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -97,10 +123,16 @@ def load_claims(path) -> tuple[list[Claim], list[dict]]:
         for t in top.tables("remarks", []):
             remarks.append({"title": t.string("title"), "text": t.string("text")})
             t.close()
+        bounds = parse_bounds(top)
+        sensitivity = None
+        if top.has("sensitivity"):
+            sensitivity = (path.parent / top.string("sensitivity")).resolve()
+            if not sensitivity.is_dir():
+                top.fail("sensitivity", f"{sensitivity} is not a folder of scenarios")
         top.close()
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
-    return claims, remarks
+    return ClaimsFile(path, claims, remarks, bounds, sensitivity)
 
 
 def _value(operand: str, rows: dict):
