@@ -12,6 +12,7 @@ Format::
     checks = ["MDS.total_error < 0.05", "POVR.total_error < MDS.total_error"]
     criterion = "how the words became a threshold"
     note = "optional: what podbench found and why (written after measuring)"
+    finding = "optional: the note in one line, shown in FINDINGS.md's table"
 
     [[remarks]]                            # optional free-text findings that are not claims
     title = "..."
@@ -60,6 +61,7 @@ class Claim:
     checks: tuple[str, ...]
     criterion: str
     note: str
+    finding: str = ""
 
 
 def _listify(t: Table, key: str) -> tuple[str, ...]:
@@ -108,6 +110,7 @@ def load_claims_file(path) -> ClaimsFile:
                 scenario=t.string("scenario"), structures=_listify(t, "structure"),
                 targets=_listify(t, "target"), checks=tuple(t.strings("checks")),
                 criterion=t.string("criterion", ""), note=t.string("note", ""),
+                finding=t.string("finding", ""),
             )
             if c.id in ids:
                 t.fail("id", f'"{c.id}" is used twice')

@@ -129,15 +129,18 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None) -> str:
                    "without one, over the whole studied range). Over those values "
                    f"{n_held} hold throughout, {n_dep} depend on the parameter and "
                    f"{n_linked - n_held - n_dep} fail throughout.\n\n")
-    if linked is not None:
-        out.append("| claim | source | verdict | over the unstated parameter |\n"
-                   "|---|---|---|---|\n")
-    else:
-        out.append("| claim | source | verdict |\n|---|---|---|\n")
+    why = any(e["claim"].finding for e in evaluated)
+    head = ["claim", "source", "verdict"] + (["explained by (measured)"] if why else []) \
+        + (["over the unstated parameter"] if linked is not None else [])
+    out.append("| " + " | ".join(head) + " |\n" + "|---" * len(head) + "|\n")
     for e in evaluated:
         c = e["claim"]
-        extra = f" {_over_parameter(e, linked)} |" if linked is not None else ""
-        out.append(f"| [{c.id}](#{c.id}) | {c.source} | {e['verdict']} |{extra}\n")
+        cells = [f"[{c.id}](#{c.id})", c.source, e["verdict"]]
+        if why:
+            cells.append(c.finding.strip() or "—")
+        if linked is not None:
+            cells.append(_over_parameter(e, linked))
+        out.append("| " + " | ".join(cells) + " |\n")
     for e in evaluated:
         c = e["claim"]
         out.append(f"\n### {c.id}\n\n")
@@ -151,6 +154,8 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None) -> str:
             mark = {True: "holds", False: "fails", None: "not measured"}[d["holds"]]
             out.append(f"- {d['structure']}, {d['target']}: `{d['check']}` → {d['shown']}: "
                        f"{mark}\n")
+        if c.finding:
+            out.append(f"\n*In one line:* {c.finding.strip()}\n")
         if c.note:
             out.append(f"\n{c.note.strip()}\n")
     if remarks:
