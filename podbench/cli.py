@@ -368,13 +368,26 @@ def cmd_run(args) -> int:
     _output_folder(out, "--out", "summary.csv")
     scenarios = _load_all(files)
     _refuse_partial_over(out, scenarios, "--out")
+    claims = _claims_path(paths)
+    claims_file = None
+    if claims is not None:  # read (and checked) before any simulation
+        from .harness.claims import load_claims_file
+
+        claims_file = load_claims_file(claims)
     progress = _progress(args)
     results, secs = _run(args, files, figures=not args.no_figures, progress=progress)
-    claims = _claims_path(paths)
+    linked = None
+    if claims_file is not None:  # the claims' sensitivity study, judged with the same code
+        from .harness.sensitivity import run_linked
+
+        linked = run_linked(claims_file, scenarios, jobs=args.jobs,
+                            cache_dir=None if args.no_cache else args.cache,
+                            engine=args.engine, progress=progress)
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=not args.no_figures, jobs=args.jobs,
                                 figure_format=args.figure_format, progress=progress,
-                                command=shlex.join(["podbench", *map(str, args.argv)]))
+                                command=shlex.join(["podbench", *map(str, args.argv)]),
+                                sensitivity=linked)
     n_sim, n_cached = response_counts(results)
     print(f"{_plural(len(df), 'row')} from {_plural(len(scenarios), 'scenario')} in {secs:.1f} s "
           f"({_plural(n_sim, 'response')} simulated, {n_cached} from the cache) -> "

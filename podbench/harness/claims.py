@@ -12,10 +12,16 @@ Format::
     checks = ["MDS.total_error < 0.05", "POVR.total_error < MDS.total_error"]
     criterion = "how the words became a threshold"
     note = "optional: what podbench found and why (written after measuring)"
+    finding = "optional: the note in one line, shown in FINDINGS.md's table"
 
     [[remarks]]                            # optional free-text findings that are not claims
     title = "..."
     text = "..."
+
+    sensitivity = "../sensitivity"         # optional (top level): the folder of the study
+                                           # that varies the unstated parameters; its
+                                           # verdicts are linked from FINDINGS.md
+    [[bounds]]                             # optional: see podbench.harness.bounds
 
 A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and each operand a
 number or ``METHOD.metric`` (a method label and a column of the summary table). A claim is
@@ -36,7 +42,8 @@ import tomllib
 from ..errors import ScenarioFileError, StructureFileError
 from ..fem._spec import Table
 
-__all__ = ["Claim", "load_claims", "evaluate_claims", "CHECK_RE"]
+__all__ = ["Claim", "ClaimsFile", "load_claims", "load_claims_file", "evaluate_claims",
+           "CHECK_RE"]
 
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 _OPERAND = r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[^\s<>=.][^<>=]*?\.[a-z_0-9]+)"
@@ -54,6 +61,7 @@ class Claim:
     checks: tuple[str, ...]
     criterion: str
     note: str
+    finding: str = ""
 
 
 def _listify(t: Table, key: str) -> tuple[str, ...]:
@@ -66,8 +74,28 @@ def _listify(t: Table, key: str) -> tuple[str, ...]:
     return ()  # pragma: no cover
 
 
+@dataclass(frozen=True)
+class ClaimsFile:
+    """Everything a claims file declares; ``sensitivity`` is the resolved folder or None."""
+
+    path: Path
+    claims: list
+    remarks: list
+    bounds: list
+    sensitivity: Path | None
+
+
 def load_claims(path) -> tuple[list[Claim], list[dict]]:
     """Claims and remarks of a claims file (clear errors naming the file and field)."""
+    f = load_claims_file(path)
+    return f.claims, f.remarks
+
+
+def load_claims_file(path) -> ClaimsFile:
+    """The claims, remarks, bounds and sensitivity folder of a claims file (clear errors
+    naming the file and field)."""
+    from .bounds import parse_bounds
+
     path = Path(path)
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -82,6 +110,7 @@ def load_claims(path) -> tuple[list[Claim], list[dict]]:
                 scenario=t.string("scenario"), structures=_listify(t, "structure"),
                 targets=_listify(t, "target"), checks=tuple(t.strings("checks")),
                 criterion=t.string("criterion", ""), note=t.string("note", ""),
+                finding=t.string("finding", ""),
             )
             if c.id in ids:
                 t.fail("id", f'"{c.id}" is used twice')
@@ -97,10 +126,16 @@ def load_claims(path) -> tuple[list[Claim], list[dict]]:
         for t in top.tables("remarks", []):
             remarks.append({"title": t.string("title"), "text": t.string("text")})
             t.close()
+        bounds = parse_bounds(top)
+        sensitivity = None
+        if top.has("sensitivity"):
+            sensitivity = (path.parent / top.string("sensitivity")).resolve()
+            if not sensitivity.is_dir():
+                top.fail("sensitivity", f"{sensitivity} is not a folder of scenarios")
         top.close()
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
-    return claims, remarks
+    return ClaimsFile(path, claims, remarks, bounds, sensitivity)
 
 
 def _value(operand: str, rows: dict):

@@ -345,6 +345,8 @@ def _findings(evaluated, remarks, claims_path) -> str:
             items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
                          f'<code>{_e(d["check"])}</code> → {_e(d["shown"])}: {mark[1]}</li>')
         out.append(f'<ul class="checks">{"".join(items)}</ul>')
+        if getattr(c, "finding", ""):
+            out.append(f"<p><strong>In one line:</strong> {_inline(c.finding)}</p>")
         if c.note:
             out.append(text_to_html(c.note))
         out.append("</article>")

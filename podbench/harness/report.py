@@ -18,13 +18,14 @@ import pandas as pd
 from .._atomic import atomic_write_text, replace_dir
 from .._resources import display_path
 from ..errors import InputError
-from .claims import evaluate_claims, load_claims
+from .claims import evaluate_claims, load_claims, load_claims_file
 from .executor import execute
 from .figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
 from .html_report import render_report
 from .progress import as_stage
 from .runner import COLUMNS
-from .sensitivity import base_claims_path, sensitivity_markdown, sensitivity_verdicts
+from .sensitivity import (base_claims_path, linked_verdicts, sensitivity_markdown,
+                          sensitivity_verdicts)
 
 __all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT",
            "figure_tasks"]
@@ -94,7 +95,16 @@ def summary_markdown(df: pd.DataFrame, scenarios: dict) -> str:
     return "".join(out)
 
 
-def findings_markdown(evaluated, remarks, claims_path) -> str:
+def _over_parameter(e, linked) -> str:
+    """The FINDINGS table's last column: for a claim the sensitivity study varies, how it
+    fares over the values of the unstated parameter the text admits; else "—"."""
+    runs = (linked or {}).get(e["claim"].id)
+    if not runs:
+        return "—"
+    return "; ".join(f"{kind}: {text}" for kind, text, _ in runs)
+
+
+def findings_markdown(evaluated, remarks, claims_path, linked=None) -> str:
     n = len(evaluated)
     counts = {k: sum(e["verdict"] == k for e in evaluated)
               for k in ("reproduced", "not reproduced", "not measured")}
@@ -106,10 +116,31 @@ def findings_markdown(evaluated, remarks, claims_path) -> str:
            f"**{counts['reproduced']} of {n} claims reproduced, "
            f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
            "measured.**\n\n"]
-    out.append("| claim | source | verdict |\n|---|---|---|\n")
+    if linked is not None:
+        n_dep = sum(1 for e in evaluated if any(k == "depends on an unstated parameter"
+                                                for k, _, _ in linked.get(e["claim"].id, ())))
+        n_held = sum(1 for e in evaluated if (r := linked.get(e["claim"].id))
+                     and all(k.startswith("holds") for k, _, _ in r))
+        n_linked = sum(1 for e in evaluated if e["claim"].id in linked)
+        out.append(f"{n_linked} claims name a structure whose parameter the text does not "
+                   "state; the claims file's sensitivity study judges them again at every "
+                   "value of it (the same checks), and the last column says how each fares "
+                   "over the values the text's words admit (the claims file's `[[bounds]]`; "
+                   "without one, over the whole studied range). Over those values "
+                   f"{n_held} hold throughout, {n_dep} depend on the parameter and "
+                   f"{n_linked - n_held - n_dep} fail throughout.\n\n")
+    why = any(e["claim"].finding for e in evaluated)
+    head = ["claim", "source", "verdict"] + (["explained by (measured)"] if why else []) \
+        + (["over the unstated parameter"] if linked is not None else [])
+    out.append("| " + " | ".join(head) + " |\n" + "|---" * len(head) + "|\n")
     for e in evaluated:
         c = e["claim"]
-        out.append(f"| [{c.id}](#{c.id}) | {c.source} | {e['verdict']} |\n")
+        cells = [f"[{c.id}](#{c.id})", c.source, e["verdict"]]
+        if why:
+            cells.append(c.finding.strip() or "—")
+        if linked is not None:
+            cells.append(_over_parameter(e, linked))
+        out.append("| " + " | ".join(cells) + " |\n")
     for e in evaluated:
         c = e["claim"]
         out.append(f"\n### {c.id}\n\n")
@@ -117,10 +148,14 @@ def findings_markdown(evaluated, remarks, claims_path) -> str:
         if c.criterion:
             out.append(f"Criterion: {c.criterion}.\n\n")
         out.append(f"**Verdict: {e['verdict']}.**\n\n")
+        for kind, text, scenario in (linked or {}).get(c.id, ()):
+            out.append(f"*Over the unstated parameter* ({scenario}): {kind}; {text}.\n\n")
         for d in e["details"]:
             mark = {True: "holds", False: "fails", None: "not measured"}[d["holds"]]
             out.append(f"- {d['structure']}, {d['target']}: `{d['check']}` → {d['shown']}: "
                        f"{mark}\n")
+        if c.finding:
+            out.append(f"\n*In one line:* {c.finding.strip()}\n")
         if c.note:
             out.append(f"\n{c.note.strip()}\n")
     if remarks:
@@ -169,7 +204,7 @@ def _draw_all(tasks, jobs: int, progress=None) -> list:
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
                 jobs: int = 1, figure_format: str = "png", command: str | None = None,
-                progress=None):
+                progress=None, sensitivity=None):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically):
     the tables, ``FINDINGS.md`` (with a claims file), ``figures/*.<figure_format>`` and the
     self-contained ``report.html`` (:mod:`podbench.harness.html_report`; ``command`` is
@@ -177,6 +212,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
 
     Only the claims about the ``scenarios`` run are judged (a run of part of a study judges
     that part). ``progress``: see :func:`podbench.harness.progress.as_stage`.
+    ``sensitivity``: the verdicts of the claims file's sensitivity study
+    (:func:`~podbench.harness.sensitivity.sensitivity_verdicts`), linked from FINDINGS.md.
     Returns the summary DataFrame and the claim verdicts (or None).
     """
     if figure_format not in FIGURE_FORMATS:
@@ -193,11 +230,14 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
             evaluated = evaluate_claims([c for c in claims if c.scenario in scenarios], df)
+            linked = linked_verdicts(sensitivity) if sensitivity else None
             (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
-                                                               display_path(claims_path)),
+                                                               display_path(claims_path),
+                                                               linked=linked),
                                              encoding="utf-8", newline="\n")
         elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
-            verdicts = sensitivity_verdicts(load_claims(base_claims)[0], scenarios, df)
+            base = load_claims_file(base_claims)
+            verdicts = sensitivity_verdicts(base.claims, scenarios, df, base.bounds)
             if verdicts:  # derived scenarios without variants judge nothing again
                 (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
                                                  encoding="utf-8", newline="\n")

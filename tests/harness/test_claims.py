@@ -117,3 +117,36 @@ def test_percent_error_conclusions_are_judged_on_the_percent_error_alone():
             m = CHECK_RE.match(chk)
             assert m.group(1).endswith(".norm_pe_median"), (c.id, chk)
             assert float(m.group(3)) == (20.0 if "velocity" in c.id else 10.0)
+
+
+def test_a_finding_is_shown_in_the_findings_table(tmp_path):
+    """The optional one-line `finding` fills the table's 'explained by' column; claims
+    without one show a dash, and a file without any keeps the three-column table."""
+    from podbench.harness.report import findings_markdown
+
+    claims, _ = _claims(tmp_path, """
+[[claims]]
+id = "one"
+source = "§x"
+quote = "q"
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["MDS.total_error < 0.05"]
+finding = "MDS is exact here"
+[[claims]]
+id = "two"
+source = "§y"
+quote = "q"
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["POVR.total_error < 0.05"]
+""")
+    text = findings_markdown(evaluate_claims(claims, TABLE), [], "claims.toml")
+    assert "| claim | source | verdict | explained by (measured) |" in text
+    assert "| [one](#one) | §x | reproduced | MDS is exact here |" in text
+    assert "| [two](#two) | §y | not reproduced | — |" in text
+    assert "*In one line:* MDS is exact here" in text
+    plain = findings_markdown(evaluate_claims(claims[1:], TABLE), [], "claims.toml")
+    assert "| claim | source | verdict |\n|---|---|---|\n" in plain
