@@ -161,7 +161,8 @@ def figure_tasks(results, scenarios: dict, fdir: Path, fmt: str = "png",
                               for lab in labels),
                 events=tuple(getattr(u, "events", ())), fmt=fmt, embed=embed,
                 meta={"scenario": u.scenario, "structure": u.structure, "target": target,
-                      "words": words},
+                      "words": words,
+                      "measured": case is not None and getattr(case, "file", None) is not None},
             ))
     return tasks
 

@@ -198,3 +198,12 @@ def test_study_runs_from_one_command(tmp_path):
     e = np.linalg.norm(ml.predict(recs[2]) - recs[2].W) / np.linalg.norm(recs[2].W)
     row = df[(df.method == "ML-ls") & (df.target == "load4")].iloc[0]
     assert row.total_error == pytest.approx(e, rel=1e-5)
+
+
+def test_a_measured_case_is_described_as_its_file():
+    from podbench.harness.figures import describe_case
+
+    sc = load_scenario(CH5 / "linear_beam_noise_1pct.toml")
+    assert describe_case(sc.cases["load8"], dt=1e-4, t_end=0.1) == (
+        "measured record data/linear_beam/noise_1pct/load8.npz")
+    assert describe_case(sc.cases["load4_clean"], dt=1e-4, t_end=0.1).startswith("the clean")
