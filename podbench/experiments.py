@@ -25,13 +25,18 @@ second)::
     dt = 1.0e-4                          # s
     # set = { "damping.modal_ratio" = 0.0 }   # optional: structure fields replaced
     # noise_levels = [0.0]               # optional: this test's own levels
-    [tests.linear_beam.cases.load4]
-    force = { kind = "pulse", location = 4.0, amplitude = 2.0, duration = 5.0e-4,
-              shape = "half_sine", hits = [[3.0e-3, 0.4]] }
+    [tests.linear_beam.cases.load4.force]   # a table, or an array of them (summed)
+    kind = "pulse"                       # podbench.excitations, as in scenario files
+    location = 4.0
+    amplitude = 2.0
+    duration = 5.0e-4
+    shape = "half_sine"
+    hits = [[3.0e-3, 0.4]]
 
 It writes ``data/<test>/noise_<p>pct/<case>.npz`` (relative to the experiment file) for
 every level and case; ``noise_0pct`` holds the clean records, the truth that only a virtual
-experiment has (a scenario may use it as a second target). The noise of a case is keyed ``(seed, experiment name, structure name, case)`` and is the
+experiment has (a scenario may use it as a second target). The noise of a case is keyed
+``(seed, experiment name, structure name, case)`` and is the
 same standard-normal pattern at every level (common random numbers), so the levels differ
 only by the level.
 
@@ -63,6 +68,7 @@ __all__ = ["EXPERIMENT_FILE", "Experiment", "TestCampaign", "load_experiment",
            "level_folder", "generate", "write_experiment", "check_experiment"]
 
 from .scenarios import EXPERIMENT_FILE  # noqa: E402  (not a scenario: find_scenarios skips it)
+
 PRECISIONS = ("float32", "float64")
 _NOISE_ON = ("W", "F")
 
@@ -201,9 +207,9 @@ def generate(exp: Experiment) -> dict:
     from .noise import NoiseSpec, noisy
 
     out = {}
+    loads = {}  # every structure and load checked before anything is simulated
     for test in exp.tests.values():
         s = _structure(exp, test)
-        clean = {}
         for cname, forces in test.cases.items():
             F = np.zeros((s.n_sensors, test.n_samples))
             for i, d in enumerate(forces):
@@ -211,7 +217,13 @@ def generate(exp: Experiment) -> dict:
                     F += excitation_from_dict(d).sample(s, test.n_samples, test.dt)
                 except InputError as exc:
                     raise ScenarioFileError(f"{exp.path}: field `tests.{test.name}.cases."
-                                            f"{cname}.force[{i}]`: {exc}") from None
+                                            f"{cname}.force{f'[{i}]' if len(forces) > 1 else ''}`"
+                                            f": {exc}") from None
+            loads[(test.name, cname)] = (s, F)
+    for test in exp.tests.values():
+        clean = {}
+        for cname in test.cases:
+            s, F = loads[(test.name, cname)]
             clean[cname] = simulate(s, n_samples=test.n_samples, dt=test.dt, force=F,
                                     label=cname)
         for level in test.noise_levels or exp.noise_levels:

@@ -253,7 +253,8 @@ def cantilever_beam(
     -------
     Structure
         ``2·n_elements`` DOFs and ``n_elements + 1`` sensors (``w`` at every node, the root
-        reading 0), or the ``sensors`` given. ``metadata`` holds ``tip_dof``, ``tip_stiffness`` (3EI/L³, lbf/in),
+        reading 0), or the ``sensors`` given. ``metadata`` holds ``tip_dof``,
+        ``tip_stiffness`` (3EI/L³, lbf/in),
         ``beam_mass`` (ρAL, lbf·s²/in), ``EI``, ``rho_A``, ``length`` and ``density``.
     """
     length = check_positive(length, "length")

@@ -15,7 +15,8 @@ A structure file is a TOML document with four common top-level fields and the ta
 Kinds (see ``docs/structures.md`` for every field):
 
 ``cantilever_beam``  §4.1 and §5.1 beams: ``[beam]`` (optional ``sensors``), optional
-                     ``[tip_mass]``, ``[tip_spring]``, ``[tip_dashpot]``, ``[damping]`` (:func:`podbench.fem.beam.cantilever_beam`)
+                     ``[tip_mass]``, ``[tip_spring]``, ``[tip_dashpot]``, ``[damping]``
+                     (:func:`podbench.fem.beam.cantilever_beam`)
 ``satellite_truss``  §4.2 truss: ``[truss]`` with ``[truss.longeron|batten|diagonal]``,
                      optional ``[fracture]`` (:func:`podbench.fem.truss.satellite_truss`)
 ``chain``            spring–mass chain: ``[chain]``, optional ``[damping]``

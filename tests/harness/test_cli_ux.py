@@ -75,8 +75,8 @@ def test_bundled_data_are_package_resources():
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
     assert Path(str(root)) == bundled_root()
     assert bundled_structures() == bundled_root() / "structures"
-    assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "mr_designs", "peers",
-                                      "sensitivity", "sweeps"]
+    assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "chapter5",
+                                      "mr_designs", "peers", "sensitivity", "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
     # nothing is found relative to the source tree any more
     assert not (ROOT / "structures").exists() and not (ROOT / "scenarios").exists()
