@@ -56,7 +56,7 @@ def resolve_bundled(name: str) -> Path | None:
     if len(parts) == 2 and parts[0] in studies:
         stem = parts[1][:-5] if parts[1].endswith(".toml") else parts[1]
         f = studies[parts[0]] / f"{stem}.toml"
-        if f.is_file() and stem != "claims":
+        if f.is_file() and stem not in ("claims", "experiment"):  # not scenarios
             return f
     return None
 

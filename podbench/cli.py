@@ -216,6 +216,28 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
     w.add_argument("--debug", action="store_true",
                    help="show the Python traceback of an internal error (exit code 3)")
 
+    x = sub.add_parser(
+        "experiment", help="write (or --check) the records of a virtual experiment",
+        description=textwrap.fill(
+            "Simulate the laboratory tests of an experiment.toml (podbench.experiments: the "
+            "tests, their loads, per-channel noise levels), and write one record file per "
+            "test, noise level and case under data/ beside it (each data/<test> folder "
+            "replaced atomically). The study's scenarios read those files back like "
+            "measurements. With --check nothing is written: the committed files are "
+            "compared byte for byte with a fresh generation (exit 1 when they differ).",
+            width=88),
+        epilog="""
+Examples:
+  podbench experiment chapter5           # the bundled Chapter 5 tests -> its data/
+  podbench experiment my_study/          # my_study/experiment.toml -> my_study/data/
+  podbench experiment chapter5 --check   # are the committed records up to date?
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    x.add_argument("path", help="an experiment.toml, its folder, or a bundled study by name")
+    x.add_argument("--check", action="store_true",
+                   help="compare with a fresh generation instead of writing")
+    x.add_argument("--debug", action="store_true",
+                   help="show the Python traceback of an internal error (exit code 3)")
+
     ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
                         description="List the structures and scenarios bundled with podbench "
                                     "and those of the current folder (./structures, "
@@ -408,6 +430,29 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_experiment(args) -> int:
+    from ._resources import display_path, resolve_bundled
+    from .experiments import check_experiment, write_experiment
+
+    path = Path(args.path)
+    if not path.exists():
+        b = resolve_bundled(args.path)
+        if b is None or not b.is_dir():
+            raise _Usage(f"{args.path}: no such file or folder, nor a bundled study")
+        path = b
+    if args.check:
+        bad = check_experiment(path)
+        for f in bad:
+            print(f"differs: {f}")
+        print(f"{len(bad)} record file(s) differ from a fresh generation" if bad
+              else "every record file equals a fresh generation")
+        return 1 if bad else 0
+    written = write_experiment(path)
+    folders = sorted({display_path(f.parent.parent) for f in written})
+    print(f"{len(written)} record files written under {', '.join(folders)}")
+    return 0
+
+
 def cmd_regress(args) -> int:
     from .harness.regress import compare, read_table
     from .harness.report import atomic_write_text, summary_table, table_csv
@@ -442,10 +487,10 @@ def cmd_regress(args) -> int:
 
 def _list_scenarios(folder: Path, indent: str) -> None:
     from .errors import PodbenchError
-    from .scenarios import CLAIMS_FILE, load_scenario
+    from .scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 
     for f in sorted(folder.glob("*.toml")):
-        if f.name == CLAIMS_FILE:
+        if f.name in NOT_SCENARIOS:
             continue
         try:
             sc = load_scenario(f)
@@ -643,7 +688,7 @@ def main(argv=None) -> int:
     one_line_warnings(prog)
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
-                "list": cmd_list}[args.command](args)
+                "list": cmd_list, "experiment": cmd_experiment}[args.command](args)
     except (_Usage, PodbenchError) as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2

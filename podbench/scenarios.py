@@ -115,6 +115,9 @@ BUILTIN_METHODS = (*_METHOD_CLASSES, "superposition")
 :data:`podbench.methods.BUILTIN_METHODS`)."""
 
 CLAIMS_FILE = "claims.toml"
+EXPERIMENT_FILE = "experiment.toml"
+"""A study folder's virtual-experiment file (:mod:`podbench.experiments`), not a scenario."""
+NOT_SCENARIOS = (CLAIMS_FILE, EXPERIMENT_FILE)
 MAX_SAMPLES = 10_000_000
 """Largest ``scenario.n_samples`` (a record of 10⁷ samples on 48 sensors is 3.8 GB per
 matrix): a larger value is a typo, refused before anything is allocated."""
@@ -708,7 +711,7 @@ def apply_overrides(scenario: Scenario, *, n_modes: int | None = None, solvers=N
 
 def find_scenarios(paths) -> list[Path]:
     """Scenario files of ``paths`` (files, or folders scanned for ``*.toml`` except
-    ``claims.toml``), sorted and without duplicates.
+    ``claims.toml`` and ``experiment.toml``), sorted and without duplicates.
 
     Raises
     ------
@@ -719,7 +722,7 @@ def find_scenarios(paths) -> list[Path]:
     for p in paths:
         p = Path(p)
         if p.is_dir():
-            files = sorted(f for f in p.glob("*.toml") if f.name != CLAIMS_FILE)
+            files = sorted(f for f in p.glob("*.toml") if f.name not in NOT_SCENARIOS)
             if not files:
                 raise ScenarioFileError(f"{_display(p)}: no scenario files (*.toml) in this folder")
             found.extend(files)

@@ -32,6 +32,8 @@ __all__ = [
     "tip_mass_law",
     "beam_element_matrices",
     "cantilever_beam",
+    "modal_damping_matrix",
+    "MODAL_DAMPING_MAX_DOFS",
 ]
 
 #: Standard gravity 9.80665 m/s² in in/s² (= 9.80665 / 0.0254): 1 lbm = 1/G0 lbf·s²/in.
@@ -129,6 +131,73 @@ def beam_element_matrices(EI: float, rho_A: float, le: float) -> tuple[np.ndarra
     return ke, me
 
 
+#: Largest model for which :func:`modal_damping_matrix` builds its dense ``n × n`` matrix
+#: (a 2000-DOF matrix is 32 MB; the dense eigenproblem grows as the cube).
+MODAL_DAMPING_MAX_DOFS = 2000
+
+
+def modal_damping_matrix(M, K, ratios) -> np.ndarray:
+    """Viscous damping with prescribed modal damping ratios: ``C = M Φ diag(2 ζ_r ω_r) Φᵀ M``.
+
+    ``Φ`` holds the mass-normalized eigenvectors of ``K φ = ω² M φ`` (``Φᵀ M Φ = I``), so
+    ``Φᵀ C Φ = diag(2 ζ_r ω_r)``: every undamped mode keeps its shape and decays with ratio
+    ``ζ_r`` (damped frequency ``ω_r √(1 − ζ_r²)``). This is classical (proportional) damping,
+    the usual model of a lightly damped bare metal structure whose modes are measured one
+    by one.
+
+    Parameters
+    ----------
+    M, K : (n, n) sparse or dense
+        Mass (lbf·s²/in) and stiffness (lbf/in) of the constrained model.
+    ratios : float or sequence of float
+        ``ζ`` (fraction of critical, ``0 <= ζ < 1``) of every mode, or of modes 1, 2, … in
+        ascending frequency; modes beyond the list take its last value.
+
+    Returns
+    -------
+    (n, n) ndarray
+        ``C`` in lbf·s/in, symmetric positive semi-definite.
+    """
+    n = M.shape[0]
+    if n > MODAL_DAMPING_MAX_DOFS:
+        raise InputError(f"Parameter `modal_ratio`: modal damping builds a dense {n} x {n} "
+                         f"matrix; at most {MODAL_DAMPING_MAX_DOFS} DOFs are supported")
+    z = np.atleast_1d(np.asarray(ratios, dtype=float))
+    if z.ndim != 1 or z.size == 0 or z.size > n or not np.all(np.isfinite(z)) or \
+            np.any(z < 0) or np.any(z >= 1):
+        raise InputError(f"Parameter `modal_ratio`: expected one ratio or 1 to {n} ratios "
+                         f"in [0, 1), got {ratios!r}")
+    Md = M.toarray() if sp.issparse(M) else np.asarray(M, dtype=float)
+    Kd = K.toarray() if sp.issparse(K) else np.asarray(K, dtype=float)
+    import scipy.linalg
+
+    w2, phi = scipy.linalg.eigh(Kd, Md)
+    omega = np.sqrt(np.clip(w2, 0.0, None))
+    zeta = np.concatenate([z, np.full(n - z.size, z[-1])])
+    B = Md @ phi
+    C = (B * (2.0 * zeta * omega)) @ B.T
+    return 0.5 * (C + C.T)
+
+
+def _sensor_nodes(sensors, length: float, n: int) -> np.ndarray:
+    """Node indices (0 = root, n = tip) of sensor positions (in) that lie on nodes."""
+    x = np.asarray(sensors, dtype=float)
+    if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)):
+        raise InputError(f"Parameter `sensors`: expected a non-empty list of positions (in), "
+                         f"got {sensors!r}")
+    le = length / n
+    idx = np.rint(x / le).astype(np.int64)
+    off = np.abs(idx * le - x) > 1e-9 * length
+    if np.any(off) or np.any(idx < 0) or np.any(idx > n):
+        bad = float(x[np.flatnonzero(off | (idx < 0) | (idx > n))[0]])
+        raise InputError(f"Parameter `sensors`: position {bad!r} in is not a node of the "
+                         f"{n}-element beam (nodes every {le:g} in from 0 to {length:g} in)")
+    if np.unique(idx).size != idx.size or np.any(np.diff(idx) <= 0):
+        raise InputError(f"Parameter `sensors`: positions must be strictly increasing, got "
+                         f"{list(map(float, x))}")
+    return idx
+
+
 def cantilever_beam(
     *,
     name: str = "cantilever_beam",
@@ -142,6 +211,8 @@ def cantilever_beam(
     tip_k3: float | None = None,
     tip_dashpot: float | None = None,
     tip_band: dict | None = None,
+    sensors=None,
+    modal_damping=None,
     description: str = "",
     source: str = "",
 ) -> Structure:
@@ -169,7 +240,7 @@ def cantilever_beam(
     tip_k3 : float, optional
         Coefficient (lbf/in³) of a grounded cubic spring ``g = k3 w_tip³`` at the tip.
     tip_dashpot : float, optional
-        Grounded viscous dashpot (lbf·s/in) on the tip ``w`` DOF (the only damping).
+        Grounded viscous dashpot (lbf·s/in) on the tip ``w`` DOF.
     tip_band : dict, optional
         The rubber band of §5.2, a grounded one-sided spring on the tip ``w`` DOF
         (:class:`podbench.fem.OneSidedSpring`): ``k`` (lbf/in), ``side`` (``"positive"``:
@@ -177,6 +248,13 @@ def cantilever_beam(
         ``"negative"`` the reverse; or ±1), optional ``slack`` and ``prestretch`` (in, at most
         one non-zero; default 0, the text's words) and ``twin`` (the linear twin's rule:
         ``"tangent"``, ``"free"``, ``"two_sided"``).
+    sensors : sequence of float, optional
+        Positions (in from the root) of the measured points, strictly increasing, each on a
+        node (else ``InputError``); only the ``w`` DOFs there are measured (a sensor at 0
+        reads the clamp: 0). Default: every node. Forces live on the sensors (the
+        dissertation's ``F`` has the rows of ``W``), so a load must act at a sensor.
+    modal_damping : float or sequence of float, optional
+        Modal damping ratios ``ζ`` (:func:`modal_damping_matrix`), added to the dashpot.
     description, source : str
         Stored on the structure.
 
@@ -184,7 +262,8 @@ def cantilever_beam(
     -------
     Structure
         ``2·n_elements`` DOFs and ``n_elements + 1`` sensors (``w`` at every node, the root
-        reading 0). ``metadata`` holds ``tip_dof``, ``tip_stiffness`` (3EI/L³, lbf/in),
+        reading 0), or the ``sensors`` given. ``metadata`` holds ``tip_dof``,
+        ``tip_stiffness`` (3EI/L³, lbf/in),
         ``beam_mass`` (ρAL, lbf·s²/in), ``EI``, ``rho_A``, ``length`` and ``density``.
     """
     length = check_positive(length, "length")
@@ -234,9 +313,15 @@ def cantilever_beam(
     if tip_band is not None:
         nonlinear = nonlinear + (_tip_band(tip, tip_band),)
 
-    x = np.linspace(0.0, length, n + 1)
-    sensor_dofs = np.concatenate([[-1], 2 * np.arange(n)]).astype(np.int64)
-    dof_labels = tuple(f"{q}@{x[i + 1]:g}in" for i in range(n) for q in ("w", "theta"))
+    if modal_damping is not None:
+        Cm = sp.csr_matrix(modal_damping_matrix(M, K, modal_damping))
+        C = Cm if C is None else (C + Cm).tocsr()
+
+    nodes_x = np.linspace(0.0, length, n + 1)
+    dof_labels = tuple(f"{q}@{nodes_x[i + 1]:g}in" for i in range(n) for q in ("w", "theta"))
+    nodes = np.arange(n + 1) if sensors is None else _sensor_nodes(sensors, length, n)
+    x = nodes_x[nodes]
+    sensor_dofs = np.where(nodes == 0, -1, 2 * (nodes - 1)).astype(np.int64)
     sensor_labels = tuple(f"w@{xi:g}in" for xi in x)
     metadata = {
         "tip_dof": tip,
@@ -256,6 +341,9 @@ def cantilever_beam(
         band = nonlinear[-1]
         metadata["tip_band"] = {"k": band.k, "side": band.side, "slack": band.slack,
                                 "prestretch": band.prestretch, "twin": band.twin}
+    if modal_damping is not None:
+        metadata["modal_damping"] = (float(modal_damping) if np.ndim(modal_damping) == 0
+                                     else [float(z) for z in modal_damping])
     return Structure(
         name=name, M=M, K=K, C=C, sensor_dofs=sensor_dofs, variable_mass=variable_mass,
         nonlinear=nonlinear, sensor_positions=x, sensor_labels=sensor_labels,

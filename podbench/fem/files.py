@@ -14,9 +14,10 @@ A structure file is a TOML document with four common top-level fields and the ta
 
 Kinds (see ``docs/structures.md`` for every field):
 
-``cantilever_beam``  §4.1 and §5 beams: ``[beam]``, optional ``[tip_mass]``, ``[tip_spring]``,
-                     ``[tip_dashpot]``, ``[tip_band]`` (the §5.2 rubber band;
-                     :func:`podbench.fem.beam.cantilever_beam`)
+``cantilever_beam``  §4.1 and §5 beams: ``[beam]`` (optional ``sensors``), optional
+                     ``[tip_mass]``, ``[tip_spring]``, ``[tip_dashpot]``, ``[tip_band]`` (the
+                     §5.2 rubber band), ``[damping]``
+                     (:func:`podbench.fem.beam.cantilever_beam`)
 ``satellite_truss``  §4.2 truss: ``[truss]`` with ``[truss.longeron|batten|diagonal]``,
                      optional ``[fracture]`` (:func:`podbench.fem.truss.satellite_truss`)
 ``chain``            spring–mass chain: ``[chain]``, optional ``[damping]``
@@ -48,6 +49,8 @@ from .._userimport import UserImportError, import_module_or_file
 from ..errors import InputError, StructureFileError, UnknownNameError
 from ._spec import Table, fail
 from .beam import (
+    MODAL_DAMPING_MAX_DOFS,
+    _sensor_nodes,
     cantilever_beam,
     density_from_lbm_per_ft3,
     k3_matching_linear,
@@ -360,8 +363,32 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
         density=_density(b),
         n_elements=b.integer("n_elements", positive=True),
     )
+    sensors = b.numbers("sensors", None, nonnegative=True)
+    if sensors is not None:
+        try:
+            _sensor_nodes(sensors, kw["length"], kw["n_elements"])
+        except InputError as exc:
+            b.fail("sensors", str(exc).removeprefix("Parameter `sensors`: "))
+        kw["sensors"] = sensors
     b.close()
     beam = {k: kw[k] for k in ("length", "width", "depth")}
+
+    dm = top.table("damping")
+    if dm is not None:
+        z = dm.numbers("modal_ratio", nonnegative=True, scalar_ok=True)
+        n_dofs = 2 * kw["n_elements"]
+        for i, zi in enumerate([z] if isinstance(z, float) else z):
+            if not zi < 1.0:
+                dm.fail("modal_ratio" if isinstance(z, float) else f"modal_ratio[{i}]",
+                        f"expected a damping ratio in [0, 1), got {zi!r}")
+        if isinstance(z, list) and len(z) > n_dofs:
+            dm.fail("modal_ratio", f"{len(z)} ratios for a model of {n_dofs} modes")
+        if n_dofs > MODAL_DAMPING_MAX_DOFS:
+            dm.fail("modal_ratio", f"modal damping builds a dense {n_dofs} x {n_dofs} matrix; "
+                                   f"at most {MODAL_DAMPING_MAX_DOFS} DOFs are supported")
+        dm.string("source", "", nonempty=False)
+        dm.close()
+        kw["modal_damping"] = z
 
     tm = top.table("tip_mass")
     if tm is not None:

@@ -6,7 +6,8 @@ Format::
     id = "lti-free-disp-mds-accurate"      # unique
     source = "§4.1.1, Fig. 4.8"
     quote = "..."                          # the dissertation's words
-    scenario = "beam_free_displacement"
+    scenario = "beam_free_displacement"    # or a list: judged in each (e.g. one per noise
+                                           # level); FINDINGS gives the verdict in each
     structure = "lti_beam"                 # or a list: the checks must hold for each
     target = "w3"                          # or a list
     checks = ["MDS.total_error < 0.05", "POVR.total_error < MDS.total_error"]
@@ -24,9 +25,12 @@ Format::
     [[bounds]]                             # optional: see podbench.harness.bounds
 
 A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and each operand a
-number or ``METHOD.metric`` (a method label and a column of the summary table). A claim is
-*reproduced* when every check holds on every (structure, target) row, *not reproduced* when
-one fails, and *not measured* when a value is missing or NaN.
+number or ``METHOD.metric`` (a method label and a column of the summary table). A metric
+operand may name another scenario's row of the same structure and target,
+``SCENARIO:METHOD.metric``, and carry a positive factor, ``1.1*SCENARIO:METHOD.metric`` (how
+Chapter 5 compares a noisy run with the clean one). A claim is *reproduced* when every check
+holds on every (scenario, structure, target) row, *not reproduced* when one fails, and *not
+measured* when a value is missing or NaN.
 """
 
 from __future__ import annotations
@@ -56,12 +60,19 @@ class Claim:
     source: str
     quote: str
     scenario: str
+    """The first (or only) scenario the claim is judged in."""
     structures: tuple[str, ...]
     targets: tuple[str, ...]
     checks: tuple[str, ...]
     criterion: str
     note: str
     finding: str = ""
+    scenarios: tuple[str, ...] = ()
+    """Every scenario the claim is judged in (``scenario`` given as a list); empty means
+    ``(scenario,)``."""
+
+    def all_scenarios(self) -> tuple[str, ...]:
+        return self.scenarios or (self.scenario,)
 
 
 def _listify(t: Table, key: str) -> tuple[str, ...]:
@@ -105,9 +116,11 @@ def load_claims_file(path) -> ClaimsFile:
         top = Table(doc, file=str(path))
         claims, ids = [], set()
         for t in top.tables("claims", []):
+            scens = _listify(t, "scenario")
             c = Claim(
                 id=t.string("id"), source=t.string("source"), quote=t.string("quote"),
-                scenario=t.string("scenario"), structures=_listify(t, "structure"),
+                scenario=scens[0], scenarios=scens if len(scens) > 1 else (),
+                structures=_listify(t, "structure"),
                 targets=_listify(t, "target"), checks=tuple(t.strings("checks")),
                 criterion=t.string("criterion", ""), note=t.string("note", ""),
                 finding=t.string("finding", ""),
@@ -138,24 +151,36 @@ def load_claims_file(path) -> ClaimsFile:
     return ClaimsFile(path, claims, remarks, bounds, sensitivity)
 
 
-def _value(operand: str, rows: dict):
+_FACTOR_RE = re.compile(r"^\s*((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\*\s*(.+)$")
+
+
+def _value(operand: str, rows: dict, other=None):
     try:
         return float(operand), operand
     except ValueError:
         pass
-    label, _, metric = operand.rpartition(".")
+    factor, ref = 1.0, operand
+    if (fm := _FACTOR_RE.match(operand)) is not None:
+        factor, ref = float(fm.group(1)), fm.group(2)
+    label, _, metric = ref.rpartition(".")
+    scen, sep, label = label.rpartition(":")
+    if sep:
+        rows = other(scen) if other is not None else {}
     row = rows.get(label)
     if row is None or metric not in row:
         return math.nan, f"{operand} (no such row/column)"
-    v = float(row[metric])
+    v = factor * float(row[metric])
     return v, f"{operand} = {v:.4g}"
 
 
-def check(expr: str, rows: dict) -> tuple[bool | None, str]:
-    """Evaluate one check on ``rows`` (method label -> row dict). None when not measurable."""
+def check(expr: str, rows: dict, other=None) -> tuple[bool | None, str]:
+    """Evaluate one check on ``rows`` (method label -> row dict). None when not measurable.
+
+    ``other(scenario)`` gives the rows of another scenario (same structure and target) for
+    ``SCENARIO:METHOD.metric`` operands."""
     m = CHECK_RE.match(expr)
-    a, sa = _value(m.group(1), rows)
-    b, sb = _value(m.group(3), rows)
+    a, sa = _value(m.group(1), rows, other)
+    b, sb = _value(m.group(3), rows, other)
     shown = f"{sa} {m.group(2)} {sb}" if not _is_num(m.group(3)) else f"{sa} {m.group(2)} {b:g}"
     if math.isnan(a) or math.isnan(b):
         return None, shown
@@ -170,26 +195,42 @@ def _is_num(s: str) -> bool:
         return False
 
 
-def evaluate_claims(claims, table) -> list[dict]:
-    """Verdicts of every claim on the summary table (a pandas DataFrame)."""
+def _verdict(oks) -> str:
+    if any(v is False for v in oks):
+        return "not reproduced"
+    if any(v is None for v in oks):
+        return "not measured"
+    return "reproduced"
+
+
+def evaluate_claims(claims, table, *, scenarios=None) -> list[dict]:
+    """Verdicts of every claim on the summary table (a pandas DataFrame).
+
+    A claim over several scenarios is judged in those of ``scenarios`` (default: all it
+    names); ``by_scenario`` maps each to its own verdict, the overall verdict combines them.
+    """
+
+    def rows_of(scen, s, t):
+        sub = table[(table.scenario == scen) & (table.structure == s) & (table.target == t)]
+        return {r["method"]: r for r in sub.to_dict("records")}
+
     out = []
     for c in claims:
-        details, verdicts = [], []
-        for s in c.structures:
-            for t in c.targets:
-                sub = table[(table.scenario == c.scenario) & (table.structure == s)
-                            & (table.target == t)]
-                rows = {r["method"]: r for r in sub.to_dict("records")}
-                for expr in c.checks:
-                    ok, shown = check(expr, rows)
-                    verdicts.append(ok)
-                    details.append({"structure": s, "target": t, "check": expr, "shown": shown,
-                                    "holds": ok})
-        if any(v is False for v in verdicts):
-            verdict = "not reproduced"
-        elif any(v is None for v in verdicts):
-            verdict = "not measured"
-        else:
-            verdict = "reproduced"
-        out.append({"claim": c, "verdict": verdict, "details": details})
+        details, verdicts, by_scenario = [], [], {}
+        for scen in c.all_scenarios():
+            if scenarios is not None and scen not in scenarios:
+                continue
+            mine = []
+            for s in c.structures:
+                for t in c.targets:
+                    rows = rows_of(scen, s, t)
+                    for expr in c.checks:
+                        ok, shown = check(expr, rows, lambda o, s=s, t=t: rows_of(o, s, t))
+                        mine.append(ok)
+                        details.append({"scenario": scen, "structure": s, "target": t,
+                                        "check": expr, "shown": shown, "holds": ok})
+            by_scenario[scen] = _verdict(mine)
+            verdicts.extend(mine)
+        out.append({"claim": c, "verdict": _verdict(verdicts), "details": details,
+                    "by_scenario": by_scenario})
     return out

@@ -134,6 +134,8 @@ def describe_case(case, *, dt: float, t_end: float) -> str:
     for f in case.force:
         words.append(_force_words(f, unit, dt))
     if not words:
+        if getattr(case, "file", None) is not None:
+            return case.description or f"measured record {case.file}"
         return case.description or "no excitation"
     return "; ".join(words)
 
@@ -221,7 +223,9 @@ def make_figure(task: FigureTask):
         try:
             bottom, top = _y_limits(truth)
             a1.plot(x, truth, color="black", lw=2.0, zorder=5)
-            handles = [Line2D([], [], color="black", lw=2.0, label="truth (simulated)")]
+            handles = [Line2D([], [], color="black", lw=2.0,
+                              label="measured" if task.meta.get("measured") else
+                              "truth (simulated)")]
             pe_all = []
             for i, (label, total) in enumerate(task.methods):
                 color, ls = PALETTE[i % len(PALETTE)], STYLES[i % len(STYLES)]

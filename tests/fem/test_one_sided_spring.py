@@ -157,7 +157,14 @@ def test_rubber_band_beam_file():
     s = load_structure("rubber_band_beam")
     assert s.metadata["tip_band"] == {"k": 0.12, "side": 1, "slack": 0.0, "prestretch": 0.0,
                                       "twin": "tangent"}
-    assert s.C is None and s.n_dofs == 40 and s.n_sensors == 21
+    assert s.n_dofs == 40 and s.n_sensors == 6
+    np.testing.assert_allclose(s.sensor_positions, [0, 4, 8, 12, 16, 20])
+    # the §5.1 modal damping of the band-free beam: Φᵀ C Φ = diag(2 ζ ω) with ζ = 0.005
+    import scipy.linalg
+    w2, phi = scipy.linalg.eigh(s.K.toarray(), s.M.toarray())
+    modal = phi.T @ s.C.toarray() @ phi
+    np.testing.assert_allclose(np.diag(modal), 2 * 0.005 * np.sqrt(w2), rtol=1e-8)
+    assert np.abs(modal - np.diag(np.diag(modal))).max() < 1e-8 * np.abs(np.diag(modal)).max()
 
 
 BASE = """

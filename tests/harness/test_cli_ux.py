@@ -75,8 +75,8 @@ def test_bundled_data_are_package_resources():
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
     assert Path(str(root)) == bundled_root()
     assert bundled_structures() == bundled_root() / "structures"
-    assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "mr_designs", "peers",
-                                      "sensitivity", "sweeps"]
+    assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "chapter5",
+                                      "mr_designs", "peers", "sensitivity", "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
     # nothing is found relative to the source tree any more
     assert not (ROOT / "structures").exists() and not (ROOT / "scenarios").exists()
@@ -88,17 +88,18 @@ def test_bundled_names_resolve_and_display_the_same_everywhere():
     assert resolve_bundled("chapter4/beam_forced") == ch4 / "beam_forced.toml"
     assert resolve_bundled("chapter4/beam_forced.toml") == ch4 / "beam_forced.toml"
     assert resolve_bundled("chapter4/claims") is None
-    assert resolve_bundled("chapter5") is None and resolve_bundled("a/b/c") is None
+    assert resolve_bundled("chapter9") is None and resolve_bundled("a/b/c") is None
+    assert resolve_bundled("chapter5/experiment") is None
     assert display_path(ch4 / "claims.toml") == "podbench/bundled/scenarios/chapter4/claims.toml"
 
 
 def test_an_unknown_name_is_one_line_naming_the_bundled_studies(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["run", "chapter5", "-q"]) == 2
+    assert cli.main(["run", "chapter9", "-q"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
-    assert "chapter5: no such file or folder, nor a bundled study or scenario" in err
-    assert "chapter4, chapter4_variants, mr_designs, peers, sensitivity, sweeps" in err
+    assert "chapter9: no such file or folder, nor a bundled study or scenario" in err
+    assert "chapter4, chapter4_variants, chapter5, mr_designs, peers, sensitivity, sweeps" in err
     assert not (tmp_path / "results").exists()
 
 

@@ -1,0 +1,321 @@
+"""Virtual experiments: laboratory records simulated once, with per-channel noise, written to
+files that a study then reads back like any measurement (:mod:`podbench.measured`).
+
+Chapter 5 of the dissertation identifies a beam from *measured* records (laser vibrometer,
+load cell). podbench cannot measure, so it plays the laboratory: it simulates the tests on a
+structure model, adds noise the way the instruments would (:mod:`podbench.noise`: per
+measured channel, on measured channels only, keyed streams), and writes one file per test.
+The study's scenarios read those files through ``[cases.x] file = ...``, the path a real
+laboratory's data would take; only the generator ever sees the model.
+
+An experiment file (``experiment.toml`` beside the study's scenarios; units inch, lbf,
+second)::
+
+    [experiment]
+    name = "chapter5"                    # keys the noise streams
+    noise_levels = [0.0, 0.01, 0.05]     # relative per-channel noise (podbench.noise), each
+                                         # level a folder noise_<100·level>pct/
+    noise_seed = 0
+    noise_on = ["W", "F"]                # measured quantities that get noise
+    precision = "float32"                # or "float64": how W and F are stored (see below)
+
+    [tests.linear_beam]                  # one test campaign on one structure
+    structure = "aluminium_beam"         # a structure name or a path (relative to this file)
+    n_samples = 1024
+    dt = 1.0e-4                          # s
+    # set = { "damping.modal_ratio" = 0.0 }   # optional: structure fields replaced
+    # noise_levels = [0.0]               # optional: this test's own levels
+    [tests.linear_beam.cases.load4.force]   # a table, or an array of them (summed)
+    kind = "pulse"                       # podbench.excitations, as in scenario files
+    location = 4.0
+    amplitude = 2.0
+    duration = 5.0e-4
+    shape = "half_sine"
+    hits = [[3.0e-3, 0.4]]
+
+It writes ``data/<test>/noise_<p>pct/<case>.npz`` (relative to the experiment file) for
+every level and case; ``noise_0pct`` holds the clean records, the truth that only a virtual
+experiment has (a scenario may use it as a second target). The noise of a case is keyed
+``(seed, experiment name, structure name, case)`` and is the
+same standard-normal pattern at every level (common random numbers), so the levels differ
+only by the level.
+
+``precision = "float32"`` stores W and F rounded to single precision (24-bit mantissa, finer
+than the 16-bit converters of a laboratory acquisition system; it halves the files); the
+rounding is applied before writing, so the file holds exactly what the generator returns
+(round trip exact). Everything is deterministic: the same file gives byte-identical data,
+written atomically (a temporary folder replaces ``data/<test>`` when complete).
+
+Command line: ``podbench experiment <folder or experiment.toml>`` (``--check`` compares the
+files with a fresh generation instead of writing).
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import tomllib
+
+from ._atomic import replace_dir
+from .data import Response
+from .errors import InputError, ScenarioFileError, StructureFileError
+from .fem._spec import MISSING, Table
+
+__all__ = ["EXPERIMENT_FILE", "Experiment", "TestCampaign", "load_experiment",
+           "level_folder", "generate", "write_experiment", "check_experiment"]
+
+from .scenarios import EXPERIMENT_FILE  # noqa: E402  (not a scenario: find_scenarios skips it)
+
+PRECISIONS = ("float32", "float64")
+_NOISE_ON = ("W", "F")
+
+
+@dataclass(frozen=True)
+class TestCampaign:
+    """The tests of one structure: cases (excitation tables), sampling, truth cases."""
+
+    name: str
+    structure: str
+    n_samples: int
+    dt: float
+    cases: dict
+    overrides: dict
+    noise_levels: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    path: Path
+    noise_levels: tuple[float, ...]
+    noise_seed: int
+    noise_on: tuple[str, ...]
+    precision: str
+    tests: dict
+
+    @property
+    def folder(self) -> Path:
+        return self.path.parent
+
+
+def level_folder(level: float) -> str:
+    """``noise_<100·level>pct`` (``noise_0pct``, ``noise_0.5pct``, ``noise_5pct``)."""
+    return f"noise_{100.0 * float(level):g}pct"
+
+
+def load_experiment(path) -> Experiment:
+    """Read and check an experiment file (one-line errors naming the file and field)."""
+    from .scenarios import _excitation
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / EXPERIMENT_FILE
+    shown = str(path)
+    if not path.is_file():
+        raise ScenarioFileError(f"{shown}: no such experiment file")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
+    try:
+        top = Table(doc, file=shown)
+        e = top.table("experiment", required=True)
+        name = e.string("name")
+        levels = _levels(e, MISSING)
+        seed = e.integer("noise_seed", 0, minimum=0)
+        on = e.strings("noise_on", list(_NOISE_ON))
+        for i, q in enumerate(on):
+            if q not in _NOISE_ON:
+                e.fail(f"noise_on[{i}]", f'expected "W" or "F" (measured channels), got "{q}"')
+        precision = e.string("precision", "float64", choices=PRECISIONS)
+        e.close()
+        tests = {}
+        tt = top.table("tests", required=True)
+        for tname in list(tt.data):
+            t = tt.table(tname, required=True)
+            structure = t.string("structure")
+            n = t.integer("n_samples", minimum=2, maximum=10_000_000)
+            dt = t.number("dt", positive=True)
+            ct = t.table("cases", required=True)
+            cases = {}
+            for cname in list(ct.data):
+                c = ct.table(cname, required=True)
+                force = _excitation(c, "force", many=True)
+                if not force:
+                    c.fail("force", "expected a force table or an array of force tables "
+                                    "(a test starts at rest and is struck)")
+                c.string("description", "", nonempty=False)
+                c.close()
+                cases[cname] = force
+            ct.close()
+            if not cases:
+                t.fail("cases", "expected at least one case")
+            overrides = t.raw("set", {})
+            if not isinstance(overrides, dict):
+                t.fail("set", f"expected a table of dotted structure fields, got {overrides!r}")
+            own = _levels(t, None)
+            t.close()
+            tests[tname] = TestCampaign(tname, structure, n, dt, cases, dict(overrides),
+                                        None if own is None else tuple(own))
+        tt.close()
+        if not tests:
+            top.fail("tests", "expected at least one [tests.<name>] table")
+        top.close()
+    except StructureFileError as exc:
+        raise ScenarioFileError(str(exc)) from None
+    return Experiment(name, path.resolve(), tuple(levels), seed, tuple(on), precision, tests)
+
+
+def _levels(t: Table, default):
+    levels = t.numbers("noise_levels", default, nonnegative=True)
+    if levels is None:
+        return None
+    for i, lv in enumerate(levels):
+        if not lv < 1.0:
+            t.fail(f"noise_levels[{i}]", f"expected a relative level below 1, got {lv!r}")
+    if len({level_folder(x) for x in levels}) != len(levels):
+        t.fail("noise_levels", f"a level is listed twice: {levels}")
+    return levels
+
+
+def _structure(exp: Experiment, test: TestCampaign):
+    from .fem import load_structure
+
+    entry = test.structure
+    where = f"{exp.path}: field `tests.{test.name}`"
+    try:
+        src = exp.folder / entry if entry.endswith(".toml") else entry
+        if test.overrides:
+            return load_structure(src, overrides=test.overrides)
+        return load_structure(src)
+    except (InputError, StructureFileError) as exc:
+        raise ScenarioFileError(f"{where}: {exc}") from None
+
+
+def _round(a: np.ndarray, precision: str) -> np.ndarray:
+    return a.astype(np.float32).astype(np.float64) if precision == "float32" else a
+
+
+def generate(exp: Experiment) -> dict:
+    """The records of every test, level and case: ``{(test, level_folder, case):
+    Response}`` in a fixed order (tests, levels, cases)."""
+    from .dynamics import simulate
+    from .excitations import excitation_from_dict
+    from .noise import NoiseSpec, noisy
+
+    out = {}
+    loads = {}  # every structure and load checked before anything is simulated
+    for test in exp.tests.values():
+        s = _structure(exp, test)
+        for cname, forces in test.cases.items():
+            F = np.zeros((s.n_sensors, test.n_samples))
+            for i, d in enumerate(forces):
+                try:
+                    F += excitation_from_dict(d).sample(s, test.n_samples, test.dt)
+                except InputError as exc:
+                    raise ScenarioFileError(f"{exp.path}: field `tests.{test.name}.cases."
+                                            f"{cname}.force{f'[{i}]' if len(forces) > 1 else ''}`"
+                                            f": {exc}") from None
+            loads[(test.name, cname)] = (s, F)
+    for test in exp.tests.values():
+        clean = {}
+        for cname in test.cases:
+            s, F = loads[(test.name, cname)]
+            clean[cname] = simulate(s, n_samples=test.n_samples, dt=test.dt, force=F,
+                                    label=cname)
+        for level in test.noise_levels or exp.noise_levels:
+            folder = level_folder(level)
+            spec = NoiseSpec(level, seed=exp.noise_seed, on=exp.noise_on)
+            for cname, r in clean.items():
+                m = noisy(r, spec, exp.name, s.name, cname)
+                W, F = _round(np.asarray(m.W), exp.precision), _round(np.asarray(m.F),
+                                                                         exp.precision)
+                out[(test.name, folder, cname)] = _record(W, F, test.dt, cname)
+    return out
+
+
+def _record(W, F, dt, label) -> Response:
+    n = W.shape[1]
+    return Response(t=np.arange(n) * dt, W=W, F=F, w0=W[:, 0].copy(),
+                    v0=np.zeros(W.shape[0]), dt=dt, label=label)
+
+
+def _sensor_info(exp: Experiment, test: TestCampaign):
+    s = _structure(exp, test)
+    return list(s.sensor_labels), s.sensor_positions
+
+
+def _npz_bytes(rec: Response, labels, positions) -> bytes:
+    buf = io.BytesIO()
+    arrays = {"W": np.asarray(rec.W, dtype=np.float64), "F": np.asarray(rec.F, dtype=np.float64),
+              "dt": np.float64(rec.dt), "sensors": np.asarray(labels, dtype=str)}
+    if positions is not None:
+        arrays["sensor_positions"] = np.asarray(positions, dtype=np.float64)
+    np.savez_compressed(buf, **arrays)
+    return _deterministic_zip(buf.getvalue())
+
+
+def _deterministic_zip(data: bytes) -> bytes:
+    """The same zip with fixed member timestamps (numpy stamps the current time)."""
+    import zipfile
+
+    src = zipfile.ZipFile(io.BytesIO(data))
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        for info in src.infolist():
+            zi = zipfile.ZipInfo(info.filename, date_time=(1980, 1, 1, 0, 0, 0))
+            zi.compress_type = zipfile.ZIP_DEFLATED
+            z.writestr(zi, src.read(info.filename))
+    return out.getvalue()
+
+
+def _files(exp: Experiment) -> dict:
+    """``{relative path: bytes}`` of every file the experiment writes."""
+    records = generate(exp)
+    info = {name: _sensor_info(exp, t) for name, t in exp.tests.items()}
+    files = {}
+    for (test, folder, stem), rec in records.items():
+        labels, positions = info[test]
+        files[Path("data") / test / folder / f"{stem}.npz"] = _npz_bytes(rec, labels, positions)
+    return files
+
+
+def write_experiment(path) -> list[Path]:
+    """Generate and write every record of the experiment file ``path`` (a file or its folder);
+    each ``data/<test>`` folder is replaced atomically. Returns the files written."""
+    exp = load_experiment(path)
+    files = _files(exp)
+    written = []
+    for test in exp.tests:
+        dest = exp.folder / "data" / test
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        with replace_dir(dest) as tmp:
+            for rel, data in files.items():
+                if rel.parts[1] != test:
+                    continue
+                target = tmp / Path(*rel.parts[2:])
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(data)
+                written.append(exp.folder / rel)
+    return written
+
+
+def check_experiment(path) -> list[str]:
+    """Files that differ from a fresh generation (missing, changed or extra), as relative
+    paths; empty when the committed data are exactly what the experiment file generates."""
+    exp = load_experiment(path)
+    files = _files(exp)
+    bad = [str(rel) for rel, data in files.items()
+           if not (exp.folder / rel).is_file() or (exp.folder / rel).read_bytes() != data]
+    for test in exp.tests:
+        root = exp.folder / "data" / test
+        if root.is_dir():
+            for f in sorted(root.rglob("*.npz")):
+                if f.relative_to(exp.folder) not in files:
+                    bad.append(str(f.relative_to(exp.folder)))
+    return bad
+
+
