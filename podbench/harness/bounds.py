@@ -115,7 +115,7 @@ def evaluate_bounds(bound: Bound, scenario, variant_names) -> dict:
         s = fn(structure, times)
         return {k: float(f(s)) for k, f in STATISTICS.items()}
 
-    ref = stats(resolve_structure(bound.reference, scenario, f"bounds.reference"))
+    ref = stats(resolve_structure(bound.reference, scenario, "bounds.reference"))
     points = {}
     for name in variant_names:
         st = stats(resolve_structure(name, scenario))

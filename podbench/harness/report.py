@@ -24,8 +24,12 @@ from .figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
 from .html_report import render_report
 from .progress import as_stage
 from .runner import COLUMNS
-from .sensitivity import (base_claims_path, linked_verdicts, sensitivity_markdown,
-                          sensitivity_verdicts)
+from .sensitivity import (
+    base_claims_path,
+    linked_verdicts,
+    sensitivity_markdown,
+    sensitivity_verdicts,
+)
 
 __all__ = ["summary_table", "fits_table", "write_study", "atomic_write_text", "FLOAT_FORMAT",
            "figure_tasks"]
