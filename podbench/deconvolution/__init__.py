@@ -84,6 +84,7 @@ from .kernel import (
     kernel_matrix,
     log_marginal_likelihood,
 )
+from .realization import DEFAULT_MAX_ORDER, MAX_HANKEL_ROWS, Realization, pole_basis, pole_regressors
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,
@@ -117,10 +118,13 @@ __all__ = [
     "FFTTikhonov",
     "CGLS",
     "KernelRegularized",
+    "Realization",
     "Auto",
     "make_solver",
     "kernel_matrix",
     "log_marginal_likelihood",
+    "pole_basis",
+    "pole_regressors",
     # function forms
     "least_squares",
     "truncated_tls",
@@ -143,4 +147,6 @@ __all__ = [
     "DENSE_MAX_BYTES",
     "DEFAULT_N_HYPER",
     "AUTO_THRESHOLD",
+    "DEFAULT_MAX_ORDER",
+    "MAX_HANKEL_ROWS",
 ]
