@@ -28,7 +28,8 @@ three steps, all on the training data only:
    record, not over the Hankel window. The regressors ``Δt Σ_p G[s−p] φ_b[p]`` are
    first-order recursions of the forces (``O(n)`` per pole).
 
-**Order rule** (``order=None``): the last ``holdout`` fraction of the record is held out;
+**Order rule** (``order=None``): on the first ``n_rule`` samples (the whole record unless
+it is long), the last ``holdout`` fraction is held out;
 steps 1–3 run on the first part for each candidate order ``N = 2, 4, …, max_order``, the
 fitted model predicts the held-out samples from the (measured) forces, and the smallest
 order whose held-out error is within one standard error of the best is kept (``rule``). The full
@@ -60,6 +61,10 @@ then costs well under a second."""
 
 DEFAULT_MAX_ORDER = 40
 """Largest order tried by the order rule by default (20 complex pole pairs)."""
+
+_DIRECT_MAX = 20_000_000
+"""Regressor-matrix entries up to which the residues are fitted by an SVD-based solve of the
+full matrix; beyond, by the (equilibrated) normal equations."""
 
 _EXACT = 1e-9
 """Held-out relative residuals below this count as exact (round-off) in the order rule."""
@@ -142,15 +147,34 @@ def pole_regressors(G: np.ndarray, dt: float, poles) -> np.ndarray:
 
 
 def _fit_residues(Z: np.ndarray, Y: np.ndarray, rows: int) -> np.ndarray:
-    """Least-squares residues ``(k, 1 + N, r)`` of Eq. 2 on samples ``0 … rows−1``."""
+    """Least-squares residues ``(k, 1 + N, r)`` of Eq. 2 on samples ``0 … rows−1``
+    (columns equilibrated; an SVD-based solve up to :data:`_DIRECT_MAX` matrix entries, the
+    normal equations accumulated per load case beyond, solved by a truncated
+    eigen-decomposition)."""
     _, n_cases, k, nb = Z.shape
-    Phi = Z[:rows].reshape(rows * n_cases, k * nb)
-    Yr = Y[:rows].reshape(rows * n_cases, Y.shape[2])
-    scale = np.linalg.norm(Phi, axis=0)
+    r = Y.shape[2]
+    if rows * n_cases * k * nb <= _DIRECT_MAX:
+        Phi = Z[:rows].reshape(rows * n_cases, k * nb)
+        Yr = Y[:rows].reshape(rows * n_cases, r)
+        scale = np.linalg.norm(Phi, axis=0)
+        scale = np.where(scale > 0, scale, 1.0)
+        theta = scipy.linalg.lstsq(Phi / scale, Yr, lapack_driver="gelsd",
+                                   check_finite=False)[0] / scale[:, None]
+        return theta.reshape(k, nb, r)
+    gram = np.zeros((k * nb, k * nb))
+    rhs = np.zeros((k * nb, r))
+    for j in range(n_cases):
+        Pj = Z[:rows, j].reshape(rows, k * nb)
+        gram += Pj.T @ Pj
+        rhs += Pj.T @ Y[:rows, j]
+    scale = np.sqrt(np.diag(gram))
     scale = np.where(scale > 0, scale, 1.0)
-    theta = scipy.linalg.lstsq(Phi / scale, Yr, lapack_driver="gelsd",
-                               check_finite=False)[0] / scale[:, None]
-    return theta.reshape(k, nb, Y.shape[2])
+    gram = gram / np.outer(scale, scale)
+    rhs = rhs / scale[:, None]
+    w, V = scipy.linalg.eigh(gram, check_finite=False)
+    keep = w > w[-1] * 1e-14
+    theta = V[:, keep] @ ((V[:, keep].T @ rhs) / w[keep, None])
+    return (theta / scale[:, None]).reshape(k, nb, r)
 
 
 def _predict(Z: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -186,6 +210,10 @@ class Realization(Solver):
     n_pilot : int, optional
         Samples of the pilot's sub-system (default: the whole record, or
         ``max(64, 4096 // k)`` if shorter).
+    n_rule : int, optional
+        Samples (from the start) on which the order rule runs (default: the whole record,
+        or ``max(256, 8192 // k)`` if shorter); the chosen order's residues are then fitted
+        on the whole record.
     blocks : int, optional
         Block rows ``s`` of the ERA Hankel matrix (default: as many as the pilot's lags
         allow, ``s ≤ (n_pilot − 1)/2``, with ``s·max(k, r) ≤`` :data:`MAX_HANKEL_ROWS`).
@@ -194,7 +222,7 @@ class Realization(Solver):
     ``"fixed"``), ``holdout_residual`` (relative, at the chosen order; None if fixed),
     ``holdout_best_order`` (the order of the smallest held-out residual), ``poles``
     (distinct poles kept), ``max_pole`` (largest ``|λ|``), ``pilot``, ``n_pilot``,
-    ``blocks``, ``rank`` = ``N``.
+    ``n_rule``, ``blocks``, ``rank`` = ``N``.
     """
 
     name = "realization"
@@ -202,13 +230,15 @@ class Realization(Solver):
 
     def __init__(self, *, order: int | None = None, max_order: int = DEFAULT_MAX_ORDER,
                  holdout: float = 0.25, rule: str = "1se", pilot: str = "cgls",
-                 n_pilot: int | None = None, blocks: int | None = None):
+                 n_pilot: int | None = None, n_rule: int | None = None,
+                 blocks: int | None = None):
         self.order = order
         self.max_order = max_order
         self.holdout = holdout
         self.rule = rule
         self.pilot = pilot
         self.n_pilot = n_pilot
+        self.n_rule = n_rule
         self.blocks = blocks
 
     # ------------------------------------------------------------------ parameters
@@ -227,6 +257,8 @@ class Realization(Solver):
             check_positive(self.n_pilot, "n_pilot", integer=True)
             if self.n_pilot < 5:
                 raise InputError(f"Parameter `n_pilot`: at least 5 samples, got {self.n_pilot}")
+        if self.n_rule is not None:
+            check_positive(self.n_rule, "n_rule", integer=True)
         if self.blocks is not None:
             check_positive(self.blocks, "blocks", integer=True)
 
@@ -269,7 +301,12 @@ class Realization(Solver):
         A = realize(P, sv, Qt, H1, D, N)[0]
         return _conj_pairs(np.linalg.eigvals(A))
 
+    def _n_rule(self, n: int, k: int) -> int:
+        m = max(256, 8192 // k) if self.n_rule is None else int(self.n_rule)
+        return min(n, m)
+
     def _choose_order(self, system: ConvolutionSystem):
+        system = _sub_system(system, self._n_rule(system.n, system.k))
         n = system.n
         n_fit = n - max(1, math.ceil(self.holdout * n))
         if n_fit < 5:
@@ -316,7 +353,9 @@ class Realization(Solver):
         info = {"order": order, "order_rule": rule, "holdout_residual": held,
                 "holdout_best_order": best_order, "poles": int(poles.size),
                 "max_pole": float(np.max(np.abs(poles))) if poles.size else 0.0,
-                "pilot": self.pilot, "n_pilot": m, "blocks": s, "rank": order}
+                "pilot": self.pilot, "n_pilot": m,
+                "n_rule": self._n_rule(n, system.k) if rule == "holdout" else None,
+                "blocks": s, "rank": order}
         return system.stack(Xb), info
 
 

@@ -124,3 +124,16 @@ def test_contract_clone_pickle_and_bad_options():
         dc.make_solver("realization", {"pilot": "auto"})
     with pytest.raises(InputError, match="`order`"):
         dc.make_solver("realization", {"order": 0})
+
+
+def test_normal_equation_path_and_short_rule_window(monkeypatch):
+    """Long records: the residues by the normal equations, the order rule on a prefix."""
+    import podbench.deconvolution.realization as rz
+
+    A, B, C, D = _state_space(order=6, seed=4)
+    Qs, Bs, dt, X = _records(A, B, C, D, n=160, seed=6)
+    monkeypatch.setattr(rz, "_DIRECT_MAX", 0)
+    res = dc.deconvolve(Qs, Bs, dt, dc.Realization(pilot="block", n_rule=90, n_pilot=80),
+                        return_info=True)
+    assert res.info["order"] == 6 and res.info["n_rule"] == 90 and res.info["n_pilot"] == 80
+    assert np.max(np.abs(res.X - X)) < 1e-7 * np.max(np.abs(X))
