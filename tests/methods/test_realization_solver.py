@@ -137,3 +137,21 @@ def test_normal_equation_path_and_short_rule_window(monkeypatch):
                         return_info=True)
     assert res.info["order"] == 6 and res.info["n_rule"] == 90 and res.info["n_pilot"] == 80
     assert np.max(np.abs(res.X - X)) < 1e-7 * np.max(np.abs(X))
+
+
+@pytest.mark.slow
+def test_ml_records_what_auto_chose():
+    """ML in the identity basis (sensors = modes): the modal forces are F, the POCs W."""
+    from podbench.methods import MultipleLoad
+
+    A, B, C, D = _state_space(order=4, k=2, r=2, seed=7)
+    Qs, Bs, dt, X = _records(A, B, C, D, n=100, seed=8)
+    n = 100
+    Ws = [Bs[j * n:(j + 1) * n].T for j in range(2)]
+    est = MultipleLoad(solver="auto").fit(Ws, Qs, dt=dt, basis=np.eye(2))
+    assert est.diagnostics_["solver_choice"] == "block"
+    noisy = [W + 0.02 * W.std() * np.random.default_rng(j).standard_normal(W.shape)
+             for j, W in enumerate(Ws)]
+    est = MultipleLoad(solver="auto").fit(noisy, Qs, dt=dt, basis=np.eye(2))
+    d = est.diagnostics_
+    assert d["solver_choice"] == "realization" and d["solver_order"] == est.solver_info_["order"]
