@@ -152,6 +152,7 @@ def test_ml_records_what_auto_chose():
     assert est.diagnostics_["solver_choice"] == "block"
     noisy = [W + 0.02 * W.std() * np.random.default_rng(j).standard_normal(W.shape)
              for j, W in enumerate(Ws)]
-    est = MultipleLoad(solver="auto").fit(noisy, Qs, dt=dt, basis=np.eye(2))
+    est = MultipleLoad(solver=dc.Auto(robust="realization")).fit(noisy, Qs, dt=dt,
+                                                                basis=np.eye(2))
     d = est.diagnostics_
     assert d["solver_choice"] == "realization" and d["solver_order"] == est.solver_info_["order"]
