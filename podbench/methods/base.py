@@ -153,8 +153,9 @@ class PODMethod:
         where the method has them, and the deconvolution solver's diagnostics
         (``solver``, ``solver_amplification``, ``solver_reg``, ``solver_iterations``,
         ``solver_rank``, …; ``solver_choice``: what ``solver="auto"`` returned, e.g.
-        ``"block"`` or ``"realization"``, and ``solver_order`` the realization's order). A method that deconvolves once per mode (SL, MR) reports the
-        largest value over the modes (the sum for ``solver_iterations``)."""
+        ``"block"`` or ``"realization"``, and ``solver_order`` the realization's order).
+        A method that deconvolves once per mode (SL, MR) reports the largest value over the
+        modes (the sum for ``solver_iterations``)."""
         self._check_is_fitted()
         out: dict = {"n_modes": int(self.n_modes_)}
         for name in ("fit_residual_", "condition_number_"):
