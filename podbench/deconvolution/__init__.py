@@ -45,6 +45,10 @@ Structured (never form ``A``):
 ``"cgls"``  :class:`CGLS` (:func:`cgls_fft`), Tikhonov-regularized least squares on the exact
             system by conjugate gradients with FFT products and a circulant preconditioner;
             ``reg=0`` is plain least squares (also over-determined ML).
+``"kernel"`` :class:`KernelRegularized`, empirical-Bayes (DC/TC prior) regularization.
+``"realization"`` :class:`Realization`, a low-order state-space realization (ERA poles of a
+            pilot kernel, residues refitted on the whole record, order by hold-out).
+``"auto"``  :class:`Auto`, exact on clean data, ``"kernel"`` (or ``"realization"``) on noisy.
 
 The Tikhonov parameter of ``"fft"`` and ``"cgls"`` is chosen by generalized
 cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regularization`).
@@ -84,6 +88,13 @@ from .kernel import (
     kernel_matrix,
     log_marginal_likelihood,
 )
+from .realization import (
+    DEFAULT_MAX_ORDER,
+    MAX_HANKEL_ROWS,
+    Realization,
+    pole_basis,
+    pole_regressors,
+)
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,
@@ -117,10 +128,13 @@ __all__ = [
     "FFTTikhonov",
     "CGLS",
     "KernelRegularized",
+    "Realization",
     "Auto",
     "make_solver",
     "kernel_matrix",
     "log_marginal_likelihood",
+    "pole_basis",
+    "pole_regressors",
     # function forms
     "least_squares",
     "truncated_tls",
@@ -143,4 +157,6 @@ __all__ = [
     "DENSE_MAX_BYTES",
     "DEFAULT_N_HYPER",
     "AUTO_THRESHOLD",
+    "DEFAULT_MAX_ORDER",
+    "MAX_HANKEL_ROWS",
 ]

@@ -16,6 +16,7 @@ from .auto import Auto
 from .block import BlockSubstitution
 from .dense import DenseSolver, LeastSquares, TruncatedTLS
 from .kernel import KernelRegularized
+from .realization import Realization
 from .system import ConvolutionSystem
 from .tikhonov import CGLS, FFTTikhonov
 
@@ -35,6 +36,7 @@ _BUILTIN: dict[str, type[Solver]] = {
     "fft": FFTTikhonov,
     "cgls": CGLS,
     "kernel": KernelRegularized,
+    "realization": Realization,
     "auto": Auto,
 }
 

@@ -152,8 +152,10 @@ class PODMethod:
         harness's ``fits.csv``): ``n_modes``, ``fit_residual`` and ``condition_number``
         where the method has them, and the deconvolution solver's diagnostics
         (``solver``, ``solver_amplification``, ``solver_reg``, ``solver_iterations``,
-        ``solver_rank``, …). A method that deconvolves once per mode (SL, MR) reports the
-        largest value over the modes (the sum for ``solver_iterations``)."""
+        ``solver_rank``, …; ``solver_choice``: what ``solver="auto"`` returned, e.g.
+        ``"block"`` or ``"realization"``, and ``solver_order`` the realization's order).
+        A method that deconvolves once per mode (SL, MR) reports the largest value over the
+        modes (the sum for ``solver_iterations``)."""
         self._check_is_fitted()
         out: dict = {"n_modes": int(self.n_modes_)}
         for name in ("fit_residual_", "condition_number_"):
@@ -169,6 +171,11 @@ class PODMethod:
                         and not isinstance(i.get(key), bool)]
                 if vals:
                     out[f"solver_{key}"] = sum(vals) if key == "iterations" else max(vals)
+            # what solver="auto" chose (distinct values over the modes, in order)
+            choices = list(dict.fromkeys(str(i["choice"]) for i in infos
+                                         if isinstance(i.get("choice"), str)))
+            if choices:
+                out["solver_choice"] = ",".join(choices)
         return out
 
     @property

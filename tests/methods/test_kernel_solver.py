@@ -112,7 +112,7 @@ def test_evidence_is_true_and_maximized():
     assert err < 0.2 < 10 * err < err_ls
 
 
-def test_auto_picks_exact_on_clean_and_kernel_on_noisy():
+def test_auto_picks_exact_on_clean_and_robust_on_noisy():
     Qs, B, dt, X = _chain()
     clean = dc.deconvolve(Qs, B, dt, "auto", return_info=True)
     assert clean.info["choice"] == "block" and clean.info["noise_floor"] < 1e-4
@@ -121,6 +121,13 @@ def test_auto_picks_exact_on_clean_and_kernel_on_noisy():
     noisy = dc.deconvolve(Qs, B, dt, "auto", return_info=True)
     assert noisy.info["choice"] == "kernel" and noisy.info["noise_floor"] > 1e-3
     np.testing.assert_allclose(noisy.X, dc.deconvolve(Qs, B, dt, "kernel"), rtol=0, atol=0)
+    real = dc.deconvolve(Qs, B, dt, dc.Auto(robust="realization"), return_info=True)
+    assert real.info["choice"] == "realization" and real.info["noise_floor"] > 1e-3
+    np.testing.assert_allclose(real.X, dc.deconvolve(Qs, B, dt, "realization"), rtol=0, atol=0)
+    assert real.info["order"] == dc.deconvolve(Qs, B, dt, "realization",
+                                               return_info=True).info["order"]
+    with pytest.raises(InputError, match="`robust`"):
+        dc.make_solver("auto", {"robust": "tls"})
 
 
 def test_tls_column_scaling_invariance_and_gap_rule():
