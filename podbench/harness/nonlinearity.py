@@ -292,7 +292,7 @@ def nonlinearity_table(structure: Structure | None = None, *, fractions=FRACTION
     s = band_variant(s, slack=0.0, prestretch=0.0)
     T = reference_period(s)
     t_end = max(times) + 2.0 * T
-    first = impulse_responses(s, peaks[-1:], t_end=T)
+    first = impulse_responses(modal_damping(s, 0.0), peaks[-1:], t_end=T)  # undamped A
     A = float(np.max(np.abs(first.tip)))
     rows = []
     for zeta in zetas:
