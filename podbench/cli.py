@@ -418,11 +418,8 @@ def cmd_run(args) -> int:
         from .harness.nonlinearity_study import run_checks
 
         spec = claims_file.nonlinearity
-        t1 = time.perf_counter()
-        nonlinearity = (spec, run_checks(spec, jobs=args.jobs))
-        if not args.quiet:
-            print(f"nonlinearity checks ({spec.structure}): {len(nonlinearity[1])} rows in "
-                  f"{time.perf_counter() - t1:.1f} s", file=sys.stderr)
+        nonlinearity = (spec, run_checks(spec, jobs=args.jobs, progress=progress,
+                                         cache_dir=None if args.no_cache else args.cache))
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=not args.no_figures, jobs=args.jobs,
                                 figure_format=args.figure_format, progress=progress,

@@ -98,19 +98,30 @@ def row_label(r: dict) -> str:
 
 
 def _task(args):
-    structure, zeta, frac = args
-    return nonlinearity_table(load_structure(structure), fractions=(frac,), zetas=(zeta,))
+    from .cache import TruthCache
+
+    structure, zeta, frac, cache_dir = args
+    return nonlinearity_table(load_structure(structure), fractions=(frac,), zetas=(zeta,),
+                              cache=TruthCache(cache_dir) if cache_dir is not None else None)
 
 
 _ORDER = {"none": 0, "slack": 1, "prestretch": 2}
 
 
-def run_checks(spec: NonlinearitySpec, *, jobs: int = 1, progress=None) -> list[dict]:
+def run_checks(spec: NonlinearitySpec, *, jobs: int = 1, progress=None,
+               cache_dir=None) -> list[dict]:
     """The rows of :func:`~podbench.harness.nonlinearity.nonlinearity_table` for ``spec``, one
-    task per (ζ, fraction) (``jobs`` processes), in a fixed order: ζ, then the band's own
+    task per (ζ, fraction) (``jobs`` processes; ``progress`` as
+    :func:`podbench.harness.progress.as_stage`; ``cache_dir``: the truth cache's folder, the
+    2.2-s responses are read back exactly on a rerun), in a fixed order: ζ, then the band's own
     row, the slacks and the pre-stretches by fraction."""
-    tasks = [(spec.structure, z, f) for z in spec.zetas for f in spec.fractions]
-    rows = [r for part in execute(_task, tasks, jobs=jobs, progress=progress) for r in part]
+    from .progress import as_stage
+
+    tasks = [(spec.structure, z, f, None if cache_dir is None else str(cache_dir))
+             for z in spec.zetas for f in spec.fractions]
+    with as_stage(progress, "nonlinearity checks", len(tasks), "task") as stage:
+        parts = execute(_task, tasks, jobs=jobs, progress=lambda *_: stage.advance())
+    rows = [r for part in parts for r in part]
     return sorted(rows, key=lambda r: (r["zeta"], _ORDER[r["kind"]], r["fraction"]))
 
 

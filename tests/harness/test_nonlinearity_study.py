@@ -124,3 +124,25 @@ def test_nonlinearity_claim_rows_against_the_raw_responses():
     # slack: stiffening, small loads lag (frequency rises with load); pre-stretch: the reverse
     assert slack["deviation"] > 0.01 and slack["scaled_rms_change"] < 0 < slack["lag_last"]
     assert pre["lag_last"] < 0
+
+
+def test_impulse_responses_read_back_exactly_from_the_cache(tmp_path):
+    """A cached response equals the simulated one bit for bit (the study's tables must not
+    depend on whether the cache was warm); a changed band misses the cache."""
+    from podbench.fem.files import load_structure
+    from podbench.harness.cache import TruthCache
+    from podbench.harness.nonlinearity import band_variant, impulse_responses
+
+    s = load_structure("rubber_band_beam")
+    cache = TruthCache(tmp_path)
+    a = impulse_responses(s, (0.36, 1.8), t_end=0.02)
+    b = impulse_responses(s, (0.36, 1.8), t_end=0.02, cache=cache)
+    c = impulse_responses(s, (0.36, 1.8), t_end=0.02, cache=cache)
+    assert (cache.misses, cache.hits) == (2, 2)
+    for x in (b, c):
+        assert np.array_equal(x.tip, a.tip) and np.array_equal(x.impulses, a.impulses)
+    # impulse of a 1-ms half-sine of peak P sampled at 0.1 ms: P * dt * sum(sin(pi k / 10))
+    k = np.arange(1, 10)
+    assert a.impulses[1] == pytest.approx(1.8 * 1e-4 * np.sin(np.pi * k / 10).sum(), rel=1e-9)
+    impulse_responses(band_variant(s, slack=0.001), (1.8,), t_end=0.02, cache=cache)
+    assert cache.misses == 3
