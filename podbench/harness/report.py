@@ -284,7 +284,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         embedded: dict = {}
         if figures:
             fdir = tmp / "figures"
-            fdir.mkdir()
+            fdir.mkdir(exist_ok=True)  # the nonlinearity figures may be there
             tasks = figure_tasks(results, scenarios, fdir, figure_format, embed=True)
             for task, uri in zip(tasks, _draw_all(tasks, jobs, progress), strict=True):
                 m = task.meta
