@@ -273,6 +273,13 @@ def _scenario_paths(paths, default: str = DEFAULT_STUDY):
     return resolved, find_scenarios(resolved)
 
 
+def _whole_study(claims_path, scenarios) -> bool:
+    """Whether ``scenarios`` holds every scenario of the claims file's folder."""
+    from .scenarios import find_scenarios
+
+    return {p.stem for p in find_scenarios([Path(claims_path).parent])} <= set(scenarios)
+
+
 def _claims_path(paths):
     from .scenarios import CLAIMS_FILE
 
@@ -405,11 +412,19 @@ def cmd_run(args) -> int:
         linked = run_linked(claims_file, scenarios, jobs=args.jobs,
                             cache_dir=None if args.no_cache else args.cache,
                             engine=args.engine, progress=progress)
+    nonlinearity = None
+    if claims_file is not None and claims_file.nonlinearity is not None \
+            and _whole_study(claims, scenarios):  # §5.2's checks: only on a whole-study run
+        from .harness.nonlinearity_study import run_checks
+
+        spec = claims_file.nonlinearity
+        nonlinearity = (spec, run_checks(spec, jobs=args.jobs, progress=progress,
+                                         cache_dir=None if args.no_cache else args.cache))
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=not args.no_figures, jobs=args.jobs,
                                 figure_format=args.figure_format, progress=progress,
                                 command=shlex.join(["podbench", *map(str, args.argv)]),
-                                sensitivity=linked)
+                                sensitivity=linked, nonlinearity=nonlinearity)
     n_sim, n_cached = response_counts(results)
     print(f"{_plural(len(df), 'row')} from {_plural(len(scenarios), 'scenario')} in {secs:.1f} s "
           f"({_plural(n_sim, 'response')} simulated, {n_cached} from the cache) -> "

@@ -23,12 +23,16 @@ Format::
                                            # that varies the unstated parameters; its
                                            # verdicts are linked from FINDINGS.md
     [[bounds]]                             # optional: see podbench.harness.bounds
+    [nonlinearity]                         # optional: see podbench.harness.nonlinearity_study
 
 A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and each operand a
 number or ``METHOD.metric`` (a method label and a column of the summary table). A metric
 operand may name another scenario's row of the same structure and target,
 ``SCENARIO:METHOD.metric``, and carry a positive factor, ``1.1*SCENARIO:METHOD.metric`` (how
-Chapter 5 compares a noisy run with the clean one). A claim is *reproduced* when every check
+Chapter 5 compares a noisy run with the clean one). ``SCENARIO/STRUCTURE/TARGET:METHOD.metric``
+names a row of another structure and target too (how §5.2's rubber-band beam is compared
+with Chapter 4's NL beam, a scenario of the same study: the value is measured in the same
+run, never written into the check). A claim is *reproduced* when every check
 holds on every (scenario, structure, target) row, *not reproduced* when one fails, and *not
 measured* when a value is missing or NaN.
 """
@@ -94,6 +98,9 @@ class ClaimsFile:
     remarks: list
     bounds: list
     sensitivity: Path | None
+    nonlinearity: object = None
+    """The ``[nonlinearity]`` table (:class:`~podbench.harness.nonlinearity_study.
+    NonlinearitySpec`) or None."""
 
 
 def load_claims(path) -> tuple[list[Claim], list[dict]]:
@@ -145,10 +152,15 @@ def load_claims_file(path) -> ClaimsFile:
             sensitivity = (path.parent / top.string("sensitivity")).resolve()
             if not sensitivity.is_dir():
                 top.fail("sensitivity", f"{sensitivity} is not a folder of scenarios")
+        nonlinearity = None
+        if top.has("nonlinearity"):
+            from .nonlinearity_study import parse_spec
+
+            nonlinearity = parse_spec(top.table("nonlinearity"))
         top.close()
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
-    return ClaimsFile(path, claims, remarks, bounds, sensitivity)
+    return ClaimsFile(path, claims, remarks, bounds, sensitivity, nonlinearity)
 
 
 _FACTOR_RE = re.compile(r"^\s*((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\*\s*(.+)$")
@@ -165,7 +177,10 @@ def _value(operand: str, rows: dict, other=None):
     label, _, metric = ref.rpartition(".")
     scen, sep, label = label.rpartition(":")
     if sep:
-        rows = other(scen) if other is not None else {}
+        scen, *where = scen.split("/")
+        if len(where) not in (0, 2) or not all(where):
+            return math.nan, f"{operand} (expected SCENARIO or SCENARIO/STRUCTURE/TARGET)"
+        rows = other(scen, *where) if other is not None else {}
     row = rows.get(label)
     if row is None or metric not in row:
         return math.nan, f"{operand} (no such row/column)"
@@ -176,8 +191,9 @@ def _value(operand: str, rows: dict, other=None):
 def check(expr: str, rows: dict, other=None) -> tuple[bool | None, str]:
     """Evaluate one check on ``rows`` (method label -> row dict). None when not measurable.
 
-    ``other(scenario)`` gives the rows of another scenario (same structure and target) for
-    ``SCENARIO:METHOD.metric`` operands."""
+    ``other(scenario, structure=None, target=None)`` gives the rows of another scenario (by
+    default of the same structure and target) for ``SCENARIO:METHOD.metric`` and
+    ``SCENARIO/STRUCTURE/TARGET:METHOD.metric`` operands."""
     m = CHECK_RE.match(expr)
     a, sa = _value(m.group(1), rows, other)
     b, sb = _value(m.group(3), rows, other)
@@ -225,7 +241,9 @@ def evaluate_claims(claims, table, *, scenarios=None) -> list[dict]:
                 for t in c.targets:
                     rows = rows_of(scen, s, t)
                     for expr in c.checks:
-                        ok, shown = check(expr, rows, lambda o, s=s, t=t: rows_of(o, s, t))
+                        ok, shown = check(
+                            expr, rows,
+                            lambda o, s2=None, t2=None, s=s, t=t: rows_of(o, s2 or s, t2 or t))
                         mine.append(ok)
                         details.append({"scenario": scen, "structure": s, "target": t,
                                         "check": expr, "shown": shown, "holds": ok})

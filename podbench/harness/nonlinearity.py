@@ -130,16 +130,33 @@ class ImpulseSet:
 
 def impulse_responses(structure: Structure, peaks=PEAKS, *, duration: float = PULSE_DURATION,
                       location: float = LOCATION, t_end: float = 2.2,
-                      dt: float = DT) -> ImpulseSet:
+                      dt: float = DT, cache=None) -> ImpulseSet:
     """Tip displacement (the last sensor) for half-sine pulses of ``peaks`` (lbf) at
-    ``location`` (in), ``duration`` s, from rest, over ``[0, t_end]`` s."""
+    ``location`` (in), ``duration`` s, from rest, over ``[0, t_end]`` s.
+
+    ``cache``: a :class:`podbench.harness.cache.TruthCache` (or None): each response is
+    keyed by the structure's fingerprint and the load, and read back exactly."""
+    from .cache import TruthCache, structure_fingerprint
+
     n = int(round(t_end / dt)) + 1
+    fp = structure_fingerprint(structure) if cache is not None else ""
     tips, imps = [], []
     for p in peaks:
+        key = TruthCache.key(what="nonlinearity.impulse_responses", structure=fp,
+                             peak=float(p), duration=float(duration),
+                             location=float(location), n=n, dt=float(dt))
+        hit = cache.load(key, (1, n)) if cache is not None else None
+        if hit is not None:  # W: the tip row; F: the impulse (lbf·s) in every entry
+            tips.append(hit["W"][0])
+            imps.append(float(hit["F"][0, 0]))
+            continue
         f = Pulse(location, float(p), duration, shape="half_sine")
         r = simulate(structure, n_samples=n, dt=dt, force=f, dof_histories=False)
         tips.append(r.W[-1])
         imps.append(float(r.F.sum() * dt))
+        if cache is not None:
+            cache.store(key, {"W": r.W[-1][None, :], "F": np.full((1, n), imps[-1]),
+                              "w0": np.zeros(1), "v0": np.zeros(1), "t": np.arange(n) * dt})
     return ImpulseSet(t=np.arange(n) * dt, peaks=tuple(float(p) for p in peaks),
                       impulses=np.array(imps), tip=np.array(tips))
 
@@ -281,18 +298,21 @@ def phase_lags(data: ImpulseSet, times, period: float, *,
 
 
 def nonlinearity_table(structure: Structure | None = None, *, fractions=FRACTIONS,
-                       zetas=(0.0, 0.005), peaks=PEAKS, times=LAG_TIMES) -> list[dict]:
+                       zetas=(0.0, 0.005), peaks=PEAKS, times=LAG_TIMES,
+                       cache=None) -> list[dict]:
     """Both checks over a slack or pre-stretch of ``fractions`` × the largest tip amplitude.
 
     ``structure``: the rubber-band beam (default ``rubber_band_beam``). The amplitude ``A`` is
     the largest |tip displacement| of the literal band (no slack) under the largest load,
     undamped, over the first reference period. One row per (damping, kind, fraction).
+    ``cache``: see :func:`impulse_responses`.
     """
     s = load_structure("rubber_band_beam") if structure is None else structure
     s = band_variant(s, slack=0.0, prestretch=0.0)
     T = reference_period(s)
     t_end = max(times) + 2.0 * T
-    first = impulse_responses(s, peaks[-1:], t_end=T)
+    first = impulse_responses(modal_damping(s, 0.0), peaks[-1:], t_end=T,
+                              cache=cache)  # undamped A
     A = float(np.max(np.abs(first.tip)))
     rows = []
     for zeta in zetas:
@@ -302,7 +322,7 @@ def nonlinearity_table(structure: Structure | None = None, *, fractions=FRACTION
                 if frac == 0.0 and kind == "prestretch":
                     continue
                 sv = band_variant(sd, **{kind: frac * A})
-                data = impulse_responses(sv, peaks, t_end=t_end)
+                data = impulse_responses(sv, peaks, t_end=t_end, cache=cache)
                 sup = superposition_check(data, T, side=sv.nonlinear[0].side)
                 lags = phase_lags(data, times, T)
                 rows.append({

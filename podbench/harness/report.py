@@ -108,7 +108,8 @@ def _over_parameter(e, linked) -> str:
     return "; ".join(f"{kind}: {text}" for kind, text, _ in runs)
 
 
-def findings_markdown(evaluated, remarks, claims_path, linked=None) -> str:
+def findings_markdown(evaluated, remarks, claims_path, linked=None,
+                      linked_from: str = "the claims file's sensitivity study") -> str:
     n = len(evaluated)
     counts = {k: sum(e["verdict"] == k for e in evaluated)
               for k in ("reproduced", "not reproduced", "not measured")}
@@ -127,7 +128,7 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None) -> str:
                      and all(k.startswith("holds") for k, _, _ in r))
         n_linked = sum(1 for e in evaluated if e["claim"].id in linked)
         out.append(f"{n_linked} claims name a structure whose parameter the text does not "
-                   "state; the claims file's sensitivity study judges them again at every "
+                   f"state; {linked_from} judges them again at every "
                    "value of it (the same checks), and the last column says how each fares "
                    "over the values the text's words admit (the claims file's `[[bounds]]`; "
                    "without one, over the whole studied range). Over those values "
@@ -218,7 +219,7 @@ def _draw_all(tasks, jobs: int, progress=None) -> list:
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
                 jobs: int = 1, figure_format: str = "png", command: str | None = None,
-                progress=None, sensitivity=None):
+                progress=None, sensitivity=None, nonlinearity=None):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically):
     the tables, ``FINDINGS.md`` (with a claims file), ``figures/*.<figure_format>`` and the
     self-contained ``report.html`` (:mod:`podbench.harness.html_report`; ``command`` is
@@ -228,6 +229,9 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
     that part). ``progress``: see :func:`podbench.harness.progress.as_stage`.
     ``sensitivity``: the verdicts of the claims file's sensitivity study
     (:func:`~podbench.harness.sensitivity.sensitivity_verdicts`), linked from FINDINGS.md.
+    ``nonlinearity``: ``(spec, rows)`` of the claims file's ``[nonlinearity]`` checks
+    (:mod:`podbench.harness.nonlinearity_study`): written to ``nonlinearity.md``/``.csv``
+    (and figures), their claims judged and swept in FINDINGS.md.
     Returns the summary DataFrame and the claim verdicts (or None).
     """
     if figure_format not in FIGURE_FORMATS:
@@ -241,15 +245,35 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
         (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
+        judged, nl_table, linked_from = df, None, "the claims file's sensitivity study"
+        if nonlinearity is not None:
+            from .nonlinearity_study import claim_rows, write_outputs
+
+            spec, nl_rows = nonlinearity
+            nl_table = claim_rows(nl_rows, spec)
+            write_outputs(nl_rows, nl_table, tmp, figures=figures,
+                          figure_format=figure_format)
+            judged = pd.concat([df, nl_table[[c for c in nl_table.columns
+                                              if c not in ("kind", "fraction")]]],
+                               ignore_index=True)
         if claims_path is not None:
             claims, remarks = load_claims(claims_path)
-            evaluated = evaluate_claims(
-                [c for c in claims if any(x in scenarios for x in c.all_scenarios())], df,
-                scenarios=scenarios)
+            names = set(scenarios) | ({nonlinearity[0].name} if nonlinearity else set())
+            mine = [c for c in claims if any(x in names for x in c.all_scenarios())]
+            evaluated = evaluate_claims(mine, judged, scenarios=names)
             linked = linked_verdicts(sensitivity) if sensitivity else None
+            if nl_table is not None:
+                from .nonlinearity_study import swept_verdicts
+
+                swept = swept_verdicts(mine, nl_table, nonlinearity[0])
+                if swept:
+                    linked = {**(linked or {}), **swept}
+                    linked_from = ("the nonlinearity sweep (nonlinearity.md)" if not sensitivity
+                                   else linked_from + " or the nonlinearity sweep")
             (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
                                                                display_path(claims_path),
-                                                               linked=linked),
+                                                               linked=linked,
+                                                               linked_from=linked_from),
                                              encoding="utf-8", newline="\n")
         elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
             base = load_claims_file(base_claims)
@@ -260,7 +284,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         embedded: dict = {}
         if figures:
             fdir = tmp / "figures"
-            fdir.mkdir()
+            fdir.mkdir(exist_ok=True)  # the nonlinearity figures may be there
             tasks = figure_tasks(results, scenarios, fdir, figure_format, embed=True)
             for task, uri in zip(tasks, _draw_all(tasks, jobs, progress), strict=True):
                 m = task.meta

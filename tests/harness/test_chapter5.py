@@ -19,7 +19,7 @@ from podbench.experiments import (
     load_experiment,
     write_experiment,
 )
-from podbench.harness.claims import evaluate_claims, load_claims
+from podbench.harness.claims import evaluate_claims, load_claims, load_claims_file
 from podbench.measured import read_record
 from podbench.scenarios import find_scenarios, load_scenario
 
@@ -177,8 +177,9 @@ def test_bundled_chapter5_claims_quote_the_seed():
     if not seed.is_file():
         pytest.skip("seed text not available")
     text = " ".join(seed.read_text(encoding="utf-8").split())
-    claims, _ = load_claims(CH5 / "claims.toml")
-    names = {p.stem for p in find_scenarios([CH5])}
+    f = load_claims_file(CH5 / "claims.toml")
+    claims = f.claims
+    names = {p.stem for p in find_scenarios([CH5])} | {f.nonlinearity.name}
     for c in claims:
         assert " ".join(c.quote.split()) in text, c.id
         assert set(c.all_scenarios()) <= names, c.id
@@ -216,3 +217,38 @@ def test_a_measured_case_is_described_as_its_file():
     assert describe_case(sc.cases["load8"], dt=1e-4, t_end=0.1) == (
         "measured record data/linear_beam/noise_1pct/load8.npz")
     assert describe_case(sc.cases["load4_clean"], dt=1e-4, t_end=0.1).startswith("the clean")
+
+
+# ----------------------------------------------------------------------------------------
+# §5.2: the rubber-band beam
+# ----------------------------------------------------------------------------------------
+
+
+def test_rubber_band_records_and_the_decomposition_scenario_share_the_loads():
+    """The simulated decomposition scenario runs exactly the experiment's clean loads, and
+    the clean record is the noise-free simulation of the structure (independent run)."""
+    from podbench.dynamics import simulate
+    from podbench.excitations import Pulse
+    from podbench.fem.files import load_structure
+
+    test = load_experiment(CH5).tests["rubber_band_beam"]
+    sc = load_scenario(CH5 / "rubber_band_beam_decomposition.toml")
+    assert set(test.cases) == {"load4", "load12", "load16"} == set(sc.cases)
+    for name, force in test.cases.items():
+        assert tuple(sc.cases[name].force) == tuple(force), name
+    for p in (0, 1, 2, 5):
+        noisy = load_scenario(CH5 / f"rubber_band_beam_noise_{p}pct.toml")
+        assert noisy.structures == ("rubber_band_beam",) or list(noisy.structures) == [
+            "rubber_band_beam"]
+        assert noisy.cases["load4"].file.endswith(f"noise_{p}pct/load4.npz")
+    # hits spread over up to 6 ms ("sometime for as long as 6 ms after the initial impact")
+    last = max(h[0] for f in test.cases.values() for h in f[0]["hits"])
+    assert 5.0e-3 <= last <= 6.0e-3
+    rec = read_record(CH5 / "data/rubber_band_beam/noise_0pct/load4.npz")
+    assert rec.W.shape == (6, 1024)
+    f = test.cases["load4"][0]
+    pulse = Pulse(f["location"], f["amplitude"], f["duration"], shape=f["shape"],
+                  hits=[tuple(h) for h in f["hits"]])
+    W = simulate(load_structure("rubber_band_beam"), n_samples=1024, dt=1e-4, force=pulse,
+                 dof_histories=False).W
+    assert np.linalg.norm(rec.W - W) / np.linalg.norm(W) < 1e-6  # float32 records
