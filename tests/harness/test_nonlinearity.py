@@ -119,8 +119,10 @@ def test_response_nonlinearity_is_zero_when_the_band_never_engages():
 
     s = load_structure("rubber_band_beam")
     f = Pulse(4.0, 1.8, 1e-3, shape="half_sine")
-    # a slack far beyond the tip amplitude: the structure is its own twin (the bare beam)
-    assert response_nonlinearity(band_variant(s, slack=1.0), f, 400, 1e-4) < 1e-12
+    # a slack far beyond the tip amplitude: the structure is its own twin (the bare beam);
+    # round-off only (Newton's solve vs the linear solve; 1.8e-12 measured with another
+    # OpenBLAS kernel), against 0.19 with the band engaging (below)
+    assert response_nonlinearity(band_variant(s, slack=1.0), f, 400, 1e-4) < 1e-10
     # a pre-stretch far beyond the amplitude: the band never goes slack, twin = two-sided band
-    assert response_nonlinearity(band_variant(s, prestretch=1.0), f, 400, 1e-4) < 1e-12
+    assert response_nonlinearity(band_variant(s, prestretch=1.0), f, 400, 1e-4) < 1e-10
     assert response_nonlinearity(s, f, 400, 1e-4) > 0.01
