@@ -46,12 +46,23 @@ def summary_table(results) -> pd.DataFrame:
     return df
 
 
+#: Residual columns of ``fits.csv`` (``fit_residual``, ``solver_residual``: relative
+#: ‖AX − B‖/‖B‖ of the fit) below this are round-off and written as 0. An exact solve leaves
+#: 1e-16…1e-15 whose digits differ between CPUs (OpenBLAS picks its kernel per CPU type;
+#: measured: 3.26547e-16 against 3.24243e-16 for the same fit), which would make the table
+#: machine-dependent.
+ROUNDOFF_RESIDUAL = 1e-12
+
+
 def fits_table(results) -> pd.DataFrame:
     """One row per (scenario, structure, reported method): what its fit measured about
     itself (:attr:`podbench.methods.PODMethod.diagnostics_`: mode count, fit residual,
     condition number, the solver's amplification, regularization, iterations, …)."""
     rows = [f for u in results for f in getattr(u, "fits", [])]
     df = pd.DataFrame(rows)
+    for c in df.columns:  # round-off residuals: their digits depend on the CPU's BLAS kernel
+        if c.endswith("residual") and pd.api.types.is_numeric_dtype(df[c]):
+            df[c] = df[c].mask(df[c].abs() < ROUNDOFF_RESIDUAL, 0.0)
     first = [c for c in ("scenario", "structure", "method", "n_modes", "solver") if c in df]
     return df[first + sorted(c for c in df.columns if c not in first)]
 
