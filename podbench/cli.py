@@ -19,6 +19,9 @@ import traceback
 from pathlib import Path
 
 DEFAULT_STUDY = "chapter4"
+#: What `podbench regress` re-runs without a PATH (the committed baseline holds their rows):
+#: the numerical study and the noisy-measurement study.
+REGRESS_STUDIES = ("chapter4", "chapter5")
 """The bundled study ``run`` and ``regress`` run without a path (``podbench/bundled/``)."""
 DEFAULT_SWEEPS = "sweeps"
 """The bundled folder of sweep scenarios ``sweep`` runs without a path."""
@@ -141,7 +144,8 @@ Examples:
                     "unusable input.",
         epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     common(g, "scenario files or folders of them, or a bundled study or scenario by name "
-              "(default: chapter4); claims are not judged and nothing is written")
+              "(default: chapter4 and chapter5, the studies of results/baseline.csv); claims "
+              "are not judged and nothing is written")
     g.add_argument("--baseline", default=str(DEFAULT_BASELINE), metavar="CSV",
                    help=f"baseline table (default {DEFAULT_BASELINE})")
     g.add_argument("--rtol", type=_tolerance, default=0.01,
@@ -253,14 +257,14 @@ class _Usage(Exception):
     pass
 
 
-def _scenario_paths(paths, default: str = DEFAULT_STUDY):
-    """The paths to run (a bundled study or scenario where a name is not an existing path)
-    and their scenario files."""
+def _scenario_paths(paths, default=(DEFAULT_STUDY,)):
+    """The paths to run (a bundled study or scenario where a name is not an existing path;
+    the bundled studies ``default`` without ``paths``) and their scenario files."""
     from ._resources import bundled_studies, resolve_bundled
     from .scenarios import find_scenarios
 
     resolved = []
-    for p in paths or [default]:
+    for p in paths or ([default] if isinstance(default, str) else list(default)):
         if not paths or not Path(p).exists():
             b = resolve_bundled(p)
             if b is None:
@@ -474,7 +478,7 @@ def cmd_regress(args) -> int:
 
     files = None
     if not args.table:
-        files = _scenario_paths(args.paths)[1]  # a missing scenario path is reported first
+        files = _scenario_paths(args.paths, REGRESS_STUDIES)[1]  # missing paths first
     baseline = Path(args.baseline)
     if args.update:  # checked before any work: the new baseline can be written
         if baseline.is_dir():

@@ -1,7 +1,7 @@
 """The committed baseline (results/baseline.csv) matches a fresh run of this commit.
 
 The quick test re-runs the five cheaper Chapter 4 scenarios (a few seconds); the slow test
-runs `podbench regress` on the whole study, as the nightly workflow does."""
+runs `podbench regress` on both studies (Chapter 4 and 5), as the nightly workflow does."""
 
 from pathlib import Path
 
@@ -33,3 +33,14 @@ def test_quick_scenarios_reproduce_the_committed_baseline(tmp_path):
 def test_whole_study_regress_passes(monkeypatch, capsys):
     monkeypatch.chdir(ROOT)
     assert cli.main(["regress", "-q", "--no-cache"]) == 0, capsys.readouterr().out
+
+
+def test_baseline_holds_the_studies_regress_runs_by_default():
+    """`podbench regress` without a PATH re-runs chapter4 and chapter5; the committed
+    baseline has rows of every scenario of both (and of nothing else)."""
+    resolved, files = cli._scenario_paths([], cli.REGRESS_STUDIES)
+    assert [p.name for p in resolved] == ["chapter4", "chapter5"]
+    base = read_table(ROOT / "results" / "baseline.csv")
+    assert set(base.scenario) == {Path(f).stem for f in files}
+    assert {"beam_forced", "linear_beam_noise_5pct", "rubber_band_beam_decomposition"} <= \
+        set(base.scenario)
