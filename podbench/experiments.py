@@ -33,6 +33,40 @@ second)::
     shape = "half_sine"
     hits = [[3.0e-3, 0.4]]
 
+**One strike per sensor row** (§5.1: "The shaker was used in order to apply the same load six
+times while the laser vibrometer measured the displacement of one point each time"). Fields
+of a test (``strikes`` and ``force_record`` may also stand in ``[experiment]`` as defaults)::
+
+    strikes = "per_sensor"       # or "one" (default): one strike seen by every sensor
+    force_record = "first"       # which load-cell record forms F (per_sensor only):
+                                 # "first" (the load cell of strike 1) or "mean" (of all)
+    amplitude_scatter = 0.05     # relative std of each strike's peak (default 0)
+    hit_jitter = 1.0             # std of each rebound's delay, in samples (default 0)
+    cases_from = "linear_beam"   # optional: the cases of another test (instead of [cases])
+
+With ``strikes = "per_sensor"`` strike ``k`` (k = 1 … number of sensors) is simulated on its
+own and row ``k − 1`` of ``W`` is sensor ``k − 1``'s response to it; the load cell records
+a force at every strike. ``force_record``: the text gives one force record per case ("This
+procedure was repeated for all three load cases to extract the applied force data": one
+inertial-load subtraction, one force, per load case), so the main reading takes the load
+cell of one strike, the first; ``"mean"`` (the average of the six load-cell records) is the
+named alternative. The text says "the same load six times": the strikes are identical
+unless ``amplitude_scatter`` or ``hit_jitter`` (not stated by the text; studied over a range)
+make them differ. Strike ``k`` is the case's force with every contact's amplitude times
+``1 + amplitude_scatter·z_k`` and every rebound (``hits``) delayed by
+``hit_jitter·dt·z_{k,h}`` (standard normal draws of :func:`podbench.noise.noise_generator`
+keyed ``(seed, experiment name, structure name, case, "strike", k)``, the same draws at
+every scatter level); the first contact stays one sample after ``t = 0`` (the acquisition
+reads as triggered by it). A rebound jittered to a delay <= 0 is an error naming
+``hit_jitter``.
+
+Noise with one strike per row: vibrometer channel ``i`` is keyed as before (it is measured
+only during strike ``i + 1``); the load cell of strike 1 uses the case's key, that of strike
+``k > 1`` the key ``(…, case, "strike<k>")``. Identical strikes with ``force_record =
+"first"`` therefore give exactly the records of ``strikes = "one"`` (clean and noisy): the
+per-channel noise is already independent row by row, and the rows of identical strikes are
+the rows of one strike.
+
 It writes ``data/<test>/noise_<p>pct/<case>.npz`` (relative to the experiment file) for
 every level and case; ``noise_0pct`` holds the clean records, the truth that only a virtual
 experiment has (a scenario may use it as a second target). The noise of a case is keyed
@@ -67,7 +101,8 @@ from .errors import InputError, ScenarioFileError, StructureFileError
 from .fem._spec import MISSING, Table
 
 __all__ = ["EXPERIMENT_FILE", "Experiment", "TestCampaign", "load_experiment",
-           "level_folder", "generate", "write_experiment", "check_experiment"]
+           "level_folder", "generate", "strike_forces", "write_experiment",
+           "check_experiment"]
 
 from .scenarios import EXPERIMENT_FILE  # noqa: E402  (not a scenario: find_scenarios skips it)
 
@@ -75,9 +110,14 @@ PRECISIONS = ("float32", "float64")
 _NOISE_ON = ("W", "F")
 
 
+STRIKES = ("one", "per_sensor")
+FORCE_RECORDS = ("first", "mean")
+
+
 @dataclass(frozen=True)
 class TestCampaign:
-    """The tests of one structure: cases (excitation tables), sampling, truth cases."""
+    """The tests of one structure: cases (excitation tables), sampling, truth cases, and
+    how the strikes are recorded (module docstring: one strike per sensor row)."""
 
     name: str
     structure: str
@@ -86,6 +126,10 @@ class TestCampaign:
     cases: dict
     overrides: dict
     noise_levels: tuple[float, ...] | None = None
+    strikes: str = "one"
+    force_record: str = "first"
+    amplitude_scatter: float = 0.0
+    hit_jitter: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -133,6 +177,8 @@ def load_experiment(path) -> Experiment:
             if q not in _NOISE_ON:
                 e.fail(f"noise_on[{i}]", f'expected "W" or "F" (measured channels), got "{q}"')
         precision = e.string("precision", "float64", choices=PRECISIONS)
+        strikes0 = e.string("strikes", "one", choices=STRIKES)
+        record0 = e.string("force_record", "first", choices=FORCE_RECORDS)
         e.close()
         tests = {}
         tt = top.table("tests", required=True)
@@ -141,27 +187,51 @@ def load_experiment(path) -> Experiment:
             structure = t.string("structure")
             n = t.integer("n_samples", minimum=2, maximum=10_000_000)
             dt = t.number("dt", positive=True)
-            ct = t.table("cases", required=True)
-            cases = {}
-            for cname in list(ct.data):
-                c = ct.table(cname, required=True)
-                force = _excitation(c, "force", many=True)
-                if not force:
-                    c.fail("force", "expected a force table or an array of force tables "
-                                    "(a test starts at rest and is struck)")
-                c.string("description", "", nonempty=False)
-                c.close()
-                cases[cname] = force
-            ct.close()
-            if not cases:
-                t.fail("cases", "expected at least one case")
+            if t.has("cases_from"):
+                src = t.string("cases_from")
+                if src not in tests:
+                    t.fail("cases_from", f'"{src}" is not a test defined above this one '
+                                         f"(known: {', '.join(tests) or 'none'})")
+                if t.has("cases"):
+                    t.fail("cases", "give either `cases` or `cases_from`, not both")
+                cases = dict(tests[src].cases)
+            else:
+                ct = t.table("cases", required=True)
+                cases = {}
+                for cname in list(ct.data):
+                    c = ct.table(cname, required=True)
+                    force = _excitation(c, "force", many=True)
+                    if not force:
+                        c.fail("force", "expected a force table or an array of force tables "
+                                        "(a test starts at rest and is struck)")
+                    c.string("description", "", nonempty=False)
+                    c.close()
+                    cases[cname] = force
+                ct.close()
+                if not cases:
+                    t.fail("cases", "expected at least one case")
             overrides = t.raw("set", {})
             if not isinstance(overrides, dict):
                 t.fail("set", f"expected a table of dotted structure fields, got {overrides!r}")
             own = _levels(t, None)
+            strikes = t.string("strikes", strikes0, choices=STRIKES)
+            record = t.string("force_record", record0, choices=FORCE_RECORDS)
+            scatter = t.number("amplitude_scatter", 0.0, nonnegative=True)
+            if not scatter < 0.5:
+                t.fail("amplitude_scatter", f"expected a relative scatter below 0.5, got "
+                                            f"{scatter!r}")
+            jitter = t.number("hit_jitter", 0.0, nonnegative=True)
+            if strikes == "one":
+                given = {"amplitude_scatter": scatter > 0, "hit_jitter": jitter > 0,
+                         "force_record": t.has("force_record")}
+                for key, bad in given.items():
+                    if bad:
+                        t.fail(key, 'needs strikes = "per_sensor" (one strike per sensor '
+                                    'row); with strikes = "one" every sensor sees one strike')
             t.close()
             tests[tname] = TestCampaign(tname, structure, n, dt, cases, dict(overrides),
-                                        None if own is None else tuple(own))
+                                        None if own is None else tuple(own), strikes, record,
+                                        scatter, jitter)
         tt.close()
         if not tests:
             top.fail("tests", "expected at least one [tests.<name>] table")
@@ -213,30 +283,101 @@ def generate(exp: Experiment) -> dict:
     for test in exp.tests.values():
         s = _structure(exp, test)
         for cname, forces in test.cases.items():
-            F = np.zeros((s.n_sensors, test.n_samples))
-            for i, d in enumerate(forces):
-                try:
-                    F += excitation_from_dict(d).sample(s, test.n_samples, test.dt)
-                except InputError as exc:
-                    raise ScenarioFileError(f"{exp.path}: field `tests.{test.name}.cases."
-                                            f"{cname}.force{f'[{i}]' if len(forces) > 1 else ''}`"
-                                            f": {exc}") from None
-            loads[(test.name, cname)] = (s, F)
+            per_strike = strike_forces(exp, test, s, cname, forces)
+            Fs = []
+            for strike in per_strike:
+                F = np.zeros((s.n_sensors, test.n_samples))
+                for i, d in enumerate(strike):
+                    try:
+                        F += excitation_from_dict(d).sample(s, test.n_samples, test.dt)
+                    except InputError as exc:
+                        raise ScenarioFileError(
+                            f"{exp.path}: field `tests.{test.name}.cases.{cname}.force"
+                            f"{f'[{i}]' if len(forces) > 1 else ''}`: {exc}") from None
+                Fs.append(F)
+            loads[(test.name, cname)] = (s, Fs)
     for test in exp.tests.values():
         clean = {}
         for cname in test.cases:
-            s, F = loads[(test.name, cname)]
-            clean[cname] = simulate(s, n_samples=test.n_samples, dt=test.dt, force=F,
-                                    label=cname)
+            s, Fs = loads[(test.name, cname)]
+            clean[cname] = _strike_responses(s, test, cname, Fs, simulate)
         for level in test.noise_levels or exp.noise_levels:
             folder = level_folder(level)
             spec = NoiseSpec(level, seed=exp.noise_seed, on=exp.noise_on)
-            for cname, r in clean.items():
-                m = noisy(r, spec, exp.name, s.name, cname)
-                W, F = _round(np.asarray(m.W), exp.precision), _round(np.asarray(m.F),
-                                                                         exp.precision)
+            f_spec = NoiseSpec(level, seed=exp.noise_seed,
+                               on=("F",) if "F" in exp.noise_on else ())
+            for cname, (r, Fs) in clean.items():
+                m = noisy(r, spec, exp.name, s.name, cname)  # W rows; strike 1's load cell
+                F = np.asarray(m.F)
+                if test.strikes == "per_sensor" and test.force_record == "mean":
+                    cells = [F] + [np.asarray(noisy(_record(np.zeros_like(Fk), Fk, test.dt,
+                                                            cname), f_spec, exp.name,
+                                                    s.name, cname, f"strike{k}").F)
+                                   for k, Fk in enumerate(Fs[1:], start=2)]
+                    F = np.mean(cells, axis=0)
+                W, F = _round(np.asarray(m.W), exp.precision), _round(F, exp.precision)
                 out[(test.name, folder, cname)] = _record(W, F, test.dt, cname)
     return out
+
+
+def strike_forces(exp: Experiment, test: TestCampaign, structure, case: str,
+                  forces) -> list[tuple[dict, ...]]:
+    """The force tables of every strike of ``case``: one strike (the case's tables) with
+    ``strikes = "one"``; with ``"per_sensor"`` one per sensor row, strike ``k`` (list index
+    ``k − 1``) scaled by ``1 + amplitude_scatter·z_k`` with every rebound delayed by
+    ``hit_jitter·dt·z_{k,h}`` (module docstring; draws keyed ``(seed, experiment,
+    structure, case, "strike", k)``)."""
+    from .noise import noise_generator
+
+    if test.strikes == "one":
+        return [tuple(forces)]
+    out = []
+    for k in range(1, structure.n_sensors + 1):
+        if test.amplitude_scatter == 0 and test.hit_jitter == 0:
+            out.append(tuple(forces))
+            continue
+        g = noise_generator(exp.noise_seed, exp.name, structure.name, case, "strike", str(k))
+        factor = 1.0 + test.amplitude_scatter * float(g.standard_normal())
+        strike = []
+        for d in forces:
+            d = dict(d)
+            if "amplitude" in d and isinstance(d["amplitude"], (int, float)):
+                d["amplitude"] = float(d["amplitude"]) * factor
+            hits = d.get("hits")
+            if isinstance(hits, list) and hits:
+                z = g.standard_normal(len(hits))
+                moved = []
+                for (delay, rel), zh in zip(hits, z):
+                    delay = float(delay) + test.hit_jitter * test.dt * float(zh)
+                    if not delay > 0:
+                        raise ScenarioFileError(
+                            f"{exp.path}: field `tests.{test.name}.hit_jitter`: strike {k} of "
+                            f"case {case} puts a rebound at {delay:.3g} s, not after the "
+                            "first contact (use a smaller jitter)")
+                    moved.append([delay, rel])
+                d["hits"] = moved
+            strike.append(d)
+        out.append(tuple(strike))
+    return out
+
+
+def _strike_responses(s, test: TestCampaign, cname: str, Fs, simulate):
+    """``(Response, strike forces)``: the clean record of a case, its ``W`` row ``i`` from
+    strike ``i + 1`` (one strike per sensor row) and ``F`` the first strike's load. Identical
+    strikes are simulated once."""
+    runs = {}
+
+    def run(F):
+        key = F.tobytes()
+        if key not in runs:
+            runs[key] = simulate(s, n_samples=test.n_samples, dt=test.dt, force=F, label=cname)
+        return runs[key]
+
+    first = run(Fs[0])
+    if len(Fs) == 1:
+        return first, Fs
+    W = np.array([np.asarray(run(F).W)[i] for i, F in enumerate(Fs)])
+    return _record(W, Fs[0], test.dt, cname), Fs
 
 
 def _record(W, F, dt, label) -> Response:

@@ -29,7 +29,9 @@ A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and eac
 number or ``METHOD.metric`` (a method label and a column of the summary table). A metric
 operand may name another scenario's row of the same structure and target,
 ``SCENARIO:METHOD.metric``, and carry a positive factor, ``1.1*SCENARIO:METHOD.metric`` (how
-Chapter 5 compares a noisy run with the clean one). ``SCENARIO/STRUCTURE/TARGET:METHOD.metric``
+Chapter 5 compares a noisy run with the clean one), and an added or subtracted number,
+``SCENARIO:METHOD.metric + 10`` (an absolute margin: §5.3's "5-10%" read as percentage
+points; with a factor, ``f*REF + c`` is ``f × REF + c``). ``SCENARIO/STRUCTURE/TARGET:METHOD.metric``
 names a row of another structure and target too (how §5.2's rubber-band beam is compared
 with Chapter 4's NL beam, a scenario of the same study: the value is measured in the same
 run, never written into the check). A claim is *reproduced* when every check
@@ -54,7 +56,9 @@ __all__ = ["Claim", "ClaimsFile", "load_claims", "load_claims_file", "evaluate_c
            "CHECK_RE"]
 
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
-_OPERAND = r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[^\s<>=.][^<>=]*?\.[a-z_0-9]+)"
+_NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_OPERAND = (rf"(?:[-+]?{_NUMBER}|[^\s<>=.][^<>=]*?\.[a-z_0-9]+"
+            rf"(?:\s*[-+]\s*{_NUMBER})?)")
 CHECK_RE = re.compile(rf"^\s*({_OPERAND})\s*(<=|>=|<|>)\s*({_OPERAND})\s*$")
 
 
@@ -164,6 +168,7 @@ def load_claims_file(path) -> ClaimsFile:
 
 
 _FACTOR_RE = re.compile(r"^\s*((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\*\s*(.+)$")
+_OFFSET_RE = re.compile(rf"^(.*?\.[a-z_0-9]+)\s*([-+])\s*({_NUMBER})\s*$")
 
 
 def _value(operand: str, rows: dict, other=None):
@@ -171,8 +176,11 @@ def _value(operand: str, rows: dict, other=None):
         return float(operand), operand
     except ValueError:
         pass
-    factor, ref = 1.0, operand
-    if (fm := _FACTOR_RE.match(operand)) is not None:
+    factor, offset, ref = 1.0, 0.0, operand
+    if (om := _OFFSET_RE.match(ref)) is not None:
+        ref = om.group(1)
+        offset = float(om.group(3)) * (1.0 if om.group(2) == "+" else -1.0)
+    if (fm := _FACTOR_RE.match(ref)) is not None:
         factor, ref = float(fm.group(1)), fm.group(2)
     label, _, metric = ref.rpartition(".")
     scen, sep, label = label.rpartition(":")
@@ -184,7 +192,7 @@ def _value(operand: str, rows: dict, other=None):
     row = rows.get(label)
     if row is None or metric not in row:
         return math.nan, f"{operand} (no such row/column)"
-    v = factor * float(row[metric])
+    v = factor * float(row[metric]) + offset
     return v, f"{operand} = {v:.4g}"
 
 
