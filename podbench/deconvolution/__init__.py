@@ -48,6 +48,9 @@ Structured (never form ``A``):
 ``"kernel"`` :class:`KernelRegularized`, empirical-Bayes (DC/TC prior) regularization.
 ``"realization"`` :class:`Realization`, a low-order state-space realization (ERA poles of a
             pilot kernel, residues refitted on the whole record, order by hold-out).
+``"subspace"`` :class:`Subspace`, poles by PO-MOESP subspace identification of the records
+            (instrumental variables: consistent under measurement noise), residues refitted
+            on the whole record, order by hold-out above a rank floor.
 ``"auto"``  :class:`Auto`, exact on clean data, ``"kernel"`` (or ``"realization"``) on noisy.
 
 The Tikhonov parameter of ``"fft"`` and ``"cgls"`` is chosen by generalized
@@ -95,6 +98,7 @@ from .realization import (
     pole_basis,
     pole_regressors,
 )
+from .subspace import RANK_TOL, Subspace
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,
@@ -129,6 +133,8 @@ __all__ = [
     "CGLS",
     "KernelRegularized",
     "Realization",
+    "Subspace",
+    "RANK_TOL",
     "Auto",
     "make_solver",
     "kernel_matrix",
