@@ -51,7 +51,8 @@ Structured (never form ``A``):
 ``"subspace"`` :class:`Subspace`, poles by PO-MOESP subspace identification of the records
             (instrumental variables: consistent under measurement noise), residues refitted
             on the whole record, order by hold-out above a rank floor.
-``"auto"``  :class:`Auto`, exact on clean data, ``"kernel"`` (or ``"realization"``) on noisy.
+``"auto"``  :class:`Auto`, exact on clean data, ``"subspace"`` (or ``"kernel"``,
+            ``"realization"``) on noisy.
 
 The Tikhonov parameter of ``"fft"`` and ``"cgls"`` is chosen by generalized
 cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regularization`).

@@ -100,3 +100,30 @@ def test_contract_and_bad_options():
     with pytest.raises(InputError, match="too short"):
         dc.deconvolve([q[:, :10] for q in Qs], np.concatenate([Bs[:10], Bs[120:130]]), dt,
                       dc.Subspace(horizon=8))
+
+
+def test_auto_records_its_choice_and_skips_exact_solvers_on_noisy_data(monkeypatch):
+    """ML in the identity basis (sensors = modes): clean → block; noisy → subspace, and the
+    exact solvers are not even tried on data that fail the noise test."""
+    from podbench.deconvolution.block import BlockSubstitution
+    from podbench.deconvolution.dense import LeastSquares
+    from podbench.methods import MultipleLoad
+
+    A, B, C, D = _state_space(order=4, k=2, r=2, seed=7)
+    Qs, Bs, dt, X = _records(A, B, C, D, n=160, seed=8)
+    n = 160
+    Ws = [Bs[j * n:(j + 1) * n].T for j in range(2)]
+    est = MultipleLoad(solver="auto").fit(Ws, Qs, dt=dt, basis=np.eye(2))
+    assert est.diagnostics_["solver_choice"] == "block"
+    noisy = [W + 0.02 * W.std() * np.random.default_rng(j).standard_normal(W.shape)
+             for j, W in enumerate(Ws)]
+
+    def refuse(self, system):
+        raise AssertionError("exact solver run on noisy data")
+
+    monkeypatch.setattr(BlockSubstitution, "solve", refuse)
+    monkeypatch.setattr(LeastSquares, "solve", refuse)
+    est = MultipleLoad(solver="auto").fit(noisy, Qs, dt=dt, basis=np.eye(2))
+    d = est.diagnostics_
+    assert d["solver_choice"] == "subspace" and d["solver_order"] == est.solver_info_["order"]
+    assert est.solver_info_["noise_floor"] > 1e-3
