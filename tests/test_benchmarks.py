@@ -63,3 +63,15 @@ def test_methods_group_at_a_small_size_times_every_method_against_ml():
         assert 0 <= float(r["error_vs_truth"]) < 1.5
     assert ok["ML"]["speedup"] == "1"
     assert "**Identification methods on the same data**" in report.table(rows)
+
+
+def test_robust_script_runs_a_tiny_size_and_reports_ratios_and_errors():
+    """benchmarks/robust.py at n = 200, k = 2: a row per solver, block first (ratio 1),
+    errors finite; the clean block prediction is exact up to the POD truncation."""
+    from benchmarks import robust
+
+    rows = robust.run(200, 2, ["subspace"], 0.01, seed=0)
+    assert [r[2] for r in rows] == ["block", "subspace"]
+    assert rows[0][5] == 1.0 and rows[0][3] == 0.0 and rows[1][3] == 0.01
+    assert all(np.isfinite(r[6]) for r in rows)
+    assert rows[0][6] < 0.05

@@ -48,7 +48,11 @@ Structured (never form ``A``):
 ``"kernel"`` :class:`KernelRegularized`, empirical-Bayes (DC/TC prior) regularization.
 ``"realization"`` :class:`Realization`, a low-order state-space realization (ERA poles of a
             pilot kernel, residues refitted on the whole record, order by hold-out).
-``"auto"``  :class:`Auto`, exact on clean data, ``"kernel"`` (or ``"realization"``) on noisy.
+``"subspace"`` :class:`Subspace`, poles by PO-MOESP subspace identification of the records
+            (instrumental variables: consistent under measurement noise), residues refitted
+            on the whole record, order by hold-out above a rank floor.
+``"auto"``  :class:`Auto`, exact on clean data, ``"subspace"`` (or ``"kernel"``,
+            ``"realization"``) on noisy.
 
 The Tikhonov parameter of ``"fft"`` and ``"cgls"`` is chosen by generalized
 cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regularization`).
@@ -95,6 +99,7 @@ from .realization import (
     pole_basis,
     pole_regressors,
 )
+from .subspace import RANK_TOL, Subspace
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,
@@ -129,6 +134,8 @@ __all__ = [
     "CGLS",
     "KernelRegularized",
     "Realization",
+    "Subspace",
+    "RANK_TOL",
     "Auto",
     "make_solver",
     "kernel_matrix",

@@ -119,8 +119,13 @@ def test_auto_picks_exact_on_clean_and_robust_on_noisy():
     np.testing.assert_allclose(clean.X, dc.deconvolve(Qs, B, dt, "block"), rtol=0, atol=0)
     Qs, B, dt, X = _chain(noise=0.01)
     noisy = dc.deconvolve(Qs, B, dt, "auto", return_info=True)
-    assert noisy.info["choice"] == "kernel" and noisy.info["noise_floor"] > 1e-3
-    np.testing.assert_allclose(noisy.X, dc.deconvolve(Qs, B, dt, "kernel"), rtol=0, atol=0)
+    assert noisy.info["choice"] == "subspace" and noisy.info["noise_floor"] > 1e-3
+    np.testing.assert_allclose(noisy.X, dc.deconvolve(Qs, B, dt, "subspace"), rtol=0, atol=0)
+    assert noisy.info["order"] == dc.deconvolve(Qs, B, dt, "subspace",
+                                                return_info=True).info["order"]
+    kern = dc.deconvolve(Qs, B, dt, dc.Auto(robust="kernel"), return_info=True)
+    assert kern.info["choice"] == "kernel" and kern.info["noise_floor"] > 1e-3
+    np.testing.assert_allclose(kern.X, dc.deconvolve(Qs, B, dt, "kernel"), rtol=0, atol=0)
     real = dc.deconvolve(Qs, B, dt, dc.Auto(robust="realization"), return_info=True)
     assert real.info["choice"] == "realization" and real.info["noise_floor"] > 1e-3
     np.testing.assert_allclose(real.X, dc.deconvolve(Qs, B, dt, "realization"), rtol=0, atol=0)
