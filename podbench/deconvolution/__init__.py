@@ -48,6 +48,9 @@ Structured (never form ``A``):
 ``"kernel"`` :class:`KernelRegularized`, empirical-Bayes (DC/TC prior) regularization.
 ``"realization"`` :class:`Realization`, a low-order state-space realization (ERA poles of a
             pilot kernel, residues refitted on the whole record, order by hold-out).
+``"stls"``  :class:`STLS`, regularized structured total least squares: the kernel and a
+            correction of the measured force samples (the convolution matrix stays block
+            Toeplitz), Gauss–Newton steps by LSQR with FFT products, λ by GCV.
 ``"auto"``  :class:`Auto`, exact on clean data, ``"kernel"`` (or ``"realization"``) on noisy.
 
 The Tikhonov parameter of ``"fft"`` and ``"cgls"`` is chosen by generalized
@@ -95,6 +98,7 @@ from .realization import (
     pole_basis,
     pole_regressors,
 )
+from .stls import DEFAULT_STLS_MAX_ITER, DEFAULT_STLS_TOL, STLS
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,
@@ -129,6 +133,7 @@ __all__ = [
     "CGLS",
     "KernelRegularized",
     "Realization",
+    "STLS",
     "Auto",
     "make_solver",
     "kernel_matrix",
@@ -159,4 +164,6 @@ __all__ = [
     "AUTO_THRESHOLD",
     "DEFAULT_MAX_ORDER",
     "MAX_HANKEL_ROWS",
+    "DEFAULT_STLS_TOL",
+    "DEFAULT_STLS_MAX_ITER",
 ]

@@ -17,6 +17,7 @@ from .block import BlockSubstitution
 from .dense import DenseSolver, LeastSquares, TruncatedTLS
 from .kernel import KernelRegularized
 from .realization import Realization
+from .stls import STLS
 from .system import ConvolutionSystem
 from .tikhonov import CGLS, FFTTikhonov
 
@@ -37,6 +38,7 @@ _BUILTIN: dict[str, type[Solver]] = {
     "cgls": CGLS,
     "kernel": KernelRegularized,
     "realization": Realization,
+    "stls": STLS,
     "auto": Auto,
 }
 
