@@ -56,7 +56,10 @@ Jacobians and their transposes are FFT (cross-)convolutions, nothing ``n × n`` 
 (``O((k² + k r) n log n)`` per product). The kernel block is right-preconditioned by the
 circulant model of ``(J_XᵀJ_X + λ² I)^{-1/2}`` (per frequency ``(Δt² Ĝ_wᴴĜ_w + μ² I)^{-1/2}``,
 ``μ = λ``, or ``1e-6 max_ω σ_max`` if ``λ = 0``; the preconditioner of :func:`cgls_fft`, in its
-square-root form). The step is halved (at most 30 times) until the objective decreases.
+square-root form), the force block by the circulant model of ``(J_eᵀJ_e + I)^{-1/2}`` per load
+case (symbol ``(I + conj(Ĥ_j) Ĥ_jᵀ)^{-1/2}``, ``Ĥ_j = D_wjᵀ Δt X̂``). LSQR stops at
+``inner_tol`` (default 1e-6, an inexact Gauss–Newton step) or ``inner_iter``. The step is
+halved (at most 30 times) until the objective decreases.
 Stopping rule: stop when a step lowers the objective by less than ``tol`` (relative, default
 ``1e-6``), when the objective is below ``(1e-14 ‖Y_w‖)²`` (a consistent system solved), when
 no halved step lowers it, or after ``max_iter`` steps (default 30; the
@@ -142,7 +145,8 @@ class STLS(Solver):
     inner_iter : int
         LSQR iterations per step at most (default 500), >= 1.
     inner_tol : float
-        LSQR's ``atol`` and ``btol`` (default 1e-10), in (0, 1).
+        LSQR's ``atol`` and ``btol`` (default 1e-6: an inexact Gauss–Newton step; the
+        stopping rule is on the objective), in (0, 1).
 
     Diagnostics: ``reg``, ``reg_rule`` (as :class:`CGLS`), ``iterations`` (LSQR iterations
     of all steps, the first step's conjugate-gradient iterations included), ``solves``
@@ -157,7 +161,7 @@ class STLS(Solver):
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, noise_ratio: float = 1.0,
                  rank_tol: float = 1e-8, tol: float = DEFAULT_STLS_TOL,
                  max_iter: int = DEFAULT_STLS_MAX_ITER, inner_iter: int = 500,
-                 inner_tol: float = 1e-10):
+                 inner_tol: float = 1e-6):
         self.reg = reg
         self.noise_ratio = noise_ratio
         self.rank_tol = rank_tol
@@ -254,10 +258,19 @@ def _stls(system: ConvolutionSystem, reg, rho: float, rank_tol: float, tol: floa
         GchT = np.ascontiguousarray(Gch.transpose(0, 2, 1))
         Xh = dt * fft(X)  # (F, k, r)
         XhT = np.ascontiguousarray(Xh.transpose(0, 2, 1))  # (F, r, k)
+        # right preconditioner of the force block: per case the circulant model of
+        # (J_eᵀJ_e + I)^{-1/2}, symbol (I + conj(Ĥ_j) Ĥ_jᵀ)^{-1/2} with Ĥ_j = Dw_jᵀ Δt X̂
+        Hh = np.einsum("jkm,fkl->fjml", Dw, Xh)  # (F, n_cases, m, r)
+        Me = np.conj(Hh) @ Hh.transpose(0, 1, 3, 2) + np.eye(m)
+        we, Ve = np.linalg.eigh(Me)
+        Peh = (Ve * (1.0 / np.sqrt(we))[..., None, :]) @ np.conj(Ve).transpose(0, 1, 3, 2)
+
+        def precond_e(E):  # (n, n_cases, m), symmetric
+            return ifft((Peh @ fft(E)[..., None])[..., 0])
 
         def matvec(v):
             z = v[:nx].reshape(n, k, r)
-            de = v[nx:].reshape(n, n_cases, m)
+            de = precond_e(v[nx:].reshape(n, n_cases, m))
             xz = precond(z)
             out1 = ifft(Gch @ fft(xz)) + ifft(fft(dG(de)) @ Xh)
             return np.concatenate([out1.ravel(), de.ravel(), lam * xz.ravel()])
@@ -269,7 +282,7 @@ def _stls(system: ConvolutionSystem, reg, rho: float, rank_tol: float, tol: floa
             u1r = fft(u1[::-1])
             gx = ifft(GchT @ u1r)[::-1] + lam * u3  # J_Xᵀ u1 + λ u3
             ge = dGt(ifft(u1r @ XhT)[::-1]) + u2  # J_eᵀ u1 + u2
-            return np.concatenate([precond(gx).ravel(), ge.ravel()])
+            return np.concatenate([precond(gx).ravel(), precond_e(ge).ravel()])
 
         op = scipy.sparse.linalg.LinearOperator(
             (n * n_cases * r + ne + nx, nx + ne), matvec=matvec, rmatvec=rmatvec,
@@ -279,7 +292,7 @@ def _stls(system: ConvolutionSystem, reg, rho: float, rank_tol: float, tol: floa
                                        iter_lim=inner_iter)
         lsqr_iter += int(sol[2])
         dX = precond(sol[0][:nx].reshape(n, k, r))
-        de = sol[0][nx:].reshape(n, n_cases, m)
+        de = precond_e(sol[0][nx:].reshape(n, n_cases, m))
         t = 1.0
         for _ in range(_MAX_HALVINGS):
             Xt, et = X + t * dX, e + t * de

@@ -116,7 +116,7 @@ def test_matches_a_dense_reference_minimizer():
     # noise on each force channel (rank one stays) and on the responses
     Qn = [Qj + np.outer(Qj[:, 0] / Qj[0, 0], 0.05 * rng.standard_normal(n)) for Qj in Q]
     Bn = B + 0.05 * np.std(B) * rng.standard_normal(B.shape)
-    res = dc.deconvolve(Qn, Bn, dt, "stls", reg=reg, tol=1e-13, max_iter=100,
+    res = dc.deconvolve(Qn, Bn, dt, "stls", reg=reg, tol=1e-13, max_iter=100, inner_tol=1e-12,
                         return_info=True)
     fun = _dense_objective(Qn, Bn, dt, reg, 1.0)
     z0 = np.concatenate([dc.deconvolve(Qn, Bn, dt, "cgls", reg=reg).ravel(), np.zeros(J * n)])
