@@ -274,17 +274,17 @@ def _stls(system: ConvolutionSystem, reg, rho: float, rank_tol: float, tol: floa
         we, Ve = np.linalg.eigh(Me)
         Peh = (Ve * (1.0 / np.sqrt(we))[..., None, :]) @ np.conj(Ve).transpose(0, 1, 3, 2)
 
-        def precond_e(E):  # (n, n_cases, m), symmetric
+        def precond_e(E, Peh=Peh):  # (n, n_cases, m), symmetric
             return ifft((Peh @ fft(E)[..., None])[..., 0])
 
-        def matvec(v):
+        def matvec(v, Gch=Gch, Xh=Xh, precond_e=precond_e):
             z = v[:nx].reshape(n, k, r)
             de = precond_e(v[nx:].reshape(n, n_cases, m))
             xz = precond(z)
             out1 = ifft(Gch @ fft(xz)) + ifft(fft(dG(de)) @ Xh)
             return np.concatenate([out1.ravel(), de.ravel(), lam * xz.ravel()])
 
-        def rmatvec(u):
+        def rmatvec(u, GchT=GchT, XhT=XhT, precond_e=precond_e):
             u1 = u[: n * n_cases * r].reshape(n, n_cases, r)
             u2 = u[n * n_cases * r: n * n_cases * r + ne].reshape(n, n_cases, m)
             u3 = u[n * n_cases * r + ne:].reshape(n, k, r)
