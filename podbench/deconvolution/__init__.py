@@ -51,6 +51,9 @@ Structured (never form ``A``):
 ``"subspace"`` :class:`Subspace`, poles by PO-MOESP subspace identification of the records
             (instrumental variables: consistent under measurement noise), residues refitted
             on the whole record, order by hold-out above a rank floor.
+``"stls"``  :class:`STLS`, regularized structured total least squares: the kernel and a
+            correction of the measured force samples (the convolution matrix stays block
+            Toeplitz), Gauss–Newton steps by LSQR with FFT products, λ by GCV.
 ``"auto"``  :class:`Auto`, exact on clean data, ``"subspace"`` (or ``"kernel"``,
             ``"realization"``) on noisy.
 
@@ -100,6 +103,7 @@ from .realization import (
     pole_regressors,
 )
 from .subspace import RANK_TOL, Subspace
+from .stls import DEFAULT_STLS_MAX_ITER, DEFAULT_STLS_TOL, STLS
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,
@@ -136,6 +140,7 @@ __all__ = [
     "Realization",
     "Subspace",
     "RANK_TOL",
+    "STLS",
     "Auto",
     "make_solver",
     "kernel_matrix",
@@ -166,4 +171,6 @@ __all__ = [
     "AUTO_THRESHOLD",
     "DEFAULT_MAX_ORDER",
     "MAX_HANKEL_ROWS",
+    "DEFAULT_STLS_TOL",
+    "DEFAULT_STLS_MAX_ITER",
 ]

@@ -18,6 +18,7 @@ from .dense import DenseSolver, LeastSquares, TruncatedTLS
 from .kernel import KernelRegularized
 from .realization import Realization
 from .subspace import Subspace
+from .stls import STLS
 from .system import ConvolutionSystem
 from .tikhonov import CGLS, FFTTikhonov
 
@@ -39,6 +40,7 @@ _BUILTIN: dict[str, type[Solver]] = {
     "kernel": KernelRegularized,
     "realization": Realization,
     "subspace": Subspace,
+    "stls": STLS,
     "auto": Auto,
 }
 

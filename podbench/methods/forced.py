@@ -178,7 +178,8 @@ class SingleLoad(_ForcedMethod):
         ``"ls"`` (default, Eq. 3.76) or ``"tls"`` (Eqs. 3.78–3.80), dense; or a structured
         solver that never forms the convolution matrix: ``"block"`` (exact, equals ``"ls"``
         for forces that start with zeros), ``"fft"`` or ``"cgls"`` (Tikhonov-regularized,
-        for noisy data).
+        for noisy data), ``"stls"`` (structured total least squares: the kernel and a
+        correction of the force samples); all: :func:`podbench.deconvolution.available_solvers`.
     solver_options : dict, optional
         Keyword options of the solver (e.g. ``{"rcond": 1e-3}`` or
         ``{"noise_level": 1e-4}`` for ``"tls"``).
@@ -359,7 +360,8 @@ class MultipleLoad(_ForcedMethod):
         more load cases than modes give an over-determined system (an extension).
     solver : str
         ``"ls"`` (default) or ``"tls"`` (dense); ``"block"`` (exact, as many load cases as
-        modes), ``"fft"``, ``"cgls"`` (structured); see :mod:`podbench.deconvolution`.
+        modes), ``"fft"``, ``"cgls"``, ``"stls"`` (structured); see
+        :mod:`podbench.deconvolution`.
     solver_options : dict, optional
         Keyword options of the solver.
     max_cond : float

@@ -396,7 +396,7 @@ def test_dense_size_limits_suggest_structured_solvers():
 def test_registry_and_bad_input():
     assert set(dc.available_solvers()) >= {"ls", "tls", *STRUCTURED}
     assert set(dc.structured_solvers()) == {*STRUCTURED, "kernel", "realization", "subspace",
-                                         "auto"}
+                                         "stls", "auto"}
     with pytest.raises(UnknownNameError, match="structured solver: use deconvolve"):
         dc.solve(np.eye(2), np.ones(2), "block")
     with pytest.raises(UnknownNameError, match="unknown solver 'nope'"):
