@@ -95,7 +95,7 @@ def test_example_sweep_file_loads_and_plans():
     path = bundled_scenarios() / "sweeps" / "beam_forced_noise.toml"
     sc = load_scenario(path)
     assert [c.solver for c in sc.sweep.solvers] == ["ls", "tls", "cgls", "fft", "realization",
-                                                    "subspace", "auto"]
+                                                    "subspace", "stls", "auto"]
     _, tasks = plan_sweep([path])
     n_levels, n_seeds = len(sc.sweep.noise), len(sc.sweep.seeds)
     assert len(tasks) == len(sc.structures) * n_levels * n_seeds
