@@ -154,15 +154,21 @@ def _oversampled_siso_pulse(noise, seed=5):
 
 @pytest.mark.parametrize("seed", [5, 6, 7])
 def test_oversampled_siso_pulse_holdout_matches_realization(seed):
-    # the default horizon must span enough of the slow mode's period for the shift
-    # invariance to determine its pole: with i = ⌈max_order/r⌉ + 2 = 42 samples (1/24 of the
-    # 10-Hz period; the default before) the hold-out residual was 0.14-0.34 where
-    # realization's is 0.016-0.027; measured now 0.011-0.015 (horizon 128)
+    # the horizon must span enough of the slow mode's period for the shift invariance to
+    # determine its pole: with i = ⌈max_order/r⌉ + 2 = 42 samples (1/24 of the 10-Hz period)
+    # the hold-out residual was 0.14-0.34 where realization's is 0.016-0.027; measured
+    # 0.011-0.015 at horizon 128, the one the default's hold-out keeps of (42, 128)
     system, h = _oversampled_siso_pulse(0.01, seed)
     sub = dc.Subspace().solve(system)
     short = dc.Subspace(horizon=42).solve(system)
     rea = dc.Realization().solve(system)
-    assert sub.info["horizon"] == 128
+    assert sub.info["horizon"] == 128 and sub.info["horizons"] == "42,128"
+    # the default is the fixed-horizon fit whose chosen order predicts the held-out samples
+    # best: the same residual as the horizon-128 fit, below the horizon-42 one
+    long = dc.Subspace(horizon=128).solve(system)
+    assert sub.info["holdout_residual"] == long.info["holdout_residual"]
+    assert sub.info["holdout_residual"] < short.info["holdout_residual"]
+    assert np.array_equal(sub.X, long.X)
     assert sub.info["holdout_residual"] <= 1.5 * rea.info["holdout_residual"]
     n = 600  # kernel error over the first 60 ms (the record's well-excited lags)
     err = lambda res: np.linalg.norm(res.X[:n] - h[:n]) / np.linalg.norm(h[:n])  # noqa: E731
