@@ -19,23 +19,25 @@ its evidence on the kernel solver's own window) or ``"realization"``
 The default robust path, by measurement (1 % noise per measured channel unless stated;
 median (max) over seeds 0–4; docs/noise.md has the tables). No path wins everywhere:
 
-* beam_forced_noise sweep, LTI beam ML (n = 250, k = 4): subspace 0.046 (0.070) at 1 %,
-  0.138 (0.261) at 5 %; realization 0.0405 (0.066), 0.150 (0.26); kernel 0.049, 0.210;
+* beam_forced_noise sweep, LTI beam ML (n = 250, k = 4): subspace 0.045 (0.069) at 1 %,
+  0.161 (0.258) at 5 %; realization 0.0405 (0.066), 0.150 (0.26); kernel 0.049, 0.210;
   cgls 0.068 (0.103), 0.211 (0.33).
-* benchmark pulses n = 1000, k = 6: subspace 0.055 (0.077) in about 0.3–0.6 s; kernel 0.040
+* benchmark pulses n = 1000, k = 6: subspace 0.026 (0.077) in about 0.6 s; kernel 0.040
   (0.085) in 8–37 s; realization 0.077 (0.26); cgls 0.084 (0.165).
-* benchmark pulses n = 8000, k = 16 (seed 0): subspace 3.4 s (2.9× block), auto 4.1 s
-  (3.6×); kernel 573 s, cgls 645 s, realization 531 s. None predicts: subspace 2.25, cgls
+* benchmark pulses n = 8000, k = 16 (seed 0): subspace 7.7 s (4.0× block), auto 9.0 s
+  (4.6×); kernel 573 s, cgls 645 s, realization 531 s. None predicts: subspace 2.25, cgls
   0.90, kernel 1.3, realization 24 — twelve of the sixteen POMs of the noisy training record
-  lie below its noise (POVs 5–16 are 1.2e-3 … 2e-6 of the first, the noise's ~2e-3).
+  lie below its noise (POVs 5–16 are 1.2e-3 … 2e-6 of the first, the noise's ~2e-3); at
+  0.1 % noise subspace 0.31 (5.2×), cgls 0.94 (288×).
 * Chapter 5 records (n = 1024; total error against the measured 4-in record, 1 / 2 / 5 %):
-  linear beam ML subspace 0.275 / 0.275 / 0.279 (cgls 0.273 / 0.275 / 0.287, realization
-  0.264 / 0.264 / 0.268); rubber-band beam ML subspace 0.607 / 0.255 / 0.380 (cgls 0.238 /
-  0.242 / 0.260, realization 0.545); SL: subspace 0.43–0.81, clearly worse than cgls and
-  realization (0.27–0.31).
+  linear beam ML subspace 0.272 / 0.272 / 0.275 (cgls 0.273 / 0.275 / 0.287, realization
+  0.264 / 0.264 / 0.268), SL 0.296 / 0.294 / 0.299 (cgls 0.298–0.304); rubber-band beam ML
+  subspace 0.607 / 0.255 / 0.380 (cgls 0.238 / 0.242 / 0.260, realization 0.545), SL 0.282 /
+  0.283 / 0.292 (cgls 0.275–0.291).
 
 The subspace path is the only one within 10× of ``block`` at n = 8000, k = 16 and is best
-or close to best on the ML sets of Chapter 4; on Chapter 5's SL records it is not.
+or close to best on the ML sets of Chapter 4 and on Chapter 5's linear beam; on the
+rubber-band beam's ML records cgls is better.
 ``info["choice"]`` records the solver whose solution was returned and
 ``info["noise_floor"]`` the estimate.
 """
