@@ -112,6 +112,24 @@ def _scales(system: ConvolutionSystem) -> np.ndarray:
     return np.where(s > 0, s, 1.0)
 
 
+def _quadratic(yy: float, d: np.ndarray, z2: np.ndarray, g: float) -> float:
+    """``Q = yᵀ(I + ΦΦᵀ/γ)⁻¹y = yy − Σ z²/(d + γ)`` without its cancellation.
+
+    Written as ``r⊥ + Σ z² γ/(d(d + γ))`` over the well-determined directions (``d`` above
+    ``1e-12·max d``), ``r⊥ = yy − Σ z²/d`` the least-squares residual (clamped at 0), minus
+    ``Σ z²/(d + γ)`` over the others — the same number in exact arithmetic. The direct form
+    subtracts two nearly equal numbers when the system is square (``r⊥ = 0``, ML with as many
+    load cases as modes) and γ is small: its round-off sign then decided, machine by machine
+    (measured: another OpenBLAS kernel with two threads), whether the profile found the
+    noise level or fell to ``Q = 0``, a noise floor of 0 on 2 %-noisy records.
+    """
+    dmax = float(d.max()) if d.size else 0.0
+    big = d > 1e-12 * dmax if dmax > 0 else np.zeros(d.shape, dtype=bool)
+    r_perp = max(yy - float(np.sum(z2[big] / d[big])), 0.0)
+    return (r_perp + float(np.sum(z2[big] * g / (d[big] * (d[big] + g))))
+            - float(np.sum(z2[~big] / (d[~big] + g))))
+
+
 class _Evidence:
     """The profiled evidence of the first ``m`` samples, for shapes ``(λ, ρ)``."""
 
@@ -152,7 +170,7 @@ class _Evidence:
 
         def f(lg, col):
             g = np.exp(lg)
-            Q = self.yy[col] - np.sum(z2[:, col] / (d + g))
+            Q = _quadratic(self.yy[col], d, z2[:, col], g)
             Q = max(Q, 1e-300 * max(self.yy[col], 1e-300))
             # Q = yᵀ(I + ΦΦᵀ/γ)⁻¹y; σ² = Q/N profiled out (constants N(1 + log 2π) dropped)
             return N * np.log(Q / N) + np.sum(np.log1p(d / g))
@@ -173,7 +191,7 @@ class _Evidence:
 def _noise_and_scale(ev: _Evidence, d, z, lg):
     """``σ_l²`` and ``c_l`` at the profiled optimum of each column."""
     g = np.exp(lg)
-    Q = np.array([ev.yy[c] - np.sum(z[:, c] ** 2 / (d + g[c])) for c in range(z.shape[1])])
+    Q = np.array([_quadratic(ev.yy[c], d, z[:, c] ** 2, g[c]) for c in range(z.shape[1])])
     sigma2 = np.maximum(Q, 0.0) / ev.N
     return sigma2, sigma2 / g
 
@@ -299,7 +317,7 @@ class KernelRegularized(Solver):
                 fvals = []
                 for col in range(z.shape[1]):
                     g = self.gamma
-                    Q = ev.yy[col] - np.sum(z[:, col] ** 2 / (d + g))
+                    Q = _quadratic(ev.yy[col], d, z[:, col] ** 2, g)
                     fvals.append(N * np.log(max(Q, 1e-300) / N) + np.sum(np.log1p(d / g)))
                 f = np.array(fvals)
             else:
