@@ -347,7 +347,7 @@ def strike_forces(exp: Experiment, test: TestCampaign, structure, case: str,
             if isinstance(hits, list) and hits:
                 z = g.standard_normal(len(hits))
                 moved = []
-                for (delay, rel), zh in zip(hits, z):
+                for (delay, rel), zh in zip(hits, z, strict=True):
                     delay = float(delay) + test.hit_jitter * test.dt * float(zh)
                     if not delay > 0:
                         raise ScenarioFileError(

@@ -102,8 +102,8 @@ from .realization import (
     pole_basis,
     pole_regressors,
 )
-from .subspace import RANK_TOL, Subspace
 from .stls import DEFAULT_STLS_MAX_ITER, DEFAULT_STLS_TOL, STLS
+from .subspace import RANK_TOL, Subspace
 from .system import DENSE_MAX_BYTES, ConvolutionSystem
 from .tikhonov import (
     CGLS,

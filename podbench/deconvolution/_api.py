@@ -17,8 +17,8 @@ from .block import BlockSubstitution
 from .dense import DenseSolver, LeastSquares, TruncatedTLS
 from .kernel import KernelRegularized
 from .realization import Realization
-from .subspace import Subspace
 from .stls import STLS
+from .subspace import Subspace
 from .system import ConvolutionSystem
 from .tikhonov import CGLS, FFTTikhonov
 

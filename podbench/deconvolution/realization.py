@@ -52,7 +52,7 @@ from ..errors import InputError
 from ._base import Solver
 from .system import ConvolutionSystem
 
-__all__ = ["Realization", "pole_basis", "pole_regressors", "MAX_HANKEL_ROWS",
+__all__ = ["Realization", "holdout_choice", "pole_basis", "pole_regressors", "MAX_HANKEL_ROWS",
            "DEFAULT_MAX_ORDER"]
 
 MAX_HANKEL_ROWS = 600
@@ -86,6 +86,25 @@ def _conj_pairs(eigs: np.ndarray) -> np.ndarray:
 
 def _n_basis(poles: np.ndarray) -> int:
     return 1 + int(np.sum(np.where(np.abs(poles.imag) > 0, 2, 1)))
+
+
+def holdout_choice(groups: np.ndarray, rule: str, *, rtol: float = 0.0, atol: float = 0.0):
+    """The hold-out order rule's choice among candidates (rows of ``groups``: each
+    candidate's held-out squared error per independent group — load case × column —
+    relative to the held-out data).
+
+    ``rule="1se"``: the first candidate whose total is within one standard error of the best
+    total (the standard error of the best candidate's total over its groups); ``"min"``: the
+    first within the best. Totals within ``best·(1 + rtol) + atol`` of the limit count as
+    equal. Returns ``(chosen index, best index, totals)``.
+    """
+    mse = groups.sum(axis=1)
+    ib = int(np.argmin(mse))
+    limit = float(mse[ib])
+    if rule == "1se" and groups.shape[1] > 1:
+        limit += float(np.sqrt(groups.shape[1]) * np.std(groups[ib], ddof=1))
+    i = int(np.flatnonzero(mse <= limit * (1 + rtol) + atol)[0])
+    return i, ib, mse
 
 
 def pole_basis(poles, n: int) -> np.ndarray:
@@ -323,17 +342,7 @@ class Realization(Solver):
             Z = pole_regressors(np.asarray(system.G), system.dt, poles)
             theta = _fit_residues(Z, np.asarray(system.Y), n_fit)
             groups.append(np.sum((_predict(Z[n_fit:], theta) - Yv) ** 2, axis=0).ravel() / den)
-        groups = np.array(groups)  # (orders, n_cases·r)
-        mse = groups.sum(axis=1)
-        ib = int(np.argmin(mse))
-        if self.rule == "1se":
-            # the standard error of the best order's total over its independent groups
-            g = groups.shape[1]
-            se = float(np.sqrt(g) * np.std(groups[ib], ddof=1)) if g > 1 else 0.0
-            limit = mse[ib] + se
-        else:
-            limit = mse[ib]
-        i = int(np.flatnonzero(mse <= limit + _EXACT**2)[0])
+        i, ib, mse = holdout_choice(np.array(groups), self.rule, atol=_EXACT**2)
         return orders[i], float(np.sqrt(mse[i])), orders[ib]
 
     # ------------------------------------------------------------------ solve

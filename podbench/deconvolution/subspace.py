@@ -75,7 +75,7 @@ import scipy.signal
 from .._validation import check_choice, check_positive
 from ..errors import InputError
 from ._base import Solver
-from .realization import _conj_pairs, _n_basis, pole_basis
+from .realization import _conj_pairs, _n_basis, holdout_choice, pole_basis
 from .system import ConvolutionSystem
 
 __all__ = ["Subspace", "subspace_factor", "subspace_poles", "RANK_TOL", "MAX_DATA_ROWS"]
@@ -274,7 +274,8 @@ class Subspace(Solver):
 
     Diagnostics (``info``): ``order``, ``order_rule``, ``holdout_residual``,
     ``holdout_best_order``, ``candidates`` (orders above the rank floor, up to
-    ``max_order``), ``horizon`` (the one used), ``horizons`` (the candidates), ``instruments``, ``poles``, ``max_pole``, ``rank`` = ``N``.
+    ``max_order``), ``horizon`` (the one used), ``horizons`` (the candidates),
+    ``instruments``, ``poles``, ``max_pole``, ``rank`` = ``N``.
     """
 
     name = "subspace"
@@ -348,13 +349,7 @@ class Subspace(Solver):
         for N in candidates:
             _, err = fit_residues(Gr, Yr, dt, table[N], n_fit, heldout=n_fit)
             groups.append(err / den)
-        groups = np.array(groups)
-        mse = groups.sum(axis=1)
-        ib = int(np.argmin(mse))
-        limit = mse[ib]
-        if self.rule == "1se" and groups.shape[1] > 1:
-            limit += float(np.sqrt(groups.shape[1]) * np.std(groups[ib], ddof=1))
-        sel = int(np.flatnonzero(mse <= limit * (1 + _TIE) + 1e-18)[0])
+        sel, ib, mse = holdout_choice(np.array(groups), self.rule, rtol=_TIE, atol=1e-18)
         return candidates[sel], float(np.sqrt(mse[sel])), candidates[ib], candidates
 
     def _solve(self, system: ConvolutionSystem):

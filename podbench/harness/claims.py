@@ -31,12 +31,12 @@ operand may name another scenario's row of the same structure and target,
 ``SCENARIO:METHOD.metric``, and carry a positive factor, ``1.1*SCENARIO:METHOD.metric`` (how
 Chapter 5 compares a noisy run with the clean one), and an added or subtracted number,
 ``SCENARIO:METHOD.metric + 10`` (an absolute margin: §5.3's "5-10%" read as percentage
-points; with a factor, ``f*REF + c`` is ``f × REF + c``). ``SCENARIO/STRUCTURE/TARGET:METHOD.metric``
-names a row of another structure and target too (how §5.2's rubber-band beam is compared
-with Chapter 4's NL beam, a scenario of the same study: the value is measured in the same
-run, never written into the check). A claim is *reproduced* when every check
-holds on every (scenario, structure, target) row, *not reproduced* when one fails, and *not
-measured* when a value is missing or NaN.
+points; with a factor, ``f*REF + c`` is ``f × REF + c``).
+``SCENARIO/STRUCTURE/TARGET:METHOD.metric`` names a row of another structure and target
+too (how §5.2's rubber-band beam is compared with Chapter 4's NL beam, a scenario of the
+same study: the value is measured in the same run, never written into the check). A
+claim is *reproduced* when every check holds on every (scenario, structure, target) row,
+*not reproduced* when one fails, and *not measured* when a value is missing or NaN.
 """
 
 from __future__ import annotations
