@@ -33,7 +33,7 @@ def _beam_cases(n: int, k: int):
     import numpy as np
 
     import podbench as pb
-    from podbench.excitations import Pulse
+    from podbench.dynamics.excitations import Pulse
 
     s = pb.load_structure("lti_beam")
     # k distinct load positions from the tip inwards (in), one sensor per inch
@@ -48,7 +48,7 @@ def _beam_cases(n: int, k: int):
 def _deconv_task(method: str, n: int, k: int, solver: str):
     import numpy as np
 
-    from podbench.methods import MultipleLoad, SingleLoad
+    from podbench.sysid.methods import MultipleLoad, SingleLoad
 
     train, new, positions = _beam_cases(n, k)
     W = [r.W for r in train]
@@ -56,8 +56,8 @@ def _deconv_task(method: str, n: int, k: int, solver: str):
     if solver == "pinv":
         # the dissertation's MATLAB: pinv(X)*y on the dense matrix (Eq. 3.48), outside the
         # methods; the POD and modal forces exactly as MultipleLoad / SingleLoad form them
-        from podbench import deconvolution as dc
-        from podbench.pod import snapshot_svd
+        from podbench.sysid import deconvolution as dc
+        from podbench.sysid.pod import snapshot_svd
 
         U = snapshot_svd(W[0], k).modes
 
@@ -104,7 +104,7 @@ def _tall_matrix(m: int, n: int, seed: int = 0):
 
 
 def _pod_task(m: int, n: int, k: int, method: str):
-    from podbench.pod import method_of_snapshots, snapshot_svd
+    from podbench.sysid.pod import method_of_snapshots, snapshot_svd
 
     W = _tall_matrix(m, n)
     if method == "svd":
@@ -133,7 +133,7 @@ def _chain_structure(n_dofs: int, variable_mass: bool):
 
     import numpy as np
 
-    from podbench.fem import VariableMass, chain
+    from podbench.structures import VariableMass, chain
 
     s = chain(n_dofs, masses=1.0, springs=1.0e4, rayleigh=(1e-3, 1e-6),
               sensors=np.linspace(n_dofs - 1, 0, 10).astype(np.int64), name=f"chain{n_dofs}")
@@ -145,7 +145,7 @@ def _chain_structure(n_dofs: int, variable_mass: bool):
 
 
 def _chain_build_task(n_dofs: int):
-    from podbench.fem import chain
+    from podbench.structures import chain
 
     s, t, peak = measure(lambda: chain(n_dofs, masses=1.0, springs=1.0e4,
                                         rayleigh=(1e-3, 1e-6)))
@@ -414,8 +414,8 @@ def _methods_task(n: int):
     import numpy as np
 
     import podbench as pb
-    from podbench.excitations import Pulse
-    from podbench.methods import BUILTIN_METHODS
+    from podbench.dynamics.excitations import Pulse
+    from podbench.sysid.methods import BUILTIN_METHODS
 
     s = pb.load_structure("lti_beam")
     train = [pb.simulate(s, n_samples=n, dt=DT, force=Pulse(x, 500.0, 5e-4))

@@ -2,7 +2,7 @@
 memory, and ratios against a baseline measured in the same run.
 
 Every measurement runs in a fresh process (``multiprocessing`` spawn) with one BLAS thread
-(:func:`podbench._threads.single_blas_thread`): wall time of the call, and peak memory as the
+(:func:`podbench.core.threads.single_blas_thread`): wall time of the call, and peak memory as the
 growth of the resident set size over the process's size just before the call (Linux
 ``VmHWM`` after resetting it through ``/proc/self/clear_refs``; this counts LAPACK and
 SuperLU allocations that tracemalloc misses). Timings are the best of up to three repeats
@@ -61,7 +61,7 @@ def measure(fn, repeat_below: float = 1.0, max_repeat: int = 3):
 
 def _child(func, args: tuple, queue) -> None:
     try:
-        from podbench._threads import single_blas_thread
+        from podbench.core.threads import single_blas_thread
 
         with single_blas_thread():
             queue.put(("ok", func(*args)))

@@ -19,13 +19,14 @@ import numpy as np
 
 from podbench import errors
 from podbench.harness.cache import TruthCache
-from podbench.harness.runner import _Truth, resolve_structure
-from podbench.methods import MixedResponse
-from podbench.methods.mixed_design import design_conditioning
-from podbench.scenarios import load_scenario
+from podbench.harness.runner import _Truth
+from podbench.study.resolve import resolve_structure
+from podbench.study.scenarios import load_scenario
+from podbench.sysid.methods import MixedResponse
+from podbench.sysid.methods.mixed_design import design_conditioning
 
-SCENARIO = (Path(__file__).resolve().parents[1] / "podbench" / "bundled" / "scenarios"
-            / "mr_designs" / "beam_mixed_designs.toml")
+SCENARIO = (Path(__file__).resolve().parents[1] / "scenarios" / "mr_designs"
+            / "beam_mixed_designs.toml")
 OLD = "MR 19 11 3"
 CH4 = "MR 3 19 11"  # the rule's pick on the LTI beam (the profiles' reference): Chapter 4's
 SCALINGS = ("finite_difference", "ratio")

@@ -1,5 +1,5 @@
 """Benchmark outputs: the CSV file and the Markdown tables of ``benchmarks/README.md``,
-both written atomically (:mod:`podbench._atomic`)."""
+both written atomically (:mod:`podbench.core.atomic`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import csv
 import io
 from pathlib import Path
 
-from podbench._atomic import atomic_write_text
+from podbench.core.atomic import atomic_write_text
 
 __all__ = ["FIELDS", "GROUPS", "row", "write_csv", "read_csv", "table", "write_readme",
            "previous_header"]

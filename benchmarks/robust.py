@@ -32,8 +32,8 @@ def run(n: int, k: int, solvers, level: float, seed: int = 0):
     import numpy as np
 
     from benchmarks.groups import DT, _beam_cases
-    from podbench.methods import MultipleLoad
-    from podbench.noise import NoiseSpec, noisy
+    from podbench.sysid.methods import MultipleLoad
+    from podbench.sysid.noise import NoiseSpec, noisy
 
     train, new, _ = _beam_cases(n, k)
     spec = NoiseSpec(level=level, seed=seed)

@@ -9,21 +9,31 @@ Quick tour::
     s = pb.load_structure("lti_beam")                 # structures/lti_beam.toml
     w0 = pb.excitations.static_displacement(s, [(24.0, 1.0)])
     r = pb.simulate(s, n_samples=500, dt=1e-4, initial_displacement=w0)
-    from podbench.methods import POVR
+    from podbench.methods import POVR            # podbench.sysid.methods
     model = POVR(n_modes=3).fit(r)                    # a Response is a record (W, F, w0, v0, dt)
     W_hat = model.predict(pb.Record(W=r.W, w0=0.5 * r.w0))   # the response to half of w0
+
+    res = pb.run("chapter4", figures=False)           # as `podbench run chapter4`
+    res.summary                                       # results/chapter4/summary.csv
 """
 
-from . import deconvolution, errors, excitations, methods, pod
-from .data import Response, displacement_norm, norm_percent_error
-from .dynamics import simulate
-from .fem import list_structures, load_structure
-from .fem.structure import Structure
-from .records import Record
+from podbench import _compat, errors
+from podbench.core.records import Record
+from podbench.core.response import Response, displacement_norm, norm_percent_error
+from podbench.dynamics import excitations, simulate
+from podbench.structures import list_structures, load_structure
+from podbench.structures.structure import Structure
+from podbench.sysid import deconvolution, methods, pod
 
 __version__ = "0.1.0"
 
+_compat.install()
+
+from podbench.api import StudyResult, run  # noqa: E402  (the entry point uses __version__)
+
 __all__ = [
+    "run",
+    "StudyResult",
     "Record",
     "Response",
     "Structure",

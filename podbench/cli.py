@@ -10,24 +10,26 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import shlex
 import sys
 import textwrap
-import time
 import traceback
 from pathlib import Path
 
-DEFAULT_STUDY = "chapter4"
-#: What `podbench regress` re-runs without a PATH (the committed baseline holds their rows):
-#: the numerical study and the noisy-measurement study.
-REGRESS_STUDIES = ("chapter4", "chapter5")
-"""The bundled study ``run`` and ``regress`` run without a path (``podbench/bundled/``)."""
-DEFAULT_SWEEPS = "sweeps"
-"""The bundled folder of sweep scenarios ``sweep`` runs without a path."""
-DEFAULT_BASELINE = Path("results") / "baseline.csv"
-DEFAULT_CACHE = Path(".podbench_cache")
-DEFAULT_RESULTS = Path("results")
+from podbench import __version__, api
+from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
+from podbench.core.resources import (
+    SWEEPS_STUDY,
+    bundled_structures,
+    bundled_studies,
+    display_path,
+)
+from podbench.core.warnfmt import one_line_warnings
+from podbench.errors import InputError, PodbenchError
+from podbench.harness.progress import Progress
+from podbench.structures.files import structure_dirs
+from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
+from podbench.sysid.deconvolution import available_solvers
+from podbench.sysid.methods import BUILTIN_METHODS
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
@@ -80,7 +82,6 @@ def _parser() -> argparse.ArgumentParser:
                     "orthogonal decomposition (POD), after Allison (2007).",
         epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    from . import __version__
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
@@ -189,7 +190,7 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     w.add_argument("paths", nargs="*", metavar="PATH",
                    help="scenario files or folders of them, or a bundled study or scenario by "
-                        f"name (default: the bundled {DEFAULT_SWEEPS})")
+                        f"name (default: the bundled {SWEEPS_STUDY})")
     w.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
                    help="local worker processes (default 1; the table does not depend on N)")
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -253,260 +254,66 @@ Examples:
     return p
 
 
-class _Usage(Exception):
-    pass
-
-
-def _scenario_paths(paths, default=(DEFAULT_STUDY,)):
-    """The paths to run (a bundled study or scenario where a name is not an existing path;
-    the bundled studies ``default`` without ``paths``) and their scenario files."""
-    from ._resources import bundled_studies, resolve_bundled
-    from .scenarios import find_scenarios
-
-    resolved = []
-    for p in paths or ([default] if isinstance(default, str) else list(default)):
-        if not paths or not Path(p).exists():
-            b = resolve_bundled(p)
-            if b is None:
-                names = ", ".join(bundled_studies())
-                raise _Usage(f"{p}: no such file or folder, nor a bundled study or scenario "
-                             f"(bundled studies: {names}; podbench list shows every scenario)")
-            resolved.append(b)
-        else:
-            resolved.append(Path(p))
-    return resolved, find_scenarios(resolved)
-
-
-def _whole_study(claims_path, scenarios) -> bool:
-    """Whether ``scenarios`` holds every scenario of the claims file's folder."""
-    from .scenarios import find_scenarios
-
-    return {p.stem for p in find_scenarios([Path(claims_path).parent])} <= set(scenarios)
-
-
-def _claims_path(paths):
-    from .scenarios import CLAIMS_FILE
-
-    dirs = {Path(p).resolve() if Path(p).is_dir() else Path(p).resolve().parent for p in paths}
-    found = [d / CLAIMS_FILE for d in sorted(dirs) if (d / CLAIMS_FILE).is_file()]
-    if len(found) != 1:
-        return None
-    return found[0]
-
-
-def _writable_folder(path, option: str) -> Path:
-    """``path`` after checking, before any work, that it is a folder or can be created as one:
-    not a file, not under a file, its nearest existing ancestor writable."""
-    p = Path(path).expanduser()
-    if p.exists() and not p.is_dir():
-        raise _Usage(f"{option} {path}: exists and is not a folder")
-    a = p.absolute()
-    while not a.exists() and a != a.parent:
-        a = a.parent
-    if not a.is_dir():
-        raise _Usage(f"{option} {path}: {a} is a file, so no folder can be made under it")
-    if not os.access(a, os.W_OK | os.X_OK):
-        raise _Usage(f"{option} {path}: {a} is not writable")
-    return p
-
-
-def _output_folder(path, option: str, marker: str, *, also=()) -> Path:
-    """Check an output folder that podbench fills (or replaces): it must not exist, be empty,
-    or be a previous podbench output (holding ``marker``), so that a mistyped ``--out ~``
-    cannot replace a home folder; ``marker`` and ``also`` must not be folders."""
-    p = _writable_folder(path, option)
-    if p.is_dir():
-        for name in (marker, *also):
-            if (p / name).exists() and not (p / name).is_file():
-                raise _Usage(f"{option} {path}: {p / name} is a folder, not a file")
-        if not (p / marker).is_file() and any(p.iterdir()):
-            raise _Usage(f"{option} {path}: a non-empty folder that is not a podbench output "
-                         f"(no {marker} in it); give a new or empty folder")
-    return p
-
-
-def _default_out(paths) -> Path:
-    """``results/<folder name>`` for a folder, ``results/<file stem>`` for a single scenario
-    file (a part of a study never goes over the study's folder), names joined by ``+``."""
-    names = [Path(p).resolve().name if Path(p).is_dir() else Path(p).stem for p in paths]
-    return DEFAULT_RESULTS / "+".join(dict.fromkeys(names))
-
-
-def _scenarios_held(out: Path) -> set[str]:
-    """The scenarios of a previous output's ``summary.csv`` (empty if none or unreadable)."""
-    import csv
-
-    try:
-        with open(out / "summary.csv", newline="", encoding="utf-8") as fh:
-            return {row["scenario"] for row in csv.DictReader(fh) if row.get("scenario")}
-    except (OSError, UnicodeDecodeError, KeyError, csv.Error):
-        return set()
-
-
-def _refuse_partial_over(out: Path, names, option: str) -> None:
-    """Refuse to replace an output holding scenarios this run does not produce (running
-    one scenario of a study must not replace the whole study's results)."""
-    lost = sorted(_scenarios_held(out) - set(names))
-    if lost:
-        shown = ", ".join(lost[:4]) + (f" and {len(lost) - 4} more" if len(lost) > 4 else "")
-        raise _Usage(f"{option} {out}: holds the results of {len(lost)} scenario"
-                     f"{'s' if len(lost) != 1 else ''} this run does not produce ({shown}); "
-                     "replacing it would lose them: give another --out, or run them all")
-
-
 def _plural(n: int, word: str, plural: str | None = None) -> str:
     """``1 response``, ``2 responses``."""
     return f"{n} {word if n == 1 else (plural or word + 's')}"
 
 
-def _load_all(files) -> dict:
-    from .scenarios import load_scenario
-
-    scenarios = {}
-    for f in files:
-        sc = load_scenario(f)
-        if sc.name in scenarios:
-            raise _Usage(f"{f}: a second scenario named {sc.name!r}")
-        scenarios[sc.name] = sc
-    return scenarios
-
-
-def _progress(args):
-    from .harness.progress import Progress
-
-    return Progress(quiet=args.quiet)
-
-
-def _run(args, files, *, figures: bool, progress=None):
-    from .harness.runner import run_study
-
-    if args.jobs < 1:
-        raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
-    if not args.no_cache:
-        _writable_folder(args.cache, "--cache")
-    t0 = time.perf_counter()
-    results = run_study(files, jobs=args.jobs, cache_dir=None if args.no_cache else args.cache,
-                        engine=args.engine, progress=progress or _progress(args),
-                        keep_series=figures)
-    return results, time.perf_counter() - t0
+def _cache(args):
+    return None if args.no_cache else args.cache
 
 
 def cmd_run(args) -> int:
-    from ._resources import display_path
-    from .harness.report import write_study
-    from .harness.runner import response_counts
-
-    paths, files = _scenario_paths(args.paths)
-    out = Path(args.out) if args.out else _default_out(paths)
-    _output_folder(out, "--out", "summary.csv")
-    scenarios = _load_all(files)
-    _refuse_partial_over(out, scenarios, "--out")
-    claims = _claims_path(paths)
-    claims_file = None
-    if claims is not None:  # read (and checked) before any simulation
-        from .harness.claims import load_claims_file
-
-        claims_file = load_claims_file(claims)
-    progress = _progress(args)
-    results, secs = _run(args, files, figures=not args.no_figures, progress=progress)
-    linked = None
-    if claims_file is not None:  # the claims' sensitivity study, judged with the same code
-        from .harness.sensitivity import run_linked
-
-        linked = run_linked(claims_file, scenarios, jobs=args.jobs,
-                            cache_dir=None if args.no_cache else args.cache,
-                            engine=args.engine, progress=progress)
-    nonlinearity = None
-    if claims_file is not None and claims_file.nonlinearity is not None \
-            and _whole_study(claims, scenarios):  # §5.2's checks: only on a whole-study run
-        from .harness.nonlinearity_study import run_checks
-
-        spec = claims_file.nonlinearity
-        nonlinearity = (spec, run_checks(spec, jobs=args.jobs, progress=progress,
-                                         cache_dir=None if args.no_cache else args.cache))
-    df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
-                                figures=not args.no_figures, jobs=args.jobs,
-                                figure_format=args.figure_format, progress=progress,
-                                command=shlex.join(["podbench", *map(str, args.argv)]),
-                                sensitivity=linked, nonlinearity=nonlinearity)
-    n_sim, n_cached = response_counts(results)
-    print(f"{_plural(len(df), 'row')} from {_plural(len(scenarios), 'scenario')} in {secs:.1f} s "
-          f"({_plural(n_sim, 'response')} simulated, {n_cached} from the cache) -> "
-          f"{out}/summary.csv")
-    if evaluated is not None:
-        n_ok = sum(e["verdict"] == "reproduced" for e in evaluated)
-        print(f"claims: {n_ok} of {len(evaluated)} reproduced -> {out}/FINDINGS.md")
+    res = api.run(args.paths, out=args.out, jobs=args.jobs, cache=_cache(args),
+                  engine=args.engine, figures=not args.no_figures,
+                  figure_format=args.figure_format, progress=Progress(quiet=args.quiet),
+                  command=api.command_line(args.argv))
+    out, df = res.out, res.summary
+    print(f"{_plural(len(df), 'row')} from {_plural(len(res.scenarios), 'scenario')} in "
+          f"{res.seconds:.1f} s ({_plural(res.simulated, 'response')} simulated, "
+          f"{res.cached} from the cache) -> {out}/summary.csv")
+    if res.claims is not None:
+        n_ok = sum(e["verdict"] == "reproduced" for e in res.claims)
+        print(f"claims: {n_ok} of {len(res.claims)} reproduced -> {out}/FINDINGS.md")
     failed = df[df.status != "ok"]
     if len(failed):
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
               "(see summary.md)")
+    paths, _ = api.resolve_study(args.paths)
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:
-        folders = dict.fromkeys(Path(p).resolve().parent for p in parts)
-        for folder in folders:
+        for folder in dict.fromkeys(Path(p).resolve().parent for p in parts):
             print(f"part of the study in {display_path(folder)}: written to {out}/, "
-                  f"{DEFAULT_RESULTS / folder.name}/ left as it was")
+                  f"{api.DEFAULT_RESULTS / folder.name}/ left as it was")
     return 0
 
 
 def cmd_experiment(args) -> int:
-    from ._resources import display_path, resolve_bundled
-    from .experiments import check_experiment, write_experiment
-
-    path = Path(args.path)
-    if not path.exists():
-        b = resolve_bundled(args.path)
-        if b is None or not b.is_dir():
-            raise _Usage(f"{args.path}: no such file or folder, nor a bundled study")
-        path = b
+    files = api.experiment(args.path, check=args.check)
     if args.check:
-        bad = check_experiment(path)
-        for f in bad:
+        for f in files:
             print(f"differs: {f}")
-        print(f"{len(bad)} record file(s) differ from a fresh generation" if bad
+        print(f"{len(files)} record file(s) differ from a fresh generation" if files
               else "every record file equals a fresh generation")
-        return 1 if bad else 0
-    written = write_experiment(path)
-    folders = sorted({display_path(f.parent.parent) for f in written})
-    print(f"{len(written)} record files written under {', '.join(folders)}")
+        return 1 if files else 0
+    folders = sorted({display_path(f.parent.parent) for f in files})
+    print(f"{len(files)} record files written under {', '.join(folders)}")
     return 0
 
 
 def cmd_regress(args) -> int:
-    from .harness.regress import compare, read_table
-    from .harness.report import atomic_write_text, summary_table, table_csv
-
-    files = None
-    if not args.table:
-        files = _scenario_paths(args.paths, REGRESS_STUDIES)[1]  # missing paths first
-    baseline = Path(args.baseline)
-    if args.update:  # checked before any work: the new baseline can be written
-        if baseline.is_dir():
-            raise _Usage(f"--baseline {args.baseline}: is a folder, not a CSV file")
-        if baseline.parent.exists() and not baseline.parent.is_dir():
-            raise _Usage(f"--baseline {args.baseline}: {baseline.parent} is a file, not a folder")
-        _writable_folder(baseline.parent, "--baseline")
-    elif not baseline.is_file():
-        raise _Usage(f"{args.baseline}: no such baseline (create it with --update)")
-    base = None if args.update else read_table(args.baseline)
-    if args.table:
-        new = read_table(args.table)
-    else:
-        _load_all(files)
-        results, _ = _run(args, files, figures=False)
-        new = summary_table(results)
+    got = api.regress(args.paths, baseline=args.baseline, rtol=args.rtol, atol=args.atol,
+                      update=args.update, table=args.table, jobs=args.jobs,
+                      cache=_cache(args), engine=args.engine,
+                      progress=Progress(quiet=args.quiet))
     if args.update:
-        atomic_write_text(args.baseline, table_csv(new))
-        print(f"baseline updated: {args.baseline} ({len(new)} rows)")
+        print(f"baseline updated: {args.baseline} ({got} rows)")
         return 0
-    cmp = compare(new, base, rtol=args.rtol, atol=args.atol)
-    print(cmp.report(args.rtol, args.atol))
-    return 1 if cmp.failed else 0
+    print(got.report(args.rtol, args.atol))
+    return 1 if got.failed else 0
 
 
 def _list_scenarios(folder: Path, indent: str) -> None:
-    from .errors import PodbenchError
-    from .scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 
     for f in sorted(folder.glob("*.toml")):
         if f.name in NOT_SCENARIOS:
@@ -532,10 +339,6 @@ def _names_in(folder: Path) -> list[str]:
 
 
 def cmd_list(args) -> int:
-    from ._resources import bundled_structures, bundled_studies, display_path
-    from .deconvolution import available_solvers
-    from .fem.files import structure_dirs
-    from .methods import BUILTIN_METHODS
 
     bundled = bundled_structures()
     local = Path("structures")
@@ -564,7 +367,7 @@ def cmd_list(args) -> int:
             print(f"scenarios in ./{d.as_posix()} (podbench run {d.as_posix()}):")
             _list_scenarios(d, "  ")
     for name, d in bundled_studies().items():
-        cmd = "sweep" if name == DEFAULT_SWEEPS else "run"
+        cmd = "sweep" if name == SWEEPS_STUDY else "run"
         print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
               f"podbench {cmd} {name}, or {name}/<scenario> for one):")
         _list_scenarios(d, "  ")
@@ -611,20 +414,20 @@ def _list_arg(text, name: str, kind):
                 out.append(kind(item))
         except ValueError:
             what = {float: "numbers", int: "integers or ranges a-b", str: "names"}[kind]
-            raise _Usage(f"--{name}: cannot read {item!r} in {text!r} (expected a "
+            raise InputError(f"--{name}: cannot read {item!r} in {text!r} (expected a "
                          f"comma-separated list of {what})") from None
         if len(out) > _MAX_LIST:
-            raise _Usage(f"--{name}: {text!r} gives more than {_MAX_LIST} values")
+            raise InputError(f"--{name}: {text!r} gives more than {_MAX_LIST} values")
     minimum = _LIST_MINIMUM.get(name)
     for v in out:
         if kind is float and not math.isfinite(v):
-            raise _Usage(f"--{name}: expected finite numbers, got {v!r} in {text!r}")
+            raise InputError(f"--{name}: expected finite numbers, got {v!r} in {text!r}")
         if minimum is not None and v < minimum:
-            raise _Usage(f"--{name}: expected values >= {minimum:g}, got {v!r} in {text!r}")
+            raise InputError(f"--{name}: expected values >= {minimum:g}, got {v!r} in {text!r}")
     seen = set()
     for v in out:
         if v in seen:
-            raise _Usage(f"--{name}: {v!r} is listed twice in {text!r}")
+            raise InputError(f"--{name}: {v!r} is listed twice in {text!r}")
         seen.add(v)
     return out
 
@@ -636,45 +439,20 @@ has at least one mode, noise seeds are non-negative (``numpy.random.SeedSequence
 
 
 def cmd_sweep(args) -> int:
-    from .deconvolution import available_solvers
-    from .harness.sweep import run_sweep, write_sweep
-    from .scenarios import SolverChoice, load_scenario
-
-    if args.jobs < 1:
-        raise _Usage(f"--jobs: expected a positive integer, got {args.jobs}")
-    if args.scheduler is not None and args.jobs != 1:
-        raise _Usage("--jobs and --scheduler: give one (the Dask cluster sets the parallelism)")
-    axes = {"noise": _list_arg(args.noise, "noise", float),
-            "n_modes": _list_arg(args.n_modes, "n-modes", int),
-            "seeds": _list_arg(args.seeds, "seeds", int)}
-    solvers = _list_arg(args.solvers, "solvers", str)
-    if solvers is not None:
-        for name in solvers:
-            if name not in available_solvers():
-                raise _Usage(f"--solvers: unknown solver {name!r}; solvers: "
-                             f"{', '.join(available_solvers())}")
-        axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
-    _, files = _scenario_paths(args.paths, default=DEFAULT_SWEEPS)
-    if not args.no_cache:
-        _writable_folder(args.cache, "--cache")
-    _writable_folder(args.out, "--out")
-    for f in files:  # each scenario writes OUT/<name>/sweep.csv, sweep.md
-        _output_folder(Path(args.out) / load_scenario(f).name, "--out", "sweep.csv",
-                       also=("sweep.md",))
-    t0 = time.perf_counter()
-    scenarios, df = run_sweep(files, jobs=args.jobs, scheduler=args.scheduler,
-                              cache_dir=None if args.no_cache else args.cache,
-                              engine=args.engine, progress=_progress(args), **axes)
-    secs = time.perf_counter() - t0
+    res = api.sweep(args.paths, out=args.out, noise=_list_arg(args.noise, "noise", float),
+                    n_modes=_list_arg(args.n_modes, "n-modes", int),
+                    seeds=_list_arg(args.seeds, "seeds", int),
+                    solvers=_list_arg(args.solvers, "solvers", str), jobs=args.jobs,
+                    scheduler=args.scheduler, cache=_cache(args), engine=args.engine,
+                    progress=Progress(quiet=args.quiet))
+    df = res.table
     where = (f"Dask scheduler {args.scheduler}" if args.scheduler
              else _plural(args.jobs, "process", "processes"))
     print(f"{_plural(len(df), 'row')} from {_plural(df.attrs.get('tasks', 0), 'point')} in "
-          f"{secs:.1f} s on {where} ({_plural(df.attrs.get('simulated', 0), 'response')} "
+          f"{res.seconds:.1f} s on {where} ({_plural(df.attrs.get('simulated', 0), 'response')} "
           f"simulated, {df.attrs.get('cached', 0)} from the cache)")
-    for name, sc in scenarios.items():
-        csv, _ = write_sweep(df[df["scenario"] == name].reset_index(drop=True),
-                             Path(args.out) / name, sc)
-        print(f"  {name} -> {csv} and sweep.md")
+    for name, csv_path in res.written.items():
+        print(f"  {name} -> {csv_path} and sweep.md")
     failed = df[df.status != "ok"]
     if len(failed):
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
@@ -699,16 +477,14 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     args.argv = list(sys.argv[1:] if argv is None else argv)  # shown in the report
-    from .errors import PodbenchError
 
     prog = f"podbench {args.command}"
-    from ._warnfmt import one_line_warnings
 
     one_line_warnings(prog)
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list, "experiment": cmd_experiment}[args.command](args)
-    except (_Usage, PodbenchError) as exc:
+    except PodbenchError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -7,7 +7,10 @@ from methods._cases import D, forced_case
 from methods._truth import rel_err
 
 from podbench import Record
-from podbench.conditioning import (
+from podbench.core.response import Response
+from podbench.dynamics.excitations import Pulse
+from podbench.errors import InputError
+from podbench.sysid.conditioning import (
     Conditioning,
     WindowCorrected,
     condition,
@@ -17,11 +20,8 @@ from podbench.conditioning import (
     force_window,
     unwindow,
 )
-from podbench.data import Response
-from podbench.errors import InputError
-from podbench.excitations import Pulse
-from podbench.methods import MultipleLoad
-from podbench.noise import NoiseSpec, noisy
+from podbench.sysid.methods import MultipleLoad
+from podbench.sysid.noise import NoiseSpec, noisy
 
 DT, N, M = 1e-4, 400, 6
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from podbench.data import Response
+from podbench.core.response import Response
 from podbench.errors import InputError
 
 

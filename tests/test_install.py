@@ -55,7 +55,7 @@ def test_a_wheel_installed_in_a_fresh_venv_runs_a_bundled_scenario_from_an_empty
 
     podbench = venv / "bin" / "podbench"
     out = _run([podbench, "list"], cwd=empty, env=env).stdout
-    assert "structures bundled with podbench (podbench/bundled/structures):" in out
+    assert "structures bundled with podbench (structures):" in out
     assert "  satellite_truss" in out and "  beam_forced_noise:" in out
     assert "scenarios bundled with podbench: chapter4" in out
 
@@ -69,7 +69,7 @@ def test_a_wheel_installed_in_a_fresh_venv_runs_a_bundled_scenario_from_an_empty
     assert "<img" in (res / "report.html").read_text(encoding="utf-8")  # the study's report
     assert len(list((res / "figures").glob("*.png"))) == 1
     findings = (res / "FINDINGS.md").read_text(encoding="utf-8")
-    assert "`podbench/bundled/scenarios/chapter4/claims.toml`" in findings
+    assert "`scenarios/chapter4/claims.toml`" in findings
     # the same numbers as the committed study
     mine = (res / "summary.csv").read_text(encoding="utf-8").splitlines()
     ref = (ROOT / "results" / "chapter4" / "summary.csv").read_text(encoding="utf-8")

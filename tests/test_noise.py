@@ -4,11 +4,11 @@ only; SNR in dB; force offset and drift; double and triple hits as an excitation
 import numpy as np
 import pytest
 
-from podbench.data import Response
+from podbench.core.response import Response
+from podbench.dynamics.excitations import Pulse, excitation_from_dict
 from podbench.errors import InputError
-from podbench.excitations import Pulse, excitation_from_dict
 from podbench.harness import runner
-from podbench.noise import (
+from podbench.sysid.noise import (
     NoiseSpec,
     force_channels,
     level_from_snr_db,

@@ -3,7 +3,7 @@ import pytest
 import scipy.sparse as sp
 
 from podbench.errors import DimensionError, InputError
-from podbench.fem import CubicSpring, StiffnessEvent, Structure
+from podbench.structures import CubicSpring, StiffnessEvent, Structure
 
 
 def _chain(n=3):

@@ -4,7 +4,7 @@
 returns a :class:`podbench.data.Response`. See ``docs/dynamics.md``.
 """
 
-from .newmark import NewmarkResult, newmark
-from .simulate import ENGINES, simulate
+from podbench.dynamics.newmark import NewmarkResult, newmark
+from podbench.dynamics.simulate import ENGINES, simulate
 
 __all__ = ["simulate", "newmark", "NewmarkResult", "ENGINES"]

@@ -38,9 +38,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import ConvergenceError, InputError
-from ..fem.structure import Structure
-from .newmark import DENSE_MAX_DOFS
+from podbench.dynamics.newmark import DENSE_MAX_DOFS
+from podbench.errors import ConvergenceError, InputError
+from podbench.structures.structure import Structure
 
 __all__ = ["simulate_exudyn"]
 

@@ -57,8 +57,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg
 from scipy.linalg.lapack import dpotrs as _potrs
 
-from ..errors import ConvergenceError, DimensionError, IllConditionedError, InputError
-from ..fem.structure import Structure
+from podbench.errors import ConvergenceError, DimensionError, IllConditionedError, InputError
+from podbench.structures.structure import Structure
 
 __all__ = ["NewmarkResult", "newmark", "BETA", "GAMMA", "DENSE_MAX_DOFS"]
 

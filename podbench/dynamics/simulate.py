@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_finite_array, check_positive
-from ..data import Response
-from ..errors import DimensionError, InputError, UnknownNameError
-from ..fem.structure import Structure
-from .newmark import newmark
+from podbench.core.response import Response
+from podbench.core.validation import as_finite_array, check_positive
+from podbench.dynamics.exudyn_engine import simulate_exudyn
+from podbench.dynamics.newmark import newmark
+from podbench.errors import DimensionError, InputError, UnknownNameError
+from podbench.structures.structure import Structure
 
 __all__ = ["simulate", "ENGINES", "DOF_HISTORY_LIMIT"]
 
@@ -156,7 +157,6 @@ def simulate(
             q = qd = None
             W = res.q
     else:
-        from .exudyn_engine import simulate_exudyn
 
         q, qd = simulate_exudyn(structure, q0, v0, structure.to_dofs(F), dt)
         W = structure.observe(q)

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from .._atomic import atomic_write_bytes
-from ..errors import PodbenchWarning
-from ..scenarios import canonical_json
+from podbench.core.atomic import atomic_write_bytes
+from podbench.errors import PodbenchWarning
+from podbench.study.scenarios import canonical_json
 
 __all__ = ["TruthCache", "structure_fingerprint", "TRUTH_VERSION"]
 

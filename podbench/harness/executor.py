@@ -1,10 +1,10 @@
 """Run independent tasks serially, in local processes or on a Dask cluster: one executor for
 the study's units (:func:`podbench.harness.runner.run_study`), the sweep's points
 (:func:`podbench.harness.sweep.run_sweep`) and the figures
-(:func:`podbench.harness.report.write_study`).
+(:func:`podbench.report.study.write_study`).
 
 Whatever the mode, :func:`execute` returns the results in task order, computes each task
-with one BLAS thread (:func:`podbench._threads.single_blas_thread`, so a result does not
+with one BLAS thread (:func:`podbench.core.threads.single_blas_thread`, so a result does not
 depend on the mode, ``jobs`` or the machine's cores), reports every finished task to a
 progress callback, and on the first error or a KeyboardInterrupt cancels the pending tasks
 and raises in the caller: a :class:`~podbench.errors.PodbenchError` as itself (one line for
@@ -27,9 +27,9 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from multiprocessing import get_context
 
-from .._threads import single_blas_thread
-from .._warnfmt import one_line_warnings
-from ..errors import InputError, PodbenchError
+from podbench.core.threads import single_blas_thread
+from podbench.core.warnfmt import one_line_warnings
+from podbench.errors import InputError, PodbenchError
 
 __all__ = ["execute"]
 

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data import displacement_norm, norm_percent_error
+from podbench.core.response import displacement_norm, norm_percent_error
 
 __all__ = ["decompose", "norm_summaries", "ERROR_COLUMNS", "NORM_COLUMNS"]
 

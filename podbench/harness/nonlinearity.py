@@ -42,26 +42,28 @@ Units: inch, lbf, second.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from ..dynamics import simulate
-from ..errors import InputError
-from ..excitations import Pulse
-from ..fem import OneSidedSpring, Structure
-from ..fem.beam import modal_damping_matrix
-from ..fem.files import load_structure
+from podbench.dynamics import simulate
+from podbench.dynamics.excitations import Pulse
+from podbench.errors import InputError
+from podbench.harness.cache import TruthCache, structure_fingerprint
+from podbench.harness.executor import execute
+from podbench.harness.progress import as_stage
+from podbench.structures import OneSidedSpring, Structure
+from podbench.structures.beam import modal_damping_matrix
+from podbench.structures.files import load_structure
+from podbench.study.nonlinearity import NonlinearitySpec
 
 __all__ = [
     "PEAKS", "PULSE_DURATION", "LOCATION", "DT", "LAG_TIMES", "LAG_TIMES_SCALED",
     "FRACTIONS", "band_variant", "modal_damping", "reference_period", "impulse_responses",
-    "superposition_check", "phase_lag", "phase_lags", "nonlinearity_table", "markdown_table",
-    "figure_scaled_tip", "figure_phase_lag", "ImpulseSet", "response_nonlinearity",
+    "superposition_check", "phase_lag", "phase_lags", "nonlinearity_table", "run_checks",
+    "ImpulseSet", "response_nonlinearity",
 ]
 
 PEAKS = (0.36, 0.72, 1.08, 1.44, 1.8)
@@ -136,7 +138,6 @@ def impulse_responses(structure: Structure, peaks=PEAKS, *, duration: float = PU
 
     ``cache``: a :class:`podbench.harness.cache.TruthCache` (or None): each response is
     keyed by the structure's fingerprint and the load, and read back exactly."""
-    from .cache import TruthCache, structure_fingerprint
 
     n = int(round(t_end / dt)) + 1
     fp = structure_fingerprint(structure) if cache is not None else ""
@@ -333,116 +334,6 @@ def nonlinearity_table(structure: Structure | None = None, *, fractions=FRACTION
     return rows
 
 
-def _frequency_verdict(lags, tol: float = 0.01) -> str:
-    """From the smallest load's lag (% of T) at the last time: "rises" with the load when
-    it lags the baseline by more than ``tol`` %, "falls" when it leads, else "equal"."""
-    lag = float(lags[0, -1])
-    if abs(lag) < tol:
-        return "equal"
-    return "rises" if lag > 0 else "falls"
-
-
-def markdown_table(rows) -> str:
-    """The table of :func:`nonlinearity_table` in markdown (scaled values in in/(lbf·s))."""
-    times = rows[0]["times"]
-    head = ("| ζ | band | offset (in) | offset / A | away peak, 0.36 → 1.8 lbf | toward peak "
-            "| RMS | deviation of 0.36 lbf | "
-            + " | ".join(f"lag @ {t:g} s (% T)" for t in times)
-            + " | scaled tip with load (away / toward / RMS) | first frequency with load |")
-    sep = "|" + "---|" * (8 + len(times) + 2)
-    lines = [head, sep]
-
-    def pair(x):
-        return f"{x[0]:.3f} → {x[-1]:.3f}"
-
-    for r in rows:
-        lines.append(
-            f"| {100 * r['zeta']:g} % | {r['kind']} | {r['offset_in']:.4g} | {r['fraction']:g} "
-            f"| {pair(r['away'])} | {pair(r['toward'])} | {pair(r['rms'])} "
-            f"| {r['deviation'][0]:.2e} | "
-            + " | ".join(f"{x:+.2f}" for x in r["lags"][0])
-            + f" | {r['trend_away']} / {r['trend_toward']} / {r['trend_rms']} "
-            f"| {_frequency_verdict(r['lags'])} |")
-    return "\n".join(lines)
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _finish(plt, fig, ax, path) -> Path:
-    """Legend, grid, 150 dpi, close: the common end of Figs. 5.12 and 5.13."""
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
-    return Path(path)
-
-
-def figure_scaled_tip(data: ImpulseSet, path, *, window: float, title: str = ""):
-    """Fig. 5.12: tip displacement per unit impulse over the first ``window`` s."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(8.0, 4.8))
-    m = data.t <= window
-    for p, row in zip(data.peaks, data.scaled, strict=True):
-        ax.plot(1e3 * data.t[m], row[m], lw=1.2, label=f"{p:g} lbf peak")
-    ax.set_xlabel("time after impact (ms)")
-    ax.set_ylabel("tip displacement / impulse (in/(lbf·s))")
-    ax.set_title(title or "Scaled tip displacements (Fig. 5.12)")
-    return _finish(plt, fig, ax, path)
-
-
-def figure_phase_lag(data: ImpulseSet, lags: np.ndarray, times, path, *, title: str = ""):
-    """Fig. 5.13: phase lag behind the baseline (% of the reference period) at ``times``."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(8.0, 4.8))
-    for p, row in zip(data.peaks[:-1], lags[:-1], strict=True):
-        ax.plot(np.asarray(times) * 1e3, row, "o-", label=f"{p:g} lbf peak")
-    ax.axhline(0.0, color="k", lw=0.8)
-    ax.set_xlabel("time after impact (ms)")
-    ax.set_ylabel(f"lag behind the {data.peaks[-1]:g}-lbf response (% of period)")
-    ax.set_title(title or "Phase lag for various impulse magnitudes (Fig. 5.13)")
-    return _finish(plt, fig, ax, path)
-
-
-def main(argv=None) -> int:
-    """``python -m podbench.harness.nonlinearity [--figures DIR] [--quick]``: print the table."""
-    ap = argparse.ArgumentParser(prog="python -m podbench.harness.nonlinearity",
-                                 description=__doc__.splitlines()[0])
-    ap.add_argument("--figures", type=Path, help="write Figs. 5.12/5.13 per row here")
-    ap.add_argument("--quick", action="store_true", help="undamped, fractions 0, 0.5, 1 only")
-    ap.add_argument("--zeta", type=float, action="append",
-                    help="modal damping ratio(s) (default 0 and 0.005)")
-    a = ap.parse_args(argv)
-    kw = {"fractions": (0.0, 0.5, 1.0), "zetas": (0.0,)} if a.quick else {}
-    if a.zeta:
-        kw["zetas"] = tuple(a.zeta)
-    rows = nonlinearity_table(**kw)
-    r0 = rows[0]
-    print(f"A = {r0['amplitude_in']:.5g} in (largest tip amplitude, 1.8 lbf, no slack); "
-          f"T = {r0['period_s']:.5g} s (bare beam)\n")
-    print(markdown_table(rows))
-    if a.figures:
-        a.figures.mkdir(parents=True, exist_ok=True)
-        for r in rows:
-            tag = f"z{100 * r['zeta']:g}_{r['kind']}_{r['fraction']:g}"
-            figure_scaled_tip(r["data"], a.figures / f"fig5_12_{tag}.png",
-                              window=r["period_s"], title=f"Scaled tip, {tag}")
-            figure_phase_lag(r["data"], r["lags"], r["times"],
-                             a.figures / f"fig5_13_{tag}.png", title=f"Phase lag, {tag}")
-    return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())
-
-
 def response_nonlinearity(structure: Structure, force, n_samples: int, dt: float) -> float:
     """‖W − W_twin‖_F / ‖W‖_F: how far the response to ``force`` is from the linear twin's
     (:meth:`Structure.linear_twin`) — the part of the truth no linear model of the twin's
@@ -452,3 +343,27 @@ def response_nonlinearity(structure: Structure, force, n_samples: int, dt: float
     Wl = simulate(structure.linear_twin(), n_samples=n_samples, dt=dt, force=force,
                   dof_histories=False).W
     return float(np.linalg.norm(W - Wl) / np.linalg.norm(W))
+
+
+def _task(args):
+    structure, zeta, frac, cache_dir = args
+    return nonlinearity_table(load_structure(structure), fractions=(frac,), zetas=(zeta,),
+                              cache=TruthCache(cache_dir) if cache_dir is not None else None)
+
+
+_ORDER = {"none": 0, "slack": 1, "prestretch": 2}
+
+
+def run_checks(spec: NonlinearitySpec, *, jobs: int = 1, progress=None,
+               cache_dir=None) -> list[dict]:
+    """The rows of :func:`~podbench.harness.nonlinearity.nonlinearity_table` for ``spec``, one
+    task per (ζ, fraction) (``jobs`` processes; ``progress`` as
+    :func:`podbench.harness.progress.as_stage`; ``cache_dir``: the truth cache's folder, the
+    2.2-s responses are read back exactly on a rerun), in a fixed order: ζ, then the band's own
+    row, the slacks and the pre-stretches by fraction."""
+    tasks = [(spec.structure, z, f, None if cache_dir is None else str(cache_dir))
+             for z in spec.zetas for f in spec.fractions]
+    with as_stage(progress, "nonlinearity checks", len(tasks), "task") as stage:
+        parts = execute(_task, tasks, jobs=jobs, progress=lambda *_: stage.advance())
+    rows = [r for part in parts for r in part]
+    return sorted(rows, key=lambda r: (r["zeta"], _ORDER[r["kind"]], r["fraction"]))

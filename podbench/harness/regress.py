@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-from ..errors import InputError
-from .metrics import ERROR_COLUMNS
+from podbench.errors import InputError
+from podbench.harness.metrics import ERROR_COLUMNS
 
 __all__ = ["compare", "Comparison", "COMPARED", "KEY", "read_table"]
 

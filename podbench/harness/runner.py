@@ -14,28 +14,27 @@ derives the point's scenario (:func:`podbench.scenarios.apply_overrides`) and ``
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..conditioning import Conditioning, WindowCorrected, condition
-from ..data import Response, displacement_norm, norm_percent_error
-from ..dynamics import simulate
-from ..errors import PodbenchError, ScenarioFileError, StructureFileError, UnknownNameError
-from ..excitations import excitation_from_dict
-from ..fem import load_structure
-from ..fem.files import _display
-from ..measured import read_record
-from ..noise import NoiseSpec, noise_generator, noisy
-from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
-from .cache import TruthCache, structure_fingerprint
-from .estimators import all_cases, build_estimator, is_user_method, training_records
-from .executor import execute
-from .metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
-from .progress import as_stage
+from podbench.core.resources import display_path as _display
+from podbench.core.response import Response, displacement_norm, norm_percent_error
+from podbench.dynamics import simulate
+from podbench.dynamics.excitations import excitation_from_dict
+from podbench.errors import PodbenchError, ScenarioFileError
+from podbench.harness.cache import TruthCache, structure_fingerprint
+from podbench.harness.executor import execute
+from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
+from podbench.harness.progress import as_stage
+from podbench.study.estimators import all_cases, build_estimator, is_user_method, training_records
+from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
+from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
+from podbench.sysid.conditioning import Conditioning, WindowCorrected, condition
+from podbench.sysid.measured import read_record
+from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
 __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "response_counts", "NoiseSpec",
            "noisy", "check_cases", "noise_generator"]
@@ -64,58 +63,6 @@ class UnitResult:
     seconds: float = 0.0
     simulated_keys: list = field(default_factory=list)  # cache keys of the responses simulated
     cached_keys: list = field(default_factory=list)  # and of those read from the cache
-
-
-def _structure_search(scenario: Scenario) -> list[Path]:
-    return [scenario.folder, scenario.folder / "structures", Path.cwd() / "structures"]
-
-
-MEASURED = "measured"
-"""The structure entry that means "no structure": every case is a measured record."""
-
-
-class MeasuredStructure:
-    """What ``structures = ["measured"]`` resolves to: no model, nothing to simulate, no
-    linear twin (the sensors are those of the files)."""
-
-    name = MEASURED
-    is_linear = True
-    n_sensors = None
-    sensor_positions = None
-    events = ()
-
-
-def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.structures"):
-    """Load a structure named in a scenario (a name, or a path relative to the file;
-    ``"measured"``: :class:`MeasuredStructure`).
-
-    ``field`` is the scenario field that names it (shown in the error message).
-    """
-    if entry == MEASURED:
-        return MeasuredStructure()
-    variant = scenario.variants.get(entry)
-    if variant is not None:  # a structure file with some fields replaced, renamed
-        base_entry = variant.structure
-        if base_entry.endswith(".toml") and not os.path.isabs(base_entry):
-            base_entry = str(scenario.folder / base_entry)
-        shown = _display(scenario.path)
-        try:
-            return load_structure(base_entry, search_path=_structure_search(scenario),
-                                  overrides=variant.set, name=entry)
-        except UnknownNameError as exc:
-            raise ScenarioFileError(f"{shown}: field `variants.{entry}.structure`: {exc}") \
-                from None
-        except StructureFileError as exc:
-            raise ScenarioFileError(f"{shown}: field `variants.{entry}.set`: {exc}") from None
-    if entry.endswith(".toml") and not os.path.isabs(entry):
-        entry = str(scenario.folder / entry)
-    if entry.endswith(".toml") and not os.path.isfile(entry):
-        raise ScenarioFileError(f"{_display(scenario.path)}: field `{field}`: {entry}: no such "
-                                "structure file")
-    try:
-        return load_structure(entry, search_path=_structure_search(scenario))
-    except UnknownNameError as exc:
-        raise ScenarioFileError(f"{_display(scenario.path)}: field `{field}`: {exc}") from None
 
 
 def _references(case) -> dict[str, str]:

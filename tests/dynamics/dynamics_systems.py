@@ -6,7 +6,7 @@ Imported by the test modules of this folder (pytest puts the folder on sys.path)
 import numpy as np
 import scipy.sparse as sp
 
-from podbench.fem import StiffnessEvent, Structure, VariableMass, load_structure
+from podbench.structures import StiffnessEvent, Structure, VariableMass, load_structure
 
 
 def cantilever() -> Structure:

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from podbench.dynamics import newmark, simulate
-from podbench.excitations import ImpulseVelocity, Pulse, StaticDisplacement
-from podbench.fem import load_structure
-from podbench.fem.truss import truss_dof
+from podbench.dynamics.excitations import ImpulseVelocity, Pulse, StaticDisplacement
+from podbench.structures import load_structure
+from podbench.structures.truss import truss_dof
 
 DT_BEAM, N_BEAM = 1e-4, 500  # §4.1: 0.1 ms, 0.05 s
 DT_TRUSS, N_TRUSS = 0.05, 200  # §4.2: 0.05 s, 10 s

@@ -8,8 +8,7 @@ import scipy.linalg
 from dynamics_systems import cantilever, chain, tip_mass
 
 from podbench.dynamics import simulate
-from podbench.errors import DimensionError, InputError, UnknownNameError
-from podbench.excitations import (
+from podbench.dynamics.excitations import (
     Combined,
     ForceHistory,
     ImpulseVelocity,
@@ -20,6 +19,7 @@ from podbench.excitations import (
     resolve_dof,
     static_displacement,
 )
+from podbench.errors import DimensionError, InputError, UnknownNameError
 
 
 def test_static_tip_load_gives_cantilever_formula():
@@ -95,7 +95,7 @@ def test_measured_impulse_on_a_free_body_is_momentum_over_mass():
     """velocity="measured": on a structure without stiffness the measured velocity change is
     exactly M⁻¹ J with J = F·duration (the trapezoidal impulse of the sampled pulse up to the
     first sample after it); the coupled mass spreads it exactly as M⁻¹ does."""
-    from podbench.fem import Structure
+    from podbench.structures import Structure
 
     M = np.array([[2.0, 0.5, 0.0], [0.5, 1.5, 0.2], [0.0, 0.2, 1.0]])
     free = Structure(name="free", M=M, K=np.zeros((3, 3)), sensor_dofs=np.arange(3))
@@ -152,7 +152,7 @@ def test_nl_beam_tip_maxima_beside_the_text(reading, kw, measured):
     LTI beam) under each reading of the "1000-lbf impulses", beside the text's (the table in
     docs/structures.md). Numbers measured, not tuned: the 0.5-ms readings are within 25 % of
     the text's first four values; J = F·Δt is 4-5 times smaller."""
-    from podbench.fem import load_structure
+    from podbench.structures import load_structure
 
     lti, nl = load_structure("lti_beam"), load_structure("nl_beam")
     tip = nl.sensor_positions.tolist().index(24.0)

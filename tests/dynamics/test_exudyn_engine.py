@@ -8,9 +8,9 @@ import pytest
 from dynamics_systems import cantilever, chain, chain_end_breaks_off, chain_event, tip_mass
 
 from podbench.dynamics import simulate
+from podbench.dynamics.excitations import Pulse
 from podbench.errors import InputError
-from podbench.excitations import Pulse
-from podbench.fem import CubicSpring
+from podbench.structures import CubicSpring
 
 pytest.importorskip("exudyn")
 

@@ -8,7 +8,7 @@ from dynamics_systems import cantilever, chain, chain_event, tip_mass
 from podbench.dynamics import newmark
 from podbench.dynamics.newmark import DENSE_MAX_DOFS
 from podbench.errors import ConvergenceError
-from podbench.fem import CubicSpring, Structure
+from podbench.structures import CubicSpring, Structure
 
 
 def _sdof(k=400.0, m=2.0, c=None, **extra):
@@ -127,7 +127,7 @@ def test_variable_mass_sherman_morrison_equals_dense_solve_per_step():
 def test_variable_mass_on_beam_sherman_morrison_equals_dense_solve():
     from dataclasses import replace
 
-    from podbench.fem import VariableMass
+    from podbench.structures import VariableMass
 
     base = cantilever()
     tip = base.n_dofs - 2

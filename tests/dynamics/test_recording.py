@@ -10,10 +10,10 @@ import scipy.sparse as sp
 from dynamics_systems import chain
 
 from podbench.dynamics import newmark, simulate
+from podbench.dynamics.excitations import Pulse, StaticDisplacement
 from podbench.dynamics.newmark import DENSE_MAX_DOFS
 from podbench.errors import DimensionError, InputError
-from podbench.excitations import Pulse, StaticDisplacement
-from podbench.fem import load_structure
+from podbench.structures import load_structure
 
 DT_BEAM, N_BEAM = 1e-4, 300
 simulate_module = importlib.import_module("podbench.dynamics.simulate")  # not the function

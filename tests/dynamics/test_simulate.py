@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from dynamics_systems import cantilever, chain
 
-from podbench.data import Response
+from podbench.core.response import Response
 from podbench.dynamics import newmark, simulate
+from podbench.dynamics.excitations import ForceHistory, Pulse
 from podbench.errors import DimensionError, InputError, UnknownNameError
-from podbench.excitations import ForceHistory, Pulse
 
 
 def test_response_holds_sensor_samples_of_the_dof_histories():

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from podbench._resources import bundled_structures
-from podbench.fem import cantilever_beam, load_structure
-from podbench.fem.laws import SineLaw
+from podbench.core.resources import bundled_structures
+from podbench.structures import cantilever_beam, load_structure
+from podbench.structures.laws import SineLaw
 
 # Properties stated in §4.1, converted independently of the package.
 E = 29.0e6  # psi
@@ -149,7 +149,7 @@ def test_builder_physics_tip_stiffness_beam_mass_and_matched_cubic():
     import numpy as np
     import scipy.sparse.linalg as spla
 
-    from podbench.fem.beam import (
+    from podbench.structures.beam import (
         beam_mass,
         cantilever_beam,
         k3_matching_linear,

@@ -6,10 +6,10 @@ import pytest
 import scipy.linalg
 
 from podbench.dynamics import simulate
+from podbench.dynamics.excitations import Pulse
 from podbench.errors import InputError, StructureFileError
-from podbench.excitations import Pulse
-from podbench.fem import load_structure
-from podbench.fem.beam import cantilever_beam, density_from_lbm_per_ft3, modal_damping_matrix
+from podbench.structures import load_structure
+from podbench.structures.beam import cantilever_beam, density_from_lbm_per_ft3, modal_damping_matrix
 
 AL = dict(length=20.0, width=1.0, depth=0.125, E=10.0e6,
           density=density_from_lbm_per_ft3(168.48), n_elements=20)

@@ -6,8 +6,8 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from podbench.errors import DimensionError, InputError
-from podbench.fem import load_structure
-from podbench.fem.chain import chain
+from podbench.structures import load_structure
+from podbench.structures.chain import chain
 
 
 @pytest.mark.parametrize("n", [1, 3, 8])

@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from podbench._resources import bundled_structures
+from podbench.core.resources import bundled_structures
 from podbench.errors import StructureFileError, UnknownNameError
-from podbench.fem import build_structure, list_structures, load_structure
-from podbench.fem.files import KINDS, structure_dirs
+from podbench.structures import build_structure, list_structures, load_structure
+from podbench.structures.files import KINDS, structure_dirs
 
 REPO_STRUCTURES = bundled_structures()
 
@@ -255,8 +255,8 @@ def test_sparse_definiteness_check_agrees_with_the_eigenvalues():
     import scipy.sparse as sp
 
     from podbench.errors import InputError
-    from podbench.fem.chain import chain
-    from podbench.fem.matrices import check_definite
+    from podbench.structures.chain import chain
+    from podbench.structures.matrices import check_definite
 
     n = 1200  # above the dense limit: the sparse LDLᵀ inertia decides
     K = chain(n, boundary="fixed-free").K

@@ -6,9 +6,9 @@ import pytest
 import scipy.io
 import scipy.sparse as sp
 
-from podbench._resources import bundled_structures
+from podbench.core.resources import bundled_structures
 from podbench.errors import InputError, StructureFileError
-from podbench.fem import from_matrices, load_structure
+from podbench.structures import from_matrices, load_structure
 
 EXAMPLES = bundled_structures() / "examples"
 

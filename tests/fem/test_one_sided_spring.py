@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from podbench.dynamics import simulate
+from podbench.dynamics.excitations import Pulse
 from podbench.dynamics.newmark import newmark
 from podbench.errors import InputError, StructureFileError
-from podbench.excitations import Pulse
-from podbench.fem import OneSidedSpring, Structure
-from podbench.fem.files import load_structure
+from podbench.structures import OneSidedSpring, Structure
+from podbench.structures.files import load_structure
 
 
 def _upward_crossings(t, x):

@@ -5,8 +5,8 @@ import pytest
 import scipy.linalg
 
 from podbench.errors import InputError
-from podbench.fem import load_structure
-from podbench.fem.truss import (
+from podbench.structures import load_structure
+from podbench.structures.truss import (
     dissertation_dof_element,
     element_members,
     face_dof,

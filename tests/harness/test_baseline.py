@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from podbench import cli
-from podbench._resources import bundled_scenarios
+from podbench import api, cli
+from podbench.core.resources import bundled_scenarios
 from podbench.harness.regress import compare, read_table
-from podbench.harness.report import summary_table
 from podbench.harness.runner import run_study
+from podbench.harness.tables import summary_table
 
 ROOT = Path(__file__).resolve().parents[2]
 CH4 = bundled_scenarios() / "chapter4"
@@ -38,7 +38,7 @@ def test_whole_study_regress_passes(monkeypatch, capsys):
 def test_baseline_holds_the_studies_regress_runs_by_default():
     """`podbench regress` without a PATH re-runs chapter4 and chapter5; the committed
     baseline has rows of every scenario of both (and of nothing else)."""
-    resolved, files = cli._scenario_paths([], cli.REGRESS_STUDIES)
+    resolved, files = api.resolve_study([], api.REGRESS_STUDIES)
     assert [p.name for p in resolved] == ["chapter4", "chapter5"]
     base = read_table(ROOT / "results" / "baseline.csv")
     assert set(base.scenario) == {Path(f).stem for f in files}

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from podbench import cli, load_structure
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.fem.beam import beam_mass
-from podbench.harness.bounds import evaluate_bounds, mass_diagonal_spread
-from podbench.harness.claims import load_claims_file
-from podbench.harness.sensitivity import bounded_summary
-from podbench.scenarios import load_scenario
+from podbench.structures.beam import beam_mass
+from podbench.study.bounds import evaluate_bounds, mass_diagonal_spread
+from podbench.study.claims import load_claims_file
+from podbench.study.scenarios import load_scenario
+from podbench.study.sensitivity import bounded_summary
 
 CH4 = bundled_scenarios() / "chapter4"
 SENS = bundled_scenarios() / "sensitivity"

@@ -10,18 +10,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.experiments import (
+from podbench.study.claims import evaluate_claims, load_claims, load_claims_file
+from podbench.study.experiments import (
     check_experiment,
     generate,
     level_folder,
     load_experiment,
     write_experiment,
 )
-from podbench.harness.claims import evaluate_claims, load_claims, load_claims_file
-from podbench.measured import read_record
-from podbench.scenarios import find_scenarios, load_scenario
+from podbench.study.scenarios import find_scenarios, load_scenario
+from podbench.sysid.measured import read_record
 
 CH5 = bundled_scenarios() / "chapter5"
 ROOT = Path(__file__).resolve().parents[2]
@@ -200,7 +200,7 @@ def test_study_runs_from_one_command(tmp_path):
     df = pd.read_csv(out / "summary.csv")
     assert sorted(df.method.unique()) == ["ML-ls", "SL-ls"]
     # independent: ML with the dense least squares on the same records
-    from podbench.methods import MultipleLoad
+    from podbench.sysid.methods import MultipleLoad
 
     d = study / "data/linear_beam_undamped/noise_0pct"
     recs = [read_record(d / f"{c}.npz") for c in ("load8", "load12", "load4")]
@@ -211,7 +211,7 @@ def test_study_runs_from_one_command(tmp_path):
 
 
 def test_a_measured_case_is_described_as_its_file():
-    from podbench.harness.figures import describe_case
+    from podbench.report.figures import describe_case
 
     sc = load_scenario(CH5 / "linear_beam_noise_1pct.toml")
     assert describe_case(sc.cases["load8"], dt=1e-4, t_end=0.1) == (
@@ -228,8 +228,8 @@ def test_rubber_band_records_and_the_decomposition_scenario_share_the_loads():
     """The simulated decomposition scenario runs exactly the experiment's clean loads, and
     the clean record is the noise-free simulation of the structure (independent run)."""
     from podbench.dynamics import simulate
-    from podbench.excitations import Pulse
-    from podbench.fem.files import load_structure
+    from podbench.dynamics.excitations import Pulse
+    from podbench.structures.files import load_structure
 
     test = load_experiment(CH5).tests["rubber_band_beam"]
     sc = load_scenario(CH5 / "rubber_band_beam_decomposition.toml")

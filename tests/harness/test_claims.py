@@ -6,10 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.harness.claims import evaluate_claims, load_claims
 from podbench.harness.metrics import decompose, norm_summaries
+from podbench.study.claims import evaluate_claims, load_claims
 
 TABLE = pd.DataFrame([
     {"scenario": "s", "structure": "a", "method": "POVR", "target": "t", "total_error": 0.3,
@@ -103,7 +103,7 @@ def test_percent_error_conclusions_are_judged_on_the_percent_error_alone():
     displacements and loads and 20% for initial velocities" defines "accurate" by the Eq. 4.2
     percent error; those claims check norm_pe_median only (issue 11, item 6)."""
 
-    from podbench.harness.claims import CHECK_RE
+    from podbench.study.claims import CHECK_RE
 
     path = bundled_scenarios() / "chapter4" / "claims.toml"
     claims, _ = load_claims(path)
@@ -122,7 +122,7 @@ def test_percent_error_conclusions_are_judged_on_the_percent_error_alone():
 def test_a_finding_is_shown_in_the_findings_table(tmp_path):
     """The optional one-line `finding` fills the table's 'explained by' column; claims
     without one show a dash, and a file without any keeps the three-column table."""
-    from podbench.harness.report import findings_markdown
+    from podbench.report.study import findings_markdown
 
     claims, _ = _claims(tmp_path, """
 [[claims]]

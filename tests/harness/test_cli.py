@@ -5,8 +5,8 @@ import pandas as pd
 import pytest
 from conftest import CHAIN_FORCED, CHAIN_FREE
 
-from podbench import cli
-from podbench.harness import report
+from podbench import api, cli
+from podbench.report import study as report
 
 
 @pytest.fixture
@@ -284,12 +284,10 @@ def test_an_unchanged_table_is_no_regression_at_zero_tolerance(study, tmp_path, 
 
 
 def test_os_errors_exit_2_and_bugs_exit_3_on_one_line(study, tmp_path, capsys, monkeypatch):
-    from podbench.harness import runner
-
     def denied(*a, **k):
         raise PermissionError(13, "Permission denied", "/some/where/entry.npz")
 
-    monkeypatch.setattr(runner, "run_study", denied)
+    monkeypatch.setattr(api, "run_study", denied)
     args = ["run", str(study), "-q", "--out", str(tmp_path / "out")]
     assert cli.main(args) == 2
     assert "error: /some/where/entry.npz: Permission denied" in _one_line_error(capsys)
@@ -297,7 +295,7 @@ def test_os_errors_exit_2_and_bugs_exit_3_on_one_line(study, tmp_path, capsys, m
     def bug(*a, **k):
         raise ValueError("something podbench did not expect")
 
-    monkeypatch.setattr(runner, "run_study", bug)
+    monkeypatch.setattr(api, "run_study", bug)
     assert cli.main(args) == 3
     err = _one_line_error(capsys)
     assert err.startswith("podbench run: internal error: ValueError: something podbench did "

@@ -14,8 +14,8 @@ import pandas as pd
 import pytest
 from conftest import CHAIN_FORCED, CHAIN_FREE
 
-from podbench import cli
-from podbench._resources import (
+from podbench import api, cli
+from podbench.core.resources import (
     bundled_root,
     bundled_scenarios,
     bundled_structures,
@@ -25,7 +25,8 @@ from podbench._resources import (
 )
 from podbench.harness.progress import Progress
 from podbench.harness.runner import _failure
-from podbench.harness.sweep import SWEEP_COLUMNS, sweep_markdown, sweep_table
+from podbench.harness.sweep import SWEEP_COLUMNS, sweep_table
+from podbench.report.sweep import sweep_markdown
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -67,19 +68,19 @@ def _tree(folder: Path) -> dict:
 
 
 # ------------------------------------------------------------------------- bundled data
-def test_bundled_data_are_package_resources():
-    root = resources.files("podbench").joinpath("bundled")
+def test_bundled_data_are_the_checkouts_top_level_folders():
+    # in a checkout the bundled data are the project's top-level structures/ and scenarios/
+    # (an installed wheel carries them as podbench/_bundled/: tests/test_install.py)
+    root = bundled_root()
+    assert root == ROOT and not resources.files("podbench").joinpath("_bundled").is_dir()
     assert root.joinpath("structures", "lti_beam.toml").is_file()
     assert root.joinpath("structures", "examples", "user_matrices.npz").is_file()
     assert root.joinpath("scenarios", "chapter4", "claims.toml").is_file()
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
-    assert Path(str(root)) == bundled_root()
     assert bundled_structures() == bundled_root() / "structures"
     assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "chapter5",
                                       "mr_designs", "peers", "sensitivity", "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
-    # nothing is found relative to the source tree any more
-    assert not (ROOT / "structures").exists() and not (ROOT / "scenarios").exists()
 
 
 def test_bundled_names_resolve_and_display_the_same_everywhere():
@@ -90,7 +91,7 @@ def test_bundled_names_resolve_and_display_the_same_everywhere():
     assert resolve_bundled("chapter4/claims") is None
     assert resolve_bundled("chapter9") is None and resolve_bundled("a/b/c") is None
     assert resolve_bundled("chapter5/experiment") is None
-    assert display_path(ch4 / "claims.toml") == "podbench/bundled/scenarios/chapter4/claims.toml"
+    assert display_path(ch4 / "claims.toml") == "scenarios/chapter4/claims.toml"
 
 
 def test_an_unknown_name_is_one_line_naming_the_bundled_studies(tmp_path, monkeypatch, capsys):
@@ -112,12 +113,12 @@ def test_list_shows_bundled_and_local_with_where_each_comes_from(study, tmp_path
     assert cli.main(["list"]) == 0
     out = capsys.readouterr().out
     assert "structures in ./structures:\n  chain_ideal\n" in out
-    assert "structures bundled with podbench (podbench/bundled/structures):" in out
+    assert "structures bundled with podbench (structures):" in out
     assert "  chain_ideal  (a local file of this name comes first)" in out
     assert "scenarios in ./scenarios (podbench run scenarios):\n  chain_free:" in out
-    assert "scenarios bundled with podbench: chapter4 (podbench/bundled/scenarios/chapter4" in out
+    assert "scenarios bundled with podbench: chapter4 (scenarios/chapter4" in out
     assert "  beam_forced: Beams, forced response to pulses" in out
-    assert "scenarios bundled with podbench: sweeps (podbench/bundled/scenarios/sweeps" in out
+    assert "scenarios bundled with podbench: sweeps (scenarios/sweeps" in out
     assert "  beam_forced_noise:" in out and "[sweep]" in out
 
 
@@ -245,7 +246,7 @@ def test_a_corrupt_cache_entry_is_one_warning_line(study, tmp_path, capsys):
 
 def test_structure_integer_field_message_uses_an(tmp_path):
     from podbench.errors import StructureFileError
-    from podbench.fem import load_structure
+    from podbench.structures import load_structure
 
     text = (bundled_structures() / "chain_ideal.toml").read_text(encoding="utf-8")
     assert "\nn = 5\n" in text
@@ -287,7 +288,7 @@ def test_sweep_md_says_the_noise_free_column_is_one_run():
 
 def test_default_run_in_the_checkout_writes_results_chapter4(monkeypatch, tmp_path):
     monkeypatch.chdir(tmp_path)
-    paths, files = cli._scenario_paths([])
+    paths, files = api.resolve_study([])
     assert paths == [bundled_scenarios() / "chapter4"] and len(files) == 7
-    assert cli._default_out(paths) == Path("results") / "chapter4"
-    assert cli._default_out([files[0]]) == Path("results") / files[0].stem
+    assert api.default_out(paths) == Path("results") / "chapter4"
+    assert api.default_out([files[0]]) == Path("results") / files[0].stem

@@ -9,11 +9,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.errors import InputError, ScenarioFileError
-from podbench.harness.runner import MeasuredStructure, read_case, resolve_structure, run_unit
-from podbench.measured import read_record, write_record
-from podbench.scenarios import load_scenario
+from podbench.harness.runner import read_case, run_unit
+from podbench.study.resolve import MeasuredStructure, resolve_structure
+from podbench.study.scenarios import load_scenario
+from podbench.sysid.measured import read_record, write_record
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = bundled_scenarios() / "examples" / "measured" / "measured_chain.toml"
@@ -73,8 +74,8 @@ def test_a_scenario_of_measured_cases_runs_and_has_no_linearization(tmp_path):
     """Five simulated chain tests written to files in four formats, noise-free: ML (k = m)
     identifies the chain exactly from the files, as from the simulation (test_forced...)."""
     from podbench.dynamics import simulate
-    from podbench.excitations import Pulse
-    from podbench.fem import load_structure
+    from podbench.dynamics.excitations import Pulse
+    from podbench.structures import load_structure
 
     s = load_structure("chain_coupled")
     (tmp_path / "data").mkdir()
@@ -183,7 +184,7 @@ force = { kind = "pulse", location = 1, amplitude = 1.0, duration = 0.02, by = "
 
 
 def test_the_conditioning_table_is_read():
-    from podbench.conditioning import Conditioning
+    from podbench.sysid.conditioning import Conditioning
 
     sc = load_scenario(EXAMPLE)
     assert sc.conditioning == Conditioning(detrend="linear", force_window=(0.004, 0.02))

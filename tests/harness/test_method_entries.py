@@ -12,7 +12,7 @@ from conftest import CHAIN_FORCED
 from podbench import cli
 from podbench.errors import ScenarioFileError
 from podbench.harness.runner import run_study
-from podbench.scenarios import load_scenario
+from podbench.study.scenarios import load_scenario
 
 # A user's method that is SL by delegation (so its rows must equal SL's to the last digit),
 # and a user's solver that is plain least squares by SciPy (so it must equal "ls").

@@ -1,5 +1,5 @@
 """The regularized structured solvers on the bundled noisy scenario
-(podbench/bundled/scenarios/sweeps/beam_forced_noise.toml, LTI beam, ML trained on loads 1–4,
+(scenarios/sweeps/beam_forced_noise.toml, LTI beam, ML trained on loads 1–4,
 predicting load 5 from noisy W and F): the prediction stays bounded where least squares blows
 up, and the GCV parameter is as good as the best fixed parameter chosen with knowledge of the
 truth.
@@ -20,9 +20,9 @@ the laboratory's per-channel model (the default since issue 12) ML [cgls] has me
 import numpy as np
 import pytest
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.harness.runner import NoiseSpec, run_unit
-from podbench.scenarios import SolverChoice
+from podbench.study.scenarios import SolverChoice
 
 SCENARIO = bundled_scenarios() / "sweeps" / "beam_forced_noise.toml"
 OLD = "per_entry_rms"  # the model these numbers were measured with (module docstring)

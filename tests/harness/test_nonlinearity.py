@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from podbench.errors import InputError
-from podbench.fem.files import load_structure
 from podbench.harness.nonlinearity import (
     ImpulseSet,
     band_variant,
@@ -16,6 +15,7 @@ from podbench.harness.nonlinearity import (
     reference_period,
     superposition_check,
 )
+from podbench.structures.files import load_structure
 
 T = 0.1
 W = 2 * np.pi / T
@@ -114,7 +114,7 @@ def test_homogeneous_band_gives_null_checks_on_the_beam():
 
 
 def test_response_nonlinearity_is_zero_when_the_band_never_engages():
-    from podbench.excitations import Pulse
+    from podbench.dynamics.excitations import Pulse
     from podbench.harness.nonlinearity import response_nonlinearity
 
     s = load_structure("rubber_band_beam")

@@ -6,13 +6,10 @@ import pandas as pd
 import pytest
 
 from podbench.errors import ScenarioFileError
-from podbench.harness.claims import evaluate_claims, load_claims, load_claims_file
-from podbench.harness.nonlinearity_study import (
-    NonlinearitySpec,
-    claim_rows,
-    run_checks,
-    swept_verdicts,
-)
+from podbench.harness.nonlinearity import run_checks
+from podbench.study.claims import evaluate_claims, load_claims, load_claims_file
+from podbench.study.nonlinearity import NonlinearitySpec, claim_rows
+from podbench.study.sensitivity import swept_verdicts
 
 TABLE = pd.DataFrame([
     {"scenario": "rb", "structure": "rubber", "method": "ML", "target": "load4",
@@ -129,9 +126,9 @@ def test_nonlinearity_claim_rows_against_the_raw_responses():
 def test_impulse_responses_read_back_exactly_from_the_cache(tmp_path):
     """A cached response equals the simulated one bit for bit (the study's tables must not
     depend on whether the cache was warm); a changed band misses the cache."""
-    from podbench.fem.files import load_structure
     from podbench.harness.cache import TruthCache
     from podbench.harness.nonlinearity import band_variant, impulse_responses
+    from podbench.structures.files import load_structure
 
     s = load_structure("rubber_band_beam")
     cache = TruthCache(tmp_path)
@@ -159,7 +156,7 @@ def test_podbench_run_writes_and_judges_the_nonlinearity_checks(tmp_path):
     import sys
     from pathlib import Path
 
-    from podbench._resources import bundled_scenarios
+    from podbench.core.resources import bundled_scenarios
 
     root = Path(__file__).resolve().parents[2]
     study = tmp_path / "s"

@@ -20,11 +20,11 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from conftest import CHAIN_FORCED, CHAIN_FREE  # noqa: E402
 
-from podbench import cli  # noqa: E402
-from podbench.harness.figures import FigureTask, describe_case, draw_figure, make_figure  # noqa: E402
-from podbench.harness.html_report import text_to_html  # noqa: E402
-from podbench.harness.runner import run_unit  # noqa: E402
-from podbench.scenarios import Case  # noqa: E402
+from podbench import cli
+from podbench.harness.runner import run_unit
+from podbench.report.figures import FigureTask, describe_case, draw_figure, make_figure
+from podbench.report.html import text_to_html
+from podbench.study.scenarios import Case
 
 CLAIMS = """
 [[claims]]
@@ -328,7 +328,7 @@ def test_fits_table_writes_roundoff_residuals_as_zero():
     a real residual keeps its value; other columns are untouched."""
     from types import SimpleNamespace
 
-    from podbench.harness.report import ROUNDOFF_RESIDUAL, fits_table, table_csv
+    from podbench.harness.tables import ROUNDOFF_RESIDUAL, fits_table, table_csv
 
     unit = SimpleNamespace(fits=[
         {"scenario": "s", "structure": "b", "method": "ML", "n_modes": 4, "solver": "block",
@@ -350,7 +350,7 @@ def test_fits_table_writes_noise_floor_estimates_to_two_digits():
     significant digits in fits.csv; NaN (solvers without the test) stays empty."""
     from types import SimpleNamespace
 
-    from podbench.harness.report import fits_table, table_csv
+    from podbench.harness.tables import fits_table, table_csv
 
     unit = SimpleNamespace(fits=[
         {"scenario": "s", "structure": "b", "method": "ML-auto", "n_modes": 2, "solver": "auto",

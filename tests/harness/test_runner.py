@@ -10,8 +10,8 @@ from conftest import CHAIN_FORCED, CHAIN_FREE, NL_BEAM
 
 from podbench.errors import PodbenchWarning
 from podbench.harness.metrics import TWIN_RTOL
-from podbench.harness.report import summary_table
 from podbench.harness.runner import run_study, run_unit
+from podbench.harness.tables import summary_table
 
 
 def _rows(res):
@@ -135,7 +135,7 @@ def test_cache_hits_and_corrupt_entries_are_resimulated(write_scenario, tmp_path
 def test_a_changed_structure_file_misses_the_cache(write_scenario, tmp_path):
     src = (tmp_path / "scenarios")
     p = write_scenario(CHAIN_FREE.replace('"chain_coupled"', '"my_chain.toml"'))
-    from podbench.fem.files import find_structure
+    from podbench.structures.files import find_structure
 
     text = find_structure("chain_coupled").read_text().replace('"chain_coupled"', '"my_chain"')
     (src / "my_chain.toml").write_text(text)

@@ -5,10 +5,10 @@ from pathlib import Path
 import pytest
 from conftest import CHAIN_FREE
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.harness.claims import load_claims
-from podbench.scenarios import find_scenarios, load_scenario
+from podbench.study.claims import load_claims
+from podbench.study.scenarios import find_scenarios, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 CH4 = bundled_scenarios() / "chapter4"

@@ -7,15 +7,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.dynamics import simulate
+from podbench.dynamics.excitations import Pulse
 from podbench.errors import ScenarioFileError
-from podbench.excitations import Pulse
-from podbench.experiments import generate, load_experiment, strike_forces, write_experiment
-from podbench.fem.files import load_structure
-from podbench.harness.claims import evaluate_claims, load_claims
-from podbench.measured import read_record
-from podbench.noise import noise_generator
+from podbench.structures.files import load_structure
+from podbench.study.claims import evaluate_claims, load_claims
+from podbench.study.experiments import generate, load_experiment, strike_forces, write_experiment
+from podbench.sysid.measured import read_record
+from podbench.sysid.noise import noise_generator
 
 CH5 = bundled_scenarios() / "chapter5"
 

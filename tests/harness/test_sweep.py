@@ -11,12 +11,13 @@ import pytest
 from conftest import CHAIN_FORCED
 
 from podbench import cli
-from podbench._resources import bundled_scenarios
-from podbench.data import Response
+from podbench.core.resources import bundled_scenarios
+from podbench.core.response import Response
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.runner import NoiseSpec, noisy, run_unit
-from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep, sweep_markdown
-from podbench.scenarios import apply_overrides, load_scenario
+from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep
+from podbench.report.sweep import sweep_markdown
+from podbench.study.scenarios import apply_overrides, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 NUMERIC = ["n_modes", "total_error", "projection_error", "diagonalization_error",
@@ -222,7 +223,7 @@ def test_mode_axis_and_coupled_training_sets(write_scenario):
 
 def test_solver_axis_expands_deconvolving_methods_and_their_twins():
     mixed = load_scenario(bundled_scenarios() / "chapter4" / "beam_mixed.toml")
-    from podbench.scenarios import SolverChoice
+    from podbench.study.scenarios import SolverChoice
 
     sc = apply_overrides(mixed, solvers=[SolverChoice("ls", "ls"),
                                          SolverChoice("t2", "tls", {"rcond": 1e-2})])

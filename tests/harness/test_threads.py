@@ -6,10 +6,10 @@ import pytest
 from conftest import CHAIN_FORCED
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from podbench._threads import single_blas_thread
-from podbench.harness.report import summary_table
+from podbench.core.threads import single_blas_thread
 from podbench.harness.runner import run_study
 from podbench.harness.sweep import run_sweep
+from podbench.harness.tables import summary_table
 
 # ML with truncated TLS: its SVD differs in the last bits between 1 and 2 OpenBLAS threads
 # (measured on the 2-core CI machine before pinning: every row of this sweep differed).

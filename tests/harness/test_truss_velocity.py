@@ -8,11 +8,12 @@ coordinates of the initial velocities stand for the velocities themselves."""
 import numpy as np
 import pytest
 
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.harness.cache import TruthCache
-from podbench.harness.runner import _Truth, resolve_structure
-from podbench.methods.free import MDS
-from podbench.scenarios import load_scenario
+from podbench.harness.runner import _Truth
+from podbench.study.resolve import resolve_structure
+from podbench.study.scenarios import load_scenario
+from podbench.sysid.methods.free import MDS
 
 MAIN = bundled_scenarios() / "chapter4" / "truss_free_velocity.toml"
 ONE_STEP = (bundled_scenarios() / "chapter4_variants"

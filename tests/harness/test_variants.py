@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 from podbench import cli, load_structure
-from podbench._resources import bundled_scenarios
+from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.fem.beam import beam_mass
-from podbench.harness.runner import resolve_structure, run_unit
-from podbench.scenarios import find_scenarios, load_scenario
+from podbench.harness.runner import run_unit
+from podbench.structures.beam import beam_mass
+from podbench.study.resolve import resolve_structure
+from podbench.study.scenarios import find_scenarios, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 CH4 = bundled_scenarios() / "chapter4"
@@ -127,7 +128,7 @@ def test_a_sensitivity_study_judges_the_base_claims_on_every_variant(tmp_path, m
     with each claim's verdict at every value of the varied parameter."""
     from conftest import NL_BEAM
 
-    from podbench.harness.sensitivity import _ranges
+    from podbench.study.sensitivity import _ranges
 
     monkeypatch.chdir(tmp_path)
     base = tmp_path / "base"

@@ -22,8 +22,8 @@ from sklearn.base import clone
 
 from podbench import Record
 from podbench.errors import DimensionError, InputError, NotFittedError
-from podbench.methods import PODMethod
-from podbench.pod import projection_error
+from podbench.sysid.methods import PODMethod
+from podbench.sysid.pod import projection_error
 
 
 class MethodContract:

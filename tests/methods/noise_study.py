@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.methods import MultipleLoad, SingleLoad
+from podbench.sysid.methods import MultipleLoad, SingleLoad
 
 from ._cases import D, forced_case
 from ._truth import rel_err

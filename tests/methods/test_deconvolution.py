@@ -9,7 +9,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from podbench import deconvolution as dc
 from podbench.errors import (
     DimensionError,
     IllConditionedError,
@@ -17,6 +16,7 @@ from podbench.errors import (
     PodbenchWarning,
     UnknownNameError,
 )
+from podbench.sysid import deconvolution as dc
 
 finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 

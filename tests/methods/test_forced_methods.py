@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from podbench import Record
-from podbench.methods import MultipleLoad, SingleLoad
+from podbench.sysid.methods import MultipleLoad, SingleLoad
 
 from ._cases import D, forced_case
 from ._contract import MethodContract

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from podbench import Record
-from podbench.methods import MDS, POVR
-from podbench.pod import snapshot_svd
+from podbench.sysid.methods import MDS, POVR
+from podbench.sysid.pod import snapshot_svd
 
 from ._cases import D, free_case
 from ._contract import MethodContract

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import sklearn.base
 
-from podbench import deconvolution as dc
-from podbench.deconvolution.kernel import _apply_S, _apply_St, _factor, _scales
 from podbench.errors import InputError
+from podbench.sysid import deconvolution as dc
+from podbench.sysid.deconvolution.kernel import _apply_S, _apply_St, _factor, _scales
 
 
 def _chain(n=40, k=2, noise=0.0, seed=0, dt=0.01):
@@ -169,7 +169,7 @@ def test_evidence_quadratic_has_no_cancellation_on_square_systems():
     # z = s·y. The direct form yy − Σ z²/(d + γ) loses every digit at small γ (its sign
     # then decided the noise floor machine by machine; here a relative error of ~1e-6 at
     # γ = 1e-14·max d); the rewritten form keeps them.
-    from podbench.deconvolution.kernel import _quadratic
+    from podbench.sysid.deconvolution.kernel import _quadratic
 
     rng = np.random.default_rng(3)
     s = np.exp(rng.uniform(-3, 3, 50))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from podbench.errors import DimensionError, IllConditionedError, InputError
-from podbench.methods import MDS, POVR, MixedResponse, MultipleLoad, SingleLoad
+from podbench.sysid.methods import MDS, POVR, MixedResponse, MultipleLoad, SingleLoad
 
 from ._cases import D, forced_case, free_case, mixed_case
 from ._truth import eigenmodes, pulse

@@ -9,9 +9,9 @@ import pytest
 
 from podbench import Record
 from podbench.errors import DimensionError, InputError
-from podbench.methods import ERA, MDS, MultipleLoad, SingleLoad
-from podbench.methods.forced import KERNEL_TAIL, kernel_lags
-from podbench.pod import snapshot_svd
+from podbench.sysid.methods import ERA, MDS, MultipleLoad, SingleLoad
+from podbench.sysid.methods.forced import KERNEL_TAIL, kernel_lags
+from podbench.sysid.pod import snapshot_svd
 
 from ._cases import D, forced_case, free_case
 from ._truth import coupled_chain, newmark, pulse, rel_err, smooth_load

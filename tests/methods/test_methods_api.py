@@ -5,7 +5,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import podbench.methods as methods
+import podbench.sysid.methods as methods
 
 PACKAGE = Path(methods.__file__).resolve().parents[1]
 FORBIDDEN = ("fem", "dynamics", "harness", "excitations", "scenarios", "data")

@@ -9,8 +9,8 @@ import pytest
 import scipy.linalg
 
 from podbench import Record
-from podbench.deconvolution import convolution_matrix
-from podbench.methods import MixedResponse
+from podbench.sysid.deconvolution import convolution_matrix
+from podbench.sysid.methods import MixedResponse
 
 from ._cases import D, mixed_case
 from ._contract import MethodContract
@@ -251,7 +251,7 @@ def _records(mc):
 def test_design_conditioning_is_the_worst_cancellation_of_mr_elimination():
     """κ = max_i max(κ_sep, κ_g), recomputed here from its definition; it agrees with the
     ratios MR itself uses (pov_ratios_)."""
-    from podbench.methods.mixed_design import design_conditioning
+    from podbench.sysid.methods.mixed_design import design_conditioning
 
     mc = mixed_case("coupled")
     recs = _records(mc)
@@ -276,7 +276,7 @@ def test_design_conditioning_uses_the_training_records_only():
     """W_b, W_c do not enter (only W_a's POMs, w0, v0, F); a target cannot enter (the
     function has no such input), and the study's κ of a design does not change when the
     targets do."""
-    from podbench.methods.mixed_design import design_conditioning
+    from podbench.sysid.methods.mixed_design import design_conditioning
 
     mc = mixed_case("coupled")
     recs = _records(mc)
@@ -291,7 +291,7 @@ def test_design_conditioning_uses_the_training_records_only():
 
 def test_inseparable_design_is_inadmissible():
     """Case b = 2 × case a's initial conditions: r_bv = r_bd, D and V cannot be separated."""
-    from podbench.methods.mixed_design import design_conditioning
+    from podbench.sysid.methods.mixed_design import design_conditioning
 
     mc = mixed_case("coupled")
     recs = _records(mc)
@@ -301,7 +301,7 @@ def test_inseparable_design_is_inadmissible():
 
 
 def test_choose_design_is_the_argmin_of_the_rule():
-    from podbench.methods.mixed_design import choose_design, design_conditioning
+    from podbench.sysid.methods.mixed_design import choose_design, design_conditioning
 
     cands = {}
     for seed in range(6):
@@ -317,11 +317,12 @@ def test_chapter4_mr_design_is_the_rules_choice_over_the_60_designs():
     beam; the rule (training records only) picks impulses 3, 19, 11 in, the Chapter 4
     scenario's sets a, b, c; the former design 19, 11, 3 in ranks 59th.
     Measured (LTI beam, finite difference): κ = 1.28 (chosen), 66.4 (former)."""
-    from podbench._resources import bundled_scenarios
+    from podbench.core.resources import bundled_scenarios
     from podbench.harness.cache import TruthCache
-    from podbench.harness.runner import _Truth, resolve_structure
-    from podbench.methods.mixed_design import choose_design
-    from podbench.scenarios import load_scenario
+    from podbench.harness.runner import _Truth
+    from podbench.study.resolve import resolve_structure
+    from podbench.study.scenarios import load_scenario
+    from podbench.sysid.methods.mixed_design import choose_design
 
     sc = load_scenario(bundled_scenarios() / "mr_designs" / "beam_mixed_designs.toml")
     assert len(sc.methods) == 60

@@ -10,9 +10,9 @@ import pytest
 
 from podbench import Record
 from podbench.errors import InputError
-from podbench.methods import BUILTIN_METHODS, MultipleLoad
-from podbench.methods.peers import ERA, DMDc, OpInf
-from podbench.methods.peers.era import okid_markov
+from podbench.sysid.methods import BUILTIN_METHODS, MultipleLoad
+from podbench.sysid.methods.peers import ERA, DMDc, OpInf
+from podbench.sysid.methods.peers.era import okid_markov
 
 from ._cases import D, forced_case
 from ._contract import MethodContract

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from podbench.errors import DimensionError, InputError
-from podbench.pod import (
+from podbench.sysid.pod import (
     check_orthonormal,
     energy_fractions,
     method_of_snapshots,

@@ -12,7 +12,7 @@ import tracemalloc
 
 import numpy as np
 
-from podbench.pod import method_of_snapshots, pod, snapshot_svd
+from podbench.sysid.pod import method_of_snapshots, pod, snapshot_svd
 
 
 def _tall(m, n, r, decay, seed):

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import sklearn.base
 
-from podbench import deconvolution as dc
 from podbench.errors import InputError
+from podbench.sysid import deconvolution as dc
 
 
 def _state_space(order=6, k=2, r=2, seed=0):
@@ -128,7 +128,7 @@ def test_contract_clone_pickle_and_bad_options():
 
 def test_normal_equation_path_and_short_rule_window(monkeypatch):
     """Long records: the residues by the normal equations, the order rule on a prefix."""
-    import podbench.deconvolution.realization as rz
+    import podbench.sysid.deconvolution.realization as rz
 
     A, B, C, D = _state_space(order=6, seed=4)
     Qs, Bs, dt, X = _records(A, B, C, D, n=160, seed=6)
@@ -142,7 +142,7 @@ def test_normal_equation_path_and_short_rule_window(monkeypatch):
 @pytest.mark.slow
 def test_ml_records_what_auto_chose():
     """ML in the identity basis (sensors = modes): the modal forces are F, the POCs W."""
-    from podbench.methods import MultipleLoad
+    from podbench.sysid.methods import MultipleLoad
 
     A, B, C, D = _state_space(order=4, k=2, r=2, seed=7)
     Qs, Bs, dt, X = _records(A, B, C, D, n=100, seed=8)

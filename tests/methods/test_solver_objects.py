@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 import sklearn.base
 
-from podbench import deconvolution as dc
 from podbench.errors import ConvergenceError, DimensionError, InputError, UnknownNameError
+from podbench.sysid import deconvolution as dc
 
 SOLVERS = {
     "ls": dc.LeastSquares,

@@ -17,8 +17,8 @@ import scipy.linalg
 import scipy.optimize
 import sklearn.base
 
-from podbench import deconvolution as dc
 from podbench.errors import InputError
+from podbench.sysid import deconvolution as dc
 
 
 def _kernel(n, k, r, dt, damping=3.0):

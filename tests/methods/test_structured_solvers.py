@@ -16,7 +16,6 @@ import pytest
 import scipy.fft
 import scipy.linalg
 
-from podbench import deconvolution as dc
 from podbench.errors import (
     ConvergenceError,
     DimensionError,
@@ -24,7 +23,8 @@ from podbench.errors import (
     InputError,
     UnknownNameError,
 )
-from podbench.methods import MixedResponse, MultipleLoad, SingleLoad
+from podbench.sysid import deconvolution as dc
+from podbench.sysid.methods import MixedResponse, MultipleLoad, SingleLoad
 
 from ._cases import D, forced_case, mixed_case
 from ._truth import eigenmodes, newmark, pulse, rel_err
@@ -139,7 +139,7 @@ def test_lti_beam_block_equals_dense_sl_ml():
     """The LTI cantilever of §4.1 (consistent mass, 25 sensors): four pulse load cases at
     6, 12, 18, 24 in, k = 4, predicting a half-sine pulse at 23 in."""
     import podbench as pb
-    from podbench.excitations import Pulse
+    from podbench.dynamics.excitations import Pulse
 
     s = pb.load_structure("lti_beam")
     n, dt = 300, 1e-4

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import sklearn.base
 
-from podbench import deconvolution as dc
-from podbench.deconvolution.subspace import subspace_factor, subspace_poles
 from podbench.errors import InputError
+from podbench.sysid import deconvolution as dc
+from podbench.sysid.deconvolution.subspace import subspace_factor, subspace_poles
 
 from .test_realization_solver import _records, _state_space
 
@@ -105,9 +105,9 @@ def test_contract_and_bad_options():
 def test_auto_records_its_choice_and_skips_exact_solvers_on_noisy_data(monkeypatch):
     """ML in the identity basis (sensors = modes): clean → block; noisy → subspace, and the
     exact solvers are not even tried on data that fail the noise test."""
-    from podbench.deconvolution.block import BlockSubstitution
-    from podbench.deconvolution.dense import LeastSquares
-    from podbench.methods import MultipleLoad
+    from podbench.sysid.deconvolution.block import BlockSubstitution
+    from podbench.sysid.deconvolution.dense import LeastSquares
+    from podbench.sysid.methods import MultipleLoad
 
     A, B, C, D = _state_space(order=4, k=2, r=2, seed=7)
     Qs, Bs, dt, X = _records(A, B, C, D, n=160, seed=8)

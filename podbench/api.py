@@ -1,0 +1,437 @@
+"""One way through podbench: the functions ``podbench run | regress | sweep | experiment``
+call, for Python users too.
+
+``podbench.run("chapter4")`` does exactly what ``podbench run chapter4`` does — the same
+checks in the same order (every input read and checked before anything is simulated), the
+same outputs, byte for byte — and returns a :class:`StudyResult` instead of printing::
+
+    import podbench as pb
+    res = pb.run("chapter4", figures=False)        # -> results/chapter4/
+    res.summary                                    # summary.csv as a DataFrame
+    res.claims[0]["verdict"]                       # FINDINGS.md's first claim
+    res.plot("lti_beam", "load5", scenario="beam_forced")   # a matplotlib Figure
+
+A study is named as on the command line: a bundled study (``"chapter4"``), one of its
+scenarios (``"chapter4/beam_forced"``), a folder or scenario file of your own, or a list
+of these. Errors on input raise :class:`podbench.errors.InputError` (the CLI's exit code 2)
+with one line naming the file and the field, or the parameter.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import os
+import shlex
+import shutil
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from podbench.core.atomic import atomic_write_text
+from podbench.core.resources import DEFAULT_STUDY, SWEEPS_STUDY, bundled_studies, resolve_bundled
+from podbench.errors import InputError, UnknownNameError
+from podbench.harness.linked import run_linked
+from podbench.harness.nonlinearity import run_checks
+from podbench.harness.progress import Progress
+from podbench.harness.regress import Comparison, compare, read_table
+from podbench.harness.runner import response_counts, run_study
+from podbench.harness.sweep import run_sweep
+from podbench.harness.tables import summary_table, table_csv
+from podbench.report.figures import make_figure
+from podbench.report.study import figure_tasks, write_study
+from podbench.report.sweep import write_sweep
+from podbench.study.claims import load_claims_file
+from podbench.study.experiments import check_experiment, write_experiment
+from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
+from podbench.sysid.deconvolution import available_solvers
+
+__all__ = ["run", "StudyResult", "regress", "sweep", "experiment", "resolve_study",
+           "DEFAULT_CACHE", "DEFAULT_RESULTS", "DEFAULT_BASELINE", "REGRESS_STUDIES"]
+
+DEFAULT_CACHE = Path(".podbench_cache")
+"""The truth cache's folder, in the current folder."""
+DEFAULT_RESULTS = Path("results")
+"""Where ``run`` writes without ``out``: ``results/<study>``."""
+DEFAULT_BASELINE = DEFAULT_RESULTS / "baseline.csv"
+"""The committed accuracy baseline ``regress`` compares with."""
+REGRESS_STUDIES = ("chapter4", "chapter5")
+"""What ``regress`` re-runs without a study: the numerical study and the noisy-measurement
+study (the committed baseline holds their rows)."""
+
+
+# ----------------------------------------------------------------------------- inputs
+def _as_list(study) -> list:
+    """``study`` as a list of names/paths: one string or path is one item (never its
+    characters), a sequence is its items, None is none."""
+    if study is None:
+        return []
+    if isinstance(study, (str, os.PathLike)):
+        return [study]
+    if isinstance(study, Sequence):
+        return list(study)
+    raise InputError(f"Parameter `study`: expected a name, a path or a list of them, got "
+                     f"{type(study).__name__}")
+
+
+def _did_you_mean(name: str, choices) -> str:
+    close = difflib.get_close_matches(str(name), list(choices), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Path]]:
+    """The paths a study names and their scenario files.
+
+    A name that is not an existing file or folder is looked up among the bundled studies
+    (``chapter4``) and their scenarios (``chapter4/beam_forced``); without ``study`` the
+    bundled studies ``default`` are taken.
+
+    Raises
+    ------
+    UnknownNameError
+        A name that is neither a path nor bundled (with the closest bundled name).
+    ScenarioFileError
+        A folder without scenario files, a file that is not ``.toml``.
+    """
+    names = _as_list(study)
+    resolved = []
+    for p in names or list(default):
+        if not names or not Path(p).exists():
+            b = resolve_bundled(str(p))
+            if b is None:
+                studies = bundled_studies()
+                choices = list(studies) + [f"{s}/{f.stem}" for s, d in studies.items()
+                                           for f in find_scenarios([d])]
+                raise UnknownNameError(
+                    f"{p}: no such file or folder, nor a bundled study or scenario"
+                    f"{_did_you_mean(str(p), choices)} (bundled studies: "
+                    f"{', '.join(studies)}; podbench list shows every scenario)")
+            resolved.append(b)
+        else:
+            resolved.append(Path(p))
+    return resolved, find_scenarios(resolved)
+
+
+def writable_folder(path, option: str) -> Path:
+    """``path`` after checking, before any work, that it is a folder or can be created as one:
+    not a file, not under a file, its nearest existing ancestor writable."""
+    p = Path(path).expanduser()
+    if p.exists() and not p.is_dir():
+        raise InputError(f"{option} {path}: exists and is not a folder")
+    a = p.absolute()
+    while not a.exists() and a != a.parent:
+        a = a.parent
+    if not a.is_dir():
+        raise InputError(f"{option} {path}: {a} is a file, so no folder can be made under it")
+    if not os.access(a, os.W_OK | os.X_OK):
+        raise InputError(f"{option} {path}: {a} is not writable")
+    return p
+
+
+def output_folder(path, option: str, marker: str, *, also=()) -> Path:
+    """Check an output folder that podbench fills (or replaces): it must not exist, be empty,
+    or be a previous podbench output (holding ``marker``), so that a mistyped ``--out ~``
+    cannot replace a home folder; ``marker`` and ``also`` must not be folders."""
+    p = writable_folder(path, option)
+    if p.is_dir():
+        for name in (marker, *also):
+            if (p / name).exists() and not (p / name).is_file():
+                raise InputError(f"{option} {path}: {p / name} is a folder, not a file")
+        if not (p / marker).is_file() and any(p.iterdir()):
+            raise InputError(f"{option} {path}: a non-empty folder that is not a podbench "
+                             f"output (no {marker} in it); give a new or empty folder")
+    return p
+
+
+def default_out(paths) -> Path:
+    """``results/<folder name>`` for a folder, ``results/<file stem>`` for a single scenario
+    file (a part of a study never goes over the study's folder), names joined by ``+``."""
+    names = [Path(p).resolve().name if Path(p).is_dir() else Path(p).stem for p in paths]
+    return DEFAULT_RESULTS / "+".join(dict.fromkeys(names))
+
+
+def _scenarios_held(out: Path) -> set[str]:
+    """The scenarios of a previous output's ``summary.csv`` (empty if none or unreadable)."""
+    try:
+        with open(out / "summary.csv", newline="", encoding="utf-8") as fh:
+            return {row["scenario"] for row in csv.DictReader(fh) if row.get("scenario")}
+    except (OSError, UnicodeDecodeError, KeyError, csv.Error):
+        return set()
+
+
+def _refuse_partial_over(out: Path, names, option: str) -> None:
+    """Refuse to replace an output holding scenarios this run does not produce (running
+    one scenario of a study must not replace the whole study's results)."""
+    lost = sorted(_scenarios_held(out) - set(names))
+    if lost:
+        shown = ", ".join(lost[:4]) + (f" and {len(lost) - 4} more" if len(lost) > 4 else "")
+        raise InputError(f"{option} {out}: holds the results of {len(lost)} scenario"
+                         f"{'s' if len(lost) != 1 else ''} this run does not produce "
+                         f"({shown}); replacing it would lose them: give another --out, or "
+                         "run them all")
+
+
+def load_scenarios(files) -> dict:
+    """Scenario name → scenario of every file (two scenarios of one name are refused)."""
+    scenarios: dict = {}
+    for f in files:
+        sc = load_scenario(f)
+        if sc.name in scenarios:
+            raise InputError(f"{f}: a second scenario named {sc.name!r}")
+        scenarios[sc.name] = sc
+    return scenarios
+
+
+def _claims_path(paths) -> Path | None:
+    """The one claims file beside the paths run (None if none, or several)."""
+    dirs = {Path(p).resolve() if Path(p).is_dir() else Path(p).resolve().parent for p in paths}
+    found = [d / CLAIMS_FILE for d in sorted(dirs) if (d / CLAIMS_FILE).is_file()]
+    return found[0] if len(found) == 1 else None
+
+
+def _whole_study(claims_path, scenarios) -> bool:
+    """Whether ``scenarios`` holds every scenario of the claims file's folder."""
+    return {p.stem for p in find_scenarios([Path(claims_path).parent])} <= set(scenarios)
+
+
+def _check_run_options(jobs, cache) -> Path | None:
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"--jobs: expected a positive integer, got {jobs!r}")
+    return None if cache is None else writable_folder(cache, "--cache")
+
+
+def _progress(progress, quiet: bool):
+    return progress if progress is not None else Progress(quiet=quiet)
+
+
+# -------------------------------------------------------------------------------- run
+@dataclass
+class StudyResult:
+    """What :func:`run` wrote and measured.
+
+    Attributes
+    ----------
+    out : Path
+        The output folder (``summary.csv``, ``summary.md``, ``fits.csv``, ``FINDINGS.md``,
+        ``figures/``, ``report.html``).
+    summary : DataFrame
+        ``summary.csv``: one row per scenario × structure × method × target, errors as
+        fractions of ‖W‖_F (README, *Error decomposition*).
+    fits : DataFrame
+        ``fits.csv``: what each fit measured about itself.
+    claims : list of dict or None
+        The judged claims of ``FINDINGS.md`` (``id``, ``verdict``, …), None without a
+        claims file.
+    figures : list of Path
+        The figure files written (empty with ``figures=False``).
+    scenarios : dict
+        Scenario name → the scenario read.
+    seconds : float
+        Wall time of simulating and fitting.
+    simulated, cached : int
+        Distinct truth responses simulated, and read from the cache.
+    """
+
+    out: Path
+    summary: pd.DataFrame
+    fits: pd.DataFrame
+    claims: list | None
+    figures: list
+    scenarios: dict
+    seconds: float
+    simulated: int
+    cached: int
+    _units: list = field(default_factory=list, repr=False)
+
+    def to_html(self, path) -> Path:
+        """Copy the self-contained report page (``report.html``) to ``path``."""
+        src = self.out / "report.html"
+        if not src.is_file():
+            raise InputError(f"{src}: no report page (the output folder was changed)")
+        return Path(shutil.copyfile(src, path))
+
+    def plot(self, structure: str, target: str, *, scenario: str | None = None):
+        """The figure of one target (the displacement norm, Eq. 4.1, of the truth and every
+        method, and the percent error of Eq. 4.2), as a matplotlib Figure.
+
+        Needs the norm series, kept when the run drew figures (``figures=True``).
+        ``scenario`` is needed where two scenarios share the structure and target."""
+        tasks = [t for t in figure_tasks(self._units, self.scenarios, self.out / "figures")
+                 if t.meta["structure"] == structure and t.meta["target"] == target
+                 and scenario in (None, t.meta["scenario"])]
+        if not tasks:
+            have = sorted({(t.meta["scenario"], t.meta["structure"], t.meta["target"])
+                           for t in figure_tasks(self._units, self.scenarios, self.out)})
+            hint = ("run with figures=True to keep the series" if not have else
+                    "targets: " + ", ".join("/".join(h) for h in have[:12]))
+            raise InputError(f"Parameter `target`: no figure of {structure}, target {target}"
+                             f" ({hint})")
+        if len(tasks) > 1:
+            names = ", ".join(t.meta["scenario"] for t in tasks)
+            raise InputError(f"Parameter `scenario`: {structure}/{target} is a target of "
+                             f"several scenarios ({names}); name one")
+        return make_figure(tasks[0])
+
+
+def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str | None = None,
+        figures: bool = True, figure_format: str = "png", quiet: bool = True, progress=None,
+        command: str | None = None) -> StudyResult:
+    """Run a study and write its outputs, as ``podbench run`` does.
+
+    Parameters
+    ----------
+    study : str, path or list of them, optional
+        A bundled study or scenario name, a folder or scenario file (default: the bundled
+        Chapter 4 study).
+    out : path, optional
+        The output folder (default ``results/<study>``); it must be new, empty or a previous
+        podbench output, and is replaced only when the run is complete.
+    jobs : int
+        Processes for the units and the figures (tables are identical whatever ``jobs``).
+    cache : path or None
+        The truth cache's folder (``None``: no cache).
+    engine : {"newmark", "exudyn"}, optional
+        The truth engine (default: each scenario's own).
+    figures : bool
+        Draw the figures (``figure_format``: png, svg or pdf).
+    quiet : bool
+        No progress on stderr (the CLI shows it unless ``--quiet``).
+    command : str, optional
+        The command line shown in ``report.html`` (default: ``podbench.run(...)``).
+    """
+    paths, files = resolve_study(study)
+    out = Path(out) if out is not None else default_out(paths)
+    output_folder(out, "--out", "summary.csv")
+    scenarios = load_scenarios(files)
+    _refuse_partial_over(out, scenarios, "--out")
+    claims = _claims_path(paths)
+    claims_file = load_claims_file(claims) if claims is not None else None  # before any work
+    cache_dir = _check_run_options(jobs, cache)
+    progress = _progress(progress, quiet)
+    t0 = time.perf_counter()
+    results = run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
+                        progress=progress, keep_series=figures)
+    seconds = time.perf_counter() - t0
+    linked = nonlinearity = None
+    if claims_file is not None:  # the claims' sensitivity study, judged with the same code
+        linked = run_linked(claims_file, scenarios, jobs=jobs, cache_dir=cache_dir,
+                            engine=engine, progress=progress)
+        if claims_file.nonlinearity is not None and _whole_study(claims, scenarios):
+            spec = claims_file.nonlinearity  # §5.2's checks: only on a whole-study run
+            nonlinearity = (spec, run_checks(spec, jobs=jobs, progress=progress,
+                                             cache_dir=cache_dir))
+    if command is None:
+        command = "podbench.run(" + ", ".join(repr(str(p)) for p in _as_list(study)) + ")"
+    df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
+                                figures=figures, jobs=jobs, figure_format=figure_format,
+                                progress=progress, command=command, sensitivity=linked,
+                                nonlinearity=nonlinearity)
+    n_sim, n_cached = response_counts(results)
+    drawn = sorted((out / "figures").glob(f"*.{figure_format}")) if figures else []
+    return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
+                       claims=evaluated, figures=drawn, scenarios=scenarios, seconds=seconds,
+                       simulated=n_sim, cached=n_cached, _units=results)
+
+
+# ---------------------------------------------------------------------------- regress
+def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: float = 1e-6,
+            update: bool = False, table=None, jobs: int = 1, cache=DEFAULT_CACHE,
+            engine: str | None = None, quiet: bool = True, progress=None) -> Comparison | int:
+    """Re-run studies (default: Chapter 4 and 5) or read a ``table`` and compare every error
+    with the ``baseline`` (relative ``rtol``, absolute ``atol``), as ``podbench regress``.
+
+    With ``update`` the baseline is (re)written instead, and the number of rows is
+    returned; otherwise the :class:`~podbench.harness.regress.Comparison`."""
+    files = None if table else resolve_study(study, REGRESS_STUDIES)[1]  # missing paths first
+    baseline = Path(baseline)
+    if update:  # checked before any work: the new baseline can be written
+        if baseline.is_dir():
+            raise InputError(f"--baseline {baseline}: is a folder, not a CSV file")
+        if baseline.parent.exists() and not baseline.parent.is_dir():
+            raise InputError(f"--baseline {baseline}: {baseline.parent} is a file, not a folder")
+        writable_folder(baseline.parent, "--baseline")
+    elif not baseline.is_file():
+        raise InputError(f"{baseline}: no such baseline (create it with --update)")
+    base = None if update else read_table(baseline)
+    if table:
+        new = read_table(table)
+    else:
+        load_scenarios(files)
+        cache_dir = _check_run_options(jobs, cache)
+        new = summary_table(run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
+                                      progress=_progress(progress, quiet), keep_series=False))
+    if update:
+        atomic_write_text(baseline, table_csv(new))
+        return len(new)
+    return compare(new, base, rtol=rtol, atol=atol)
+
+
+# ------------------------------------------------------------------------------ sweep
+@dataclass
+class SweepResult:
+    """What :func:`sweep` wrote: ``table`` (every point), ``written`` (scenario → its
+    ``sweep.csv``), ``seconds``."""
+
+    table: pd.DataFrame
+    written: dict
+    seconds: float
+
+
+def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=None,
+          solvers=None, jobs: int = 1, scheduler: str | None = None, cache=DEFAULT_CACHE,
+          engine: str | None = None, quiet: bool = True, progress=None) -> SweepResult:
+    """Run the ``[sweep]`` scenarios (default: the bundled ``sweeps``) over noise levels,
+    mode counts, seeds and solvers, as ``podbench sweep``; each scenario writes
+    ``out/<scenario>/sweep.csv`` and ``sweep.md``. ``noise``, ``n_modes``, ``seeds``,
+    ``solvers``: lists overriding the scenario's own axes."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"--jobs: expected a positive integer, got {jobs!r}")
+    if scheduler is not None and jobs != 1:
+        raise InputError("--jobs and --scheduler: give one (the Dask cluster sets the "
+                         "parallelism)")
+    axes = {"noise": noise, "n_modes": n_modes, "seeds": seeds}
+    if solvers is not None:
+        for name in solvers:
+            if name not in available_solvers():
+                raise UnknownNameError(f"--solvers: unknown solver {name!r}"
+                                       f"{_did_you_mean(name, available_solvers())}; "
+                                       f"solvers: {', '.join(available_solvers())}")
+        axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
+    _, files = resolve_study(study, default=(SWEEPS_STUDY,))
+    cache_dir = None if cache is None else writable_folder(cache, "--cache")
+    writable_folder(out, "--out")
+    for f in files:  # each scenario writes OUT/<name>/sweep.csv, sweep.md
+        output_folder(Path(out) / load_scenario(f).name, "--out", "sweep.csv",
+                      also=("sweep.md",))
+    t0 = time.perf_counter()
+    scenarios, df = run_sweep(files, jobs=jobs, scheduler=scheduler, cache_dir=cache_dir,
+                              engine=engine, progress=_progress(progress, quiet), **axes)
+    seconds = time.perf_counter() - t0
+    written = {}
+    for name, sc in scenarios.items():
+        written[name], _ = write_sweep(df[df["scenario"] == name].reset_index(drop=True),
+                                       Path(out) / name, sc)
+    return SweepResult(table=df, written=written, seconds=seconds)
+
+
+# ------------------------------------------------------------------------- experiment
+def experiment(study, *, check: bool = False) -> list[Path]:
+    """Write (or with ``check``, compare with a fresh generation) the record files of a
+    virtual experiment (``experiment.toml`` in a study folder, e.g. the bundled
+    ``chapter5``). Returns the files written, or those that differ."""
+    path = Path(study)
+    if not path.exists():
+        b = resolve_bundled(str(study))
+        if b is None or not b.is_dir():
+            raise UnknownNameError(f"{study}: no such file or folder, nor a bundled study"
+                                   f"{_did_you_mean(str(study), bundled_studies())}")
+        path = b
+    return check_experiment(path) if check else write_experiment(path)
+
+
+def command_line(argv) -> str:
+    """The command line a report shows for ``podbench`` with ``argv``."""
+    return shlex.join(["podbench", *map(str, argv)])

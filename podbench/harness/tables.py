@@ -1,0 +1,56 @@
+"""A run's results as tables: ``summary.csv`` (one row per scenario × structure × method ×
+target), ``fits.csv`` (what each fit measured about itself), and the one CSV format of
+every table podbench writes (fixed digits, fixed row order, so a rerun is byte-identical)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from podbench.harness.runner import COLUMNS
+
+FLOAT_FORMAT = "%.6g"
+"""Six significant digits: far above the run-to-run noise of the errors, and stable."""
+
+
+def summary_table(results) -> pd.DataFrame:
+    """All rows of the unit results, in the runner's deterministic order."""
+    rows = [r for u in results for r in u.rows]
+    df = pd.DataFrame(rows, columns=list(COLUMNS))
+    df["n_modes"] = df["n_modes"].astype(int)
+    return df
+
+
+#: Residual columns of ``fits.csv`` (``fit_residual``, ``solver_residual``: relative
+#: ‖AX − B‖/‖B‖ of the fit) below this are round-off and written as 0. An exact solve leaves
+#: 1e-16…1e-15 whose digits differ between CPUs (OpenBLAS picks its kernel per CPU type;
+#: measured: 3.26547e-16 against 3.24243e-16 for the same fit), which would make the table
+#: machine-dependent.
+ROUNDOFF_RESIDUAL = 1e-12
+
+
+#: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
+#: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
+#: records (1e-7…1e-6, the rounding of the file) its fourth digit differs between OpenBLAS
+#: kernels (measured: 1.87089e-06 against 1.87098e-06 for the same fit).
+ESTIMATE_COLUMNS = ("solver_noise_floor",)
+
+
+def fits_table(results) -> pd.DataFrame:
+    """One row per (scenario, structure, reported method): what its fit measured about
+    itself (:attr:`podbench.methods.PODMethod.diagnostics_`: mode count, fit residual,
+    condition number, the solver's amplification, regularization, iterations, …)."""
+    rows = [f for u in results for f in getattr(u, "fits", [])]
+    df = pd.DataFrame(rows)
+    for c in df.columns:  # round-off residuals: their digits depend on the CPU's BLAS kernel
+        if c.endswith("residual") and pd.api.types.is_numeric_dtype(df[c]):
+            df[c] = df[c].mask(df[c].abs() < ROUNDOFF_RESIDUAL, 0.0)
+    for c in ESTIMATE_COLUMNS:
+        if c in df and pd.api.types.is_numeric_dtype(df[c]):
+            df[c] = df[c].map(lambda v: float(f"{v:.2g}") if np.isfinite(v) else v)
+    first = [c for c in ("scenario", "structure", "method", "n_modes", "solver") if c in df]
+    return df[first + sorted(c for c in df.columns if c not in first)]
+
+
+def table_csv(df: pd.DataFrame) -> str:
+    return df.to_csv(index=False, float_format=FLOAT_FORMAT, lineterminator="\n")

@@ -1,0 +1,482 @@
+"""``report.html``: one self-contained page per study.
+
+The page holds the summary tables (error cells coloured by size), every figure (embedded as
+``data:`` URIs, so the page needs no other file and loads nothing from the network), the
+claims and their verdicts (from the same evaluation as ``FINDINGS.md``), the fit diagnostics
+(``fits.csv``), the definitions of the error decomposition (the docstring of
+:mod:`podbench.harness.metrics`, the single source of the README's table) and the
+provenance: commit, date, command and the versions of podbench, NumPy, SciPy, pandas and
+matplotlib. It carries the commit and the date, so unlike the tables it is not meant to be
+committed.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import html
+import math
+import platform
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+from podbench.report.figures import percent
+
+__all__ = ["provenance", "render_report", "text_to_html"]
+
+ERROR_BINS = ((0.01, "e0", "< 1 %"), (0.05, "e1", "1–5 %"), (0.20, "e2", "5–20 %"),
+              (1.0, "e3", "20–100 %"), (math.inf, "e4", "≥ 100 %"))
+"""Colour classes of an error cell by its size (a fraction of ‖W‖_F, or Eq. 4.2 / 100)."""
+
+SUMMARY_COLUMNS = (
+    # column, header, kind ("frac": fraction shown in %, "pct": already %, "ratio", None)
+    ("structure", "structure", None),
+    ("method", "method", None),
+    ("target", "target", None),
+    ("n_modes", "k", None),
+    ("total_error", "total", "frac"),
+    ("projection_error", "projection", "frac"),
+    ("subspace_error", "subspace", "frac"),
+    ("diagonalization_error", "diagonal&shy;ization", "frac"),
+    ("linearization_error", "linear&shy;ization", "frac"),
+    ("residual_error", "residual", "frac"),
+    ("twin_error", "twin", "frac"),
+    ("own_linearization_error", "own linear&shy;ization", "frac"),
+    ("linear_diagonalization_error", "diagonal&shy;ization on linear twin", "frac"),
+    ("norm_pe_median", "Eq. 4.2 median", "pct"),
+    ("norm_pe_p90", "Eq. 4.2 p90", "pct"),
+    ("norm_peak_ratio", "peak ratio", "ratio"),
+)
+
+_CSS = """
+:root { --fg:#1d232a; --muted:#5b6570; --line:#d9dee3; --bg:#fff; --soft:#f5f7f9;
+  --accent:#0b5cad; }
+* { box-sizing: border-box; }
+html { font-size: 16px; }
+body { margin: 0; color: var(--fg); background: var(--bg);
+  font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif;
+  line-height: 1.5; }
+.wrap { max-width: 1240px; margin: 0 auto; padding: 0 28px 48px; }
+header.top { background: #13293d; color: #fff; padding: 26px 0 18px; margin-bottom: 8px; }
+header.top .wrap { padding-bottom: 0; }
+header.top p.prov-line { margin-top: 12px; font-size: .85rem; }
+header.top p.prov-line code { background: none; color: #e8eef4; }
+header.top h1 { margin: 0 0 4px; font-size: 1.75rem; font-weight: 650; }
+header.top p { margin: 0; color: #c9d6e2; max-width: 60rem; }
+header.top .stats { display: flex; gap: 28px; flex-wrap: wrap; margin-top: 14px; }
+header.top .stat b { display: block; font-size: 1.45rem; color: #fff; }
+header.top .stat span { color: #c9d6e2; font-size: .88rem; }
+nav.toc { position: sticky; top: 0; z-index: 5; background: rgba(255,255,255,.96);
+  border-bottom: 1px solid var(--line); padding: 8px 0; font-size: .9rem; }
+nav.toc .wrap { display: flex; flex-wrap: wrap; gap: 2px 16px; padding-bottom: 0; }
+nav.toc a { color: var(--accent); text-decoration: none; white-space: nowrap; }
+nav.toc a:hover { text-decoration: underline; }
+h2 { font-size: 1.4rem; margin: 38px 0 10px; padding-bottom: 4px;
+  border-bottom: 2px solid var(--line); }
+h3 { font-size: 1.15rem; margin: 30px 0 4px; }
+h4 { font-size: 1rem; margin: 20px 0 4px; }
+p, li { max-width: 62rem; }
+.muted { color: var(--muted); }
+.source { color: var(--muted); font-style: italic; margin: 0 0 6px; }
+code { font-family: ui-monospace, "DejaVu Sans Mono", Menlo, Consolas, monospace;
+  font-size: .88em; background: var(--soft); padding: 0 3px; border-radius: 3px; }
+.scroll { overflow-x: auto; margin: 10px 0 6px; border: 1px solid var(--line);
+  border-radius: 6px; }
+table { border-collapse: collapse; font-size: .82rem; width: 100%; }
+th, td { padding: 4px 6px; border-bottom: 1px solid var(--line); text-align: right;
+  white-space: nowrap; font-variant-numeric: tabular-nums; }
+th { background: var(--soft); font-weight: 600; vertical-align: bottom; white-space: normal;
+  hyphens: manual; }
+th.l, td.l { text-align: left; }
+tbody tr:hover td { filter: brightness(0.96); }
+td.e0 { background: #c8ebc3; } td.e1 { background: #e6f4c4; } td.e2 { background: #fff0b3; }
+td.e3 { background: #fdd3a8; } td.e4 { background: #f5aaa6; } td.na { color: #8a949e; }
+.legend { display: flex; gap: 6px; flex-wrap: wrap; align-items: center; font-size: .84rem;
+  margin: 6px 0; }
+.legend span.chip { padding: 1px 8px; border-radius: 4px; border: 1px solid rgba(0,0,0,.08); }
+.chip.e0 { background: #c8ebc3; } .chip.e1 { background: #e6f4c4; }
+.chip.e2 { background: #fff0b3; } .chip.e3 { background: #fdd3a8; }
+.chip.e4 { background: #f5aaa6; }
+.status { font-size: .85rem; color: #8a1c1c; }
+.figs { display: grid; grid-template-columns: repeat(auto-fill, minmax(540px, 1fr));
+  gap: 18px; margin: 14px 0 8px; }
+figure { margin: 0; border: 1px solid var(--line); border-radius: 6px; padding: 6px;
+  background: #fff; }
+figure img { display: block; width: 100%; height: auto; }
+figcaption { font-size: .82rem; color: var(--muted); padding: 4px 4px 0; }
+.badge { display: inline-block; padding: 0 8px; border-radius: 10px; font-size: .8rem;
+  font-weight: 600; white-space: nowrap; }
+.badge.reproduced { background: #c8ebc3; color: #1d4d18; }
+.badge.not-reproduced { background: #f5aaa6; color: #6b1411; }
+.badge.not-measured { background: #e3e6ea; color: #3b444d; }
+article.claim { border-left: 4px solid var(--line); padding: 2px 0 2px 14px; margin: 22px 0; }
+article.claim.reproduced { border-color: #5fb257; }
+article.claim.not-reproduced { border-color: #d9534f; }
+blockquote { margin: 6px 0; padding: 4px 12px; background: var(--soft); border-radius: 4px;
+  max-width: 62rem; }
+ul.checks { font-size: .9rem; padding-left: 20px; }
+ul.checks li.holds::marker { content: "✓  "; color: #2e7d32; }
+ul.checks li.fails::marker { content: "✗  "; color: #c62828; }
+ul.checks li.unmeasured::marker { content: "?  "; color: #6b7580; }
+dl.prov { display: grid; grid-template-columns: max-content 1fr; gap: 4px 18px;
+  font-size: .92rem; }
+dl.prov dt { font-weight: 600; } dl.prov dd { margin: 0; word-break: break-all; }
+table.verdicts td, table.verdicts th { text-align: left; white-space: normal; }
+details > summary { cursor: pointer; color: var(--accent); margin: 8px 0; }
+"""
+
+_SCRIPT = """
+window.addEventListener("load", function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
+  document.body.setAttribute("data-images", String(imgs.length));
+  document.body.setAttribute("data-images-loaded", String(ok));
+  document.body.setAttribute("data-ok", ok === imgs.length ? "yes" : "no");
+});
+"""
+
+
+def _e(x) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_-]+", "-", str(text)).strip("-") or "x"
+
+
+def text_to_html(text: str) -> str:
+    """Paragraphs and bullet lists of plain text (docstrings, claim notes) as HTML.
+
+    Blank lines separate blocks; a block whose lines start with ``* `` or ``- `` is a list
+    (indented lines continue an item). ```code``` and ```code``` become ``<code>``,
+    ``**bold**`` and ``*emphasis*`` are kept. Everything else is escaped.
+    """
+    out = []
+    for block in re.split(r"\n\s*\n", text.strip("\n")):
+        lines = block.split("\n")
+        if not block.strip():
+            continue
+        first = lines[0].lstrip()
+        if first.startswith(("* ", "- ")):
+            items: list[str] = []
+            for ln in lines:
+                s = ln.strip()
+                if s.startswith(("* ", "- ")) and (not items or not ln.startswith("   ")):
+                    items.append(s[2:])
+                elif items:
+                    items[-1] += " " + s
+            out.append("<ul>" + "".join(f"<li>{_inline(i)}</li>" for i in items) + "</ul>")
+        else:
+            out.append(f"<p>{_inline(' '.join(ln.strip() for ln in lines))}</p>")
+    return "\n".join(out)
+
+
+def _inline(text: str) -> str:
+    text = text.replace("``", "`")
+    parts = re.split(r"(`[^`]+`)", text)
+    out = []
+    for p in parts:
+        if len(p) > 1 and p.startswith("`") and p.endswith("`"):
+            out.append(f"<code>{_e(' '.join(p[1:-1].split()))}</code>")
+            continue
+        s = _e(re.sub(r"\s+", " ", p))
+        s = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", s)
+        s = re.sub(r"(?<![\w*])\*(?!\s)(.+?)(?<!\s)\*(?![\w*])", r"<em>\1</em>", s)
+        out.append(s)
+    return "".join(out)
+
+
+def _git(args, cwd) -> str | None:
+    try:
+        p = subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True,
+                           timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return p.stdout.strip() if p.returncode == 0 else None
+
+
+def provenance(command: str | None = None) -> dict:
+    """Commit (``git rev-parse HEAD`` of podbench's checkout, ``"unknown"`` without git),
+    UTC date, command and versions, as ``{label: text}``."""
+    import matplotlib
+    import numpy
+    import pandas
+    import scipy
+
+    from podbench import __version__
+
+    here = Path(__file__).resolve().parent
+    commit = _git(["rev-parse", "HEAD"], here) or "unknown"
+    if commit != "unknown":
+        dirty = _git(["status", "--porcelain", "--untracked-files=no"], here)
+        if dirty:
+            commit += " (with uncommitted changes)"
+    if command is None:
+        command = shlex.join(["podbench", *sys.argv[1:]]) if Path(sys.argv[0]).stem == (
+            "podbench") else shlex.join([Path(sys.executable).name, *sys.argv])
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0)
+    return {
+        "commit": commit,
+        "date": now.isoformat().replace("+00:00", " UTC"),
+        "command": command,
+        "podbench": __version__,
+        "Python": platform.python_version(),
+        "NumPy": numpy.__version__,
+        "SciPy": scipy.__version__,
+        "pandas": pandas.__version__,
+        "matplotlib": matplotlib.__version__,
+    }
+
+
+def _err_class(frac) -> str:
+    if frac is None or not isinstance(frac, (int, float)) or not math.isfinite(frac):
+        return "na"
+    for limit, cls, _ in ERROR_BINS:
+        if frac < limit:
+            return cls
+    return "e4"  # pragma: no cover - the last bin is unbounded
+
+
+def _num(x, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "—"
+    if isinstance(x, (int,)) and not isinstance(x, bool):
+        return str(x)
+    return f"{x:.{digits}g}"
+
+
+def _cell(value, kind) -> str:
+    if kind is None:
+        return f'<td class="l">{_e(value)}</td>'
+    if isinstance(value, float) and not math.isfinite(value):
+        return '<td class="na">—</td>'
+    if kind == "frac":
+        return f'<td class="{_err_class(value)}">{percent(100 * value)}</td>'
+    if kind == "pct":
+        return f'<td class="{_err_class(value / 100)}">{percent(value)}</td>'
+    return f"<td>{_num(value)}</td>"
+
+
+def _legend() -> str:
+    chips = "".join(f'<span class="chip {c}">{_e(t)}</span>' for _, c, t in ERROR_BINS)
+    return f'<div class="legend"><span class="muted">error of ‖W‖<sub>F</sub>:</span>{chips}' \
+           '<span class="chip" style="color:#8a949e">— undefined</span></div>'
+
+
+def _summary_table(sub) -> str:
+    cols = [(c, h, k) for c, h, k in SUMMARY_COLUMNS if c in sub.columns]
+    head = "".join(f'<th class="{"l" if k is None else ""}" title="{_e(c)}">{h}</th>'
+                   for c, h, k in cols)
+    body = []
+    for r in sub.to_dict("records"):
+        body.append("<tr>" + "".join(_cell(r[c], k) for c, _, k in cols) + "</tr>")
+    notes = [f'<li>{_e(r["structure"])} / {_e(r["method"])} / {_e(r["target"])}: '
+             f'{_e(r["status"])}</li>' for r in sub.to_dict("records") if r["status"] != "ok"]
+    out = (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
+           f'<tbody>{"".join(body)}</tbody></table></div>')
+    if notes:
+        out += f'<ul class="status">{"".join(notes)}</ul>'
+    return out
+
+
+def _fits_table(fits) -> str:
+    if fits is None or not len(fits):
+        return '<p class="muted">No method was fitted.</p>'
+    cols = list(fits.columns)
+    text_cols = {"scenario", "structure", "method", "solver"}
+    head = "".join(f'<th class="{"l" if c in text_cols else ""}">{_e(c)}</th>' for c in cols)
+    body = []
+    for r in fits.to_dict("records"):
+        cells = []
+        for c in cols:
+            v = r[c]
+            if c in text_cols or isinstance(v, str):
+                cells.append(f'<td class="l">{_e(v if v == v else "—")}</td>')
+            elif isinstance(v, float) and not math.isfinite(v):
+                cells.append('<td class="na">—</td>')
+            else:
+                cells.append(f"<td>{_num(v, 4)}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
+            f'<tbody>{"".join(body)}</tbody></table></div>')
+
+
+def _verdict_badge(verdict: str) -> str:
+    return f'<span class="badge {_slug(verdict)}">{_e(verdict)}</span>'
+
+
+def _findings(evaluated, remarks, claims_path) -> str:
+    if evaluated is None:
+        return ('<p class="muted">No claims file (<code>claims.toml</code>) beside the '
+                "scenarios: nothing to check.</p>")
+    n = len(evaluated)
+    counts = {k: sum(e["verdict"] == k for e in evaluated)
+              for k in ("reproduced", "not reproduced", "not measured")}
+    out = [f"<p>Each claim of <code>{_e(claims_path)}</code> checked against this run's "
+           "summary table (the same evaluation as <code>FINDINGS.md</code>). The words were "
+           "translated into thresholds before any run; the structures and methods were not "
+           "adjusted to the dissertation.</p>",
+           f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
+           f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
+           "measured.</strong></p>"]
+    rows = "".join(
+        f'<tr><td class="l"><a href="#claim-{_slug(e["claim"].id)}">{_e(e["claim"].id)}</a>'
+        f'</td><td class="l">{_e(e["claim"].source)}</td><td class="l">'
+        f'{_e(e["claim"].scenario)}</td><td class="l">{_verdict_badge(e["verdict"])}</td></tr>'
+        for e in evaluated)
+    out.append('<div class="scroll"><table class="verdicts"><thead><tr><th>claim</th>'
+               "<th>source</th><th>scenario</th><th>verdict</th></tr></thead>"
+               f"<tbody>{rows}</tbody></table></div>")
+    for e in evaluated:
+        c = e["claim"]
+        cls = _slug(e["verdict"])
+        out.append(f'<article class="claim {cls}" id="claim-{_slug(c.id)}">')
+        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e['verdict'])}</h4>")
+        out.append(f'<p class="source">{_e(c.source)}, {_e(c.scenario)}</p>')
+        out.append(f"<blockquote>“{_inline(c.quote)}”</blockquote>")
+        if c.criterion:
+            out.append(f"<p><strong>Criterion:</strong> {_inline(c.criterion)}.</p>")
+        items = []
+        for d in e["details"]:
+            mark = {True: ("holds", "holds"), False: ("fails", "fails"),
+                    None: ("unmeasured", "not measured")}[d["holds"]]
+            items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
+                         f'<code>{_e(d["check"])}</code> → {_e(d["shown"])}: {mark[1]}</li>')
+        out.append(f'<ul class="checks">{"".join(items)}</ul>')
+        if getattr(c, "finding", ""):
+            out.append(f"<p><strong>In one line:</strong> {_inline(c.finding)}</p>")
+        if c.note:
+            out.append(text_to_html(c.note))
+        out.append("</article>")
+    if remarks:
+        out.append("<h3>Other findings</h3>")
+        for r in remarks:
+            out.append(f"<h4>{_e(r['title'])}</h4>{text_to_html(r['text'])}")
+    return "\n".join(out)
+
+
+def _figures(figs, figure_format: str | None) -> str:
+    if figure_format is None:
+        return '<p class="muted">Figures not drawn (<code>--no-figures</code>).</p>'
+    if not figs:
+        return ""
+    out = ['<div class="figs">']
+    for f in figs:
+        out.append(f'<figure><img src="{f["uri"]}" alt="{_e(f["alt"])}" loading="eager">'
+                   f'<figcaption>{_e(f["caption"])}</figcaption></figure>')
+    out.append("</div>")
+    return "\n".join(out)
+
+
+def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, remarks=(),
+                  claims_path=None, figures: dict | None = None,
+                  figure_format: str | None = "png", command: str | None = None) -> str:
+    """The HTML text of a study's ``report.html``.
+
+    Parameters
+    ----------
+    study : str
+        The study's name (its output folder).
+    df, fits : pandas.DataFrame
+        The summary table (``summary.csv``) and the fit diagnostics (``fits.csv``).
+    scenarios : dict
+        Scenario name → :class:`podbench.scenarios.Scenario`.
+    evaluated, remarks, claims_path
+        The claims' evaluation (:func:`podbench.study.claims.evaluate_claims`), the
+        claims file's remarks and its path, or None without a claims file.
+    figures : dict
+        Scenario name → list of ``{"uri", "alt", "caption"}`` (figures as ``data:`` URIs).
+    figure_format : str or None
+        The format of the figure files, None when no figures were drawn.
+    command : str, optional
+        The command that produced the study (default: this process's command line).
+    """
+    from podbench.harness.metrics import __doc__ as metrics_doc
+
+    figures = figures or {}
+    prov = provenance(command)
+    n_figs = sum(len(v) for v in figures.values())
+    n_ok = None if evaluated is None else sum(e["verdict"] == "reproduced" for e in evaluated)
+    stats = [(len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
+             (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
+    if evaluated is not None:
+        stats.append((f"{n_ok} / {len(evaluated)}", "claims reproduced"))
+    n_failed = int((df["status"] != "ok").sum()) if len(df) else 0
+    if n_failed:
+        stats.append((n_failed, "rows with a failed method or twin"))
+    stat_html = "".join(f'<div class="stat"><b>{_e(v)}</b><span>{_e(t)}</span></div>'
+                        for v, t in stats)
+
+    toc = ['<a href="#results">Results</a>']
+    sections = []
+    for name, sub in df.groupby("scenario", sort=False):
+        sc = scenarios.get(name)
+        toc.append(f'<a href="#sc-{_slug(name)}">{_e(name)}</a>')
+        part = [f'<section id="sc-{_slug(name)}"><h3>{_e(name)}'
+                + (f": {_e(sc.title)}" if sc is not None else "") + "</h3>"]
+        if sc is not None and sc.source:
+            part.append(f'<p class="source">{_e(sc.source)}</p>')
+        if sc is not None and sc.description:
+            part.append(text_to_html(sc.description))
+        part.append(_summary_table(sub))
+        part.append(_figures(figures.get(name, []), figure_format))
+        part.append("</section>")
+        sections.append("\n".join(part))
+    toc += ['<a href="#findings">Findings</a>', '<a href="#fits">Fit diagnostics</a>',
+            '<a href="#decomposition">Error decomposition</a>',
+            '<a href="#provenance">Provenance</a>']
+
+    prov_html = "".join(f"<dt>{_e(k)}</dt><dd>{'<code>' + _e(v) + '</code>' if k in ('commit', 'command') else _e(v)}</dd>"  # noqa: E501
+                        for k, v in prov.items())
+    fmt_note = ("" if figure_format is None else
+                f" The figure files are in <code>figures/*.{_e(figure_format)}</code> beside "
+                "this page; the page embeds them.")
+    return f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="podbench {_e(prov['podbench'])}">
+<title>podbench study report: {_e(study)}</title>
+<style>{_CSS}</style>
+</head>
+<body>
+<header class="top"><div class="wrap">
+<h1>podbench study report: {_e(study)}</h1>
+<p>POD-based system identification after Allison (2007), <em>System Identification via the
+Proper Orthogonal Decomposition</em>. Units: inch, lbf, second. Errors are percentages of the
+target's ‖W‖<sub>F</sub>; Eq. 4.2 errors are percent errors of the displacement norm.</p>
+<div class="stats">{stat_html}</div>
+<p class="prov-line">commit <code>{_e(prov['commit'])}</code> · {_e(prov['date'])} ·
+<code>{_e(prov['command'])}</code></p>
+</div></header>
+<nav class="toc"><div class="wrap">{''.join(toc)}</div></nav>
+<main class="wrap">
+<h2 id="results">Results</h2>
+<p>One table per scenario: one row per structure × method × target (the rows of
+<code>summary.csv</code>; column names in the header's tooltip). Error columns are in percent
+of ‖W‖<sub>F</sub> of the target; "—" marks a component that is undefined (see
+<a href="#decomposition">Error decomposition</a>). Each figure shows the displacement norm
+‖w(t)‖ (Eq. 4.1) of the truth and of every method, over the percent error of the norm
+(Eq. 4.2); the y-axis is fitted to the truth, and a method that leaves it is marked ▲ and
+“off scale”.{fmt_note}</p>
+{_legend()}
+{''.join(sections)}
+<h2 id="findings">Findings</h2>
+{_findings(evaluated, remarks, claims_path)}
+<h2 id="fits">Fit diagnostics</h2>
+<p>What each reported method's fit measured about itself (<code>fits.csv</code>): mode count,
+fit residual, condition numbers and the deconvolution solver's amplification, growth,
+regularization and iterations.</p>
+{_fits_table(fits)}
+<h2 id="decomposition">Error decomposition</h2>
+{text_to_html(metrics_doc or "")}
+<h2 id="provenance">Provenance</h2>
+<dl class="prov">{prov_html}</dl>
+</main>
+<script>{_SCRIPT}</script>
+</body>
+</html>
+"""

@@ -1,0 +1,170 @@
+"""From a scenario's ``[[methods]]`` entries to estimators, and from cases to training records.
+
+Every method — built-in, peer or a user's class — is driven the same way: the entry's class
+is constructed with the entry's ``options`` (and ``n_modes``), then ``fit(records,
+basis=None)`` receives the training cases' responses in the entry's order (a
+:class:`~podbench.data.Response` is a record: ``W, F, w0, v0, dt``) and ``predict(target)``
+the target's response; ``modes_`` is the basis it predicts in. What each method reads from
+a record it declares itself (``required_fields()``), so this module has no per-method
+branch. A ``superposition`` entry becomes a :class:`~podbench.methods.Superposition` of its
+parts' estimators, each fitted on its own training cases.
+
+A method of your own is named ``"module:Class"`` (an importable module) or
+``"file.py:Class"`` (relative to the scenario file); a deconvolution solver of your own,
+likewise, as ``options.solver``. Both are imported where the scenario is read — in every
+worker process too — so nothing depends on a registry in the user's process.
+
+Options are bound to the constructor's signature when the scenario file is read
+(:func:`check_method_entry`): an unknown option, a bad value (the class's
+``_validate_params``), a missing file or class is a
+:class:`~podbench.errors.ScenarioFileError` naming the file and the dotted field, raised
+before any simulation.
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+
+from podbench.core.userimport import UserImportError, import_object
+from podbench.errors import InputError, PodbenchError
+from podbench.sysid.deconvolution import make_solver
+from podbench.sysid.methods import BUILTIN_METHODS, Superposition
+
+__all__ = ["method_class", "build_estimator", "check_method_entry", "training_records",
+           "all_cases", "is_user_method", "option_names"]
+
+
+def is_user_method(method: str) -> bool:
+    """True for a ``module:Class`` / ``file.py:Class`` entry."""
+    return ":" in method
+
+
+def method_class(method: str, base_dir=None) -> type:
+    """The class of a ``method`` entry: a built-in name or a user's ``module:Class``.
+
+    Raises
+    ------
+    InputError
+        Unknown name, a module or file that does not import, no such class, or an object
+        that is not a class with ``fit`` and ``predict``.
+    """
+    if method in BUILTIN_METHODS:
+        return BUILTIN_METHODS[method]
+    if not is_user_method(method):
+        raise InputError(
+            f'unknown method "{method}"; built-in methods: {", ".join(BUILTIN_METHODS)}, '
+            'superposition, or "module:Class" / "file.py:Class" for a method of your own'
+        )
+    cls = import_object(method, base_dir)
+    if not inspect.isclass(cls) or not all(callable(getattr(cls, a, None))
+                                           for a in ("fit", "predict")):
+        raise InputError(
+            f'"{method}" is not a class with `fit(records, *, basis=None)` and '
+            "`predict(record)` methods (see podbench.methods.PODMethod for the contract)"
+        )
+    return cls
+
+
+def option_names(cls) -> tuple[list[str], bool]:
+    """The keyword names the constructor of ``cls`` accepts, and whether it takes ``**kw``."""
+    sig = inspect.signature(cls)
+    names = [p.name for p in sig.parameters.values()
+             if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return names, any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values())
+
+
+def _resolve_user_solver(options: dict, base_dir) -> dict:
+    """Replace a ``module:Class`` / ``file.py:Class`` solver name by the solver object."""
+    solver = options.get("solver")
+    if not (isinstance(solver, str) and ":" in solver):
+        return options
+
+    out = dict(options)
+    out["solver"] = make_solver(solver, out.pop("solver_options", None), base_dir=base_dir)
+    return out
+
+
+def build_estimator(spec, method_of, base_dir=None):
+    """A fresh, unfitted estimator for a method entry.
+
+    Parameters
+    ----------
+    spec : MethodSpec
+        The ``[[methods]]`` entry.
+    method_of : callable
+        ``label -> MethodSpec`` (the parts of a superposition are other entries).
+    base_dir : path, optional
+        Folder of the scenario file (relative ``file.py:Class`` names).
+    """
+    if spec.method == "superposition":
+        return Superposition(parts=tuple(build_estimator(method_of(p), method_of, base_dir)
+                                         for p in spec.parts))
+    cls = method_class(spec.method, base_dir)
+    options = dict(spec.options)
+    if spec.n_modes is not None:
+        options["n_modes"] = spec.n_modes
+    names, var_kw = option_names(cls)
+    if not var_kw:
+        for key in options:
+            if key not in names:
+                raise InputError(
+                    f"Parameter `{key}`: not an option of {cls.__name__} (its options: "
+                    f"{', '.join(names) or 'none'})"
+                )
+    options = _resolve_user_solver(options, base_dir)
+    try:
+        return cls(**options)
+    except PodbenchError:
+        raise
+    except Exception as exc:  # a user's constructor may raise anything
+        raise InputError(f"{cls.__name__}(...) raised {type(exc).__name__}: {exc}") from None
+
+
+_PARAM = re.compile(r"Parameter `([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def check_method_entry(spec, method_of, base_dir=None) -> tuple[str, str] | None:
+    """Build the estimator of an entry and validate its options without data.
+
+    Returns None when the entry is usable, else ``(field, message)`` for the first problem:
+    ``field`` is the entry's dotted sub-field (``"method"``, ``"n_modes"``,
+    ``"options.energy"``, …) and ``message`` the reason.
+    """
+    try:
+        est = build_estimator(spec, method_of, base_dir)
+        validate = getattr(est, "_validate_params", None)
+        if validate is not None:
+            validate()
+    except UserImportError as exc:
+        return "method", str(exc)
+    except InputError as exc:
+        msg = " ".join(str(exc).split())
+        if msg.startswith("unknown method") or "is not a class" in msg:
+            return "method", msg
+        m = _PARAM.match(msg)
+        name = m.group(1) if m else None
+        solver_options = spec.options.get("solver_options")
+        if name == "n_modes" and spec.n_modes is not None and "n_modes" not in spec.options:
+            return "n_modes", msg
+        if name is not None and name in spec.options:
+            return f"options.{name}", msg
+        if isinstance(solver_options, dict) and name in solver_options:
+            return f"options.solver_options.{name}", msg
+        return "options", msg
+    return None
+
+
+def training_records(spec, method_of, get):
+    """The training records of an entry: ``[get(case) …]`` in the entry's order, or for a
+    superposition one such list per part."""
+    if spec.method == "superposition":
+        return [training_records(method_of(p), method_of, get) for p in spec.parts]
+    return [get(c) for c in spec.train]
+
+
+def all_cases(spec, method_of) -> set[str]:
+    """Every case an entry (or a superposition's parts) trains on."""
+    if spec.method == "superposition":
+        return set().union(*(all_cases(method_of(p), method_of) for p in spec.parts))
+    return set(spec.train)

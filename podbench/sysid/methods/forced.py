@@ -1,0 +1,537 @@
+"""Forced-response methods (§3.3): single-load (SL) and multiple-load (ML).
+
+The structure starts at rest and the scaled POC histories are the convolution of a modal
+impulse-response kernel ``C(t) = Φ12(t) M⁻¹`` (``k × k``) with the modal forces
+``q = Uᵀ F`` (Eqs. 3.34–3.38). Time-sampled, with the Δt of Eq. 3.39 kept::
+
+    v̂_l[s] = Δt Σ_i Σ_{p=0}^{s} c_{li}[p] q_i[s−p].
+
+Sampling: column 0 of ``W`` and ``F`` is ``t = 0``. A response that starts at rest has
+``W[:, 0] = 0`` and, with the pulses podbench uses, ``F[:, 0] = 0``; the convolution matrices
+then have a zero diagonal and are singular, but the system is consistent and the
+minimum-norm least-squares solution (``solver="ls"``) reproduces and predicts exactly. A
+Newmark response to a force with ``F[:, 0] ≠ 0`` is *not* a causal convolution of this form
+(Newmark brings ``f_0`` in through the initial acceleration), which shows as an error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from podbench.core.records import is_record
+from podbench.core.validation import as_finite_array, check_choice
+from podbench.errors import DimensionError, IllConditionedError, InputError
+from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
+from podbench.sysid.methods.base import (
+    PODMethod,
+    as_int_list,
+    check_datasets,
+    check_dt,
+    check_energy,
+    check_force,
+    check_forces,
+    check_max_cond,
+    check_max_growth,
+    check_n_modes,
+    check_snapshots,
+    check_tol,
+    is_record_input,
+    make_method_solver,
+    modal_share_too_small,
+    select_basis,
+    solve_deconvolution,
+)
+
+__all__ = ["SingleLoad", "MultipleLoad", "KERNEL_TAIL", "kernel_lags"]
+
+KERNEL_TAIL = 1e-6
+"""The ``n_lags="auto"`` rule: the smallest ``L`` whose kernel tail carries at most this
+fraction of the identified kernel's energy, ``Σ_{s≥L} ‖C(t_s)‖²_F <= KERNEL_TAIL ·
+Σ_s ‖C(t_s)‖²_F`` (fixed in advance; it reads only the kernel fitted on the training records)."""
+
+_BASES = ("first", "all")
+
+
+def kernel_lags(kernel: np.ndarray, tail: float = KERNEL_TAIL) -> int:
+    """Number of lags ``L`` of the ``n_lags="auto"`` rule (:data:`KERNEL_TAIL`).
+
+    Parameters
+    ----------
+    kernel : (k, k, n) ndarray
+        Identified kernel ``C(t_s) = kernel[:, :, s]`` (in/(lbf·s)).
+    tail : float
+        Largest energy fraction left beyond ``L``.
+
+    Returns
+    -------
+    int
+        ``1 <= L <= n``.
+    """
+    e = np.sum(kernel.reshape(-1, kernel.shape[-1]) ** 2, axis=0)
+    total = float(e.sum())
+    if total == 0:
+        return 1
+    beyond = total - np.cumsum(e)  # beyond[L-1] = energy of samples L … n−1
+    return int(np.flatnonzero(beyond <= tail * total)[0]) + 1
+
+
+def _check_n_lags(n_lags):
+    if n_lags is None or n_lags == "auto":
+        return n_lags
+    if isinstance(n_lags, bool) or not isinstance(n_lags, (int, np.integer)) or n_lags < 1:
+        raise InputError(f"Parameter `n_lags`: expected None, 'auto' or an integer >= 1, "
+                         f"got {n_lags!r}")
+    return int(n_lags)
+
+
+def _all_records_basis(Ws, k: int):
+    """The ``k`` leading POMs of all records side by side, ``[¹W ²W …]`` (``basis="all"``),
+    with the POVs and POCs of the first record in it."""
+    U_all, _, _ = select_basis(np.hstack(Ws), k, None)
+    return select_basis(Ws[0], None, U_all)
+
+
+def _relative_residual(Qs, X, B, dt) -> float:
+    """``‖A X − B‖ / ‖B‖`` with ``A`` the convolution matrix of ``Qs`` (never formed)."""
+    AX = convolution_product(Qs, X, dt)
+    nb = np.linalg.norm(B)
+    return float(np.linalg.norm(AX - B) / nb) if nb > 0 else float(np.linalg.norm(AX))
+
+
+def _no_arrays_beside_records(**given) -> None:
+    for name, value in given.items():
+        if value is not None:
+            raise InputError(f"Parameter `{name}`: give it in the records (their {name}), "
+                             "not beside them")
+
+
+class _ForcedMethod(PODMethod):
+    """What SL and ML share: the new force of a record, the solver diagnostics."""
+
+    def _new_force(self, record):
+        if is_record(record):
+            return self._target_record(record).F
+        return record
+
+    def _truncate(self, kernel: np.ndarray) -> np.ndarray:
+        """Apply ``n_lags``: the kernel set to zero from lag ``n_lags_`` on (in place)."""
+        n_lags = _check_n_lags(self.n_lags)
+        n = kernel.shape[2]
+        if n_lags == "auto":
+            n_lags = kernel_lags(kernel)
+        elif n_lags is not None:
+            n_lags = min(n_lags, n)
+        if n_lags is not None:
+            kernel[:, :, n_lags:] = 0.0
+        self.n_lags_ = n_lags
+        return kernel
+
+    def _check_new_force(self, F) -> np.ndarray:
+        """The new force matrix: ``m`` rows; at most ``n`` samples unless the kernel is
+        truncated (``n_lags``), then any length (the kernel is zero beyond ``n_lags_``)."""
+        F = as_finite_array(F, "F_new", ndim=2)
+        m, n = self.modes_.shape[0], self.kernel_.shape[2]
+        if F.shape[0] != m or F.shape[1] < 1:
+            raise DimensionError(f"Parameter `F_new`: expected shape ({m}, n'), got {F.shape}")
+        if F.shape[1] > n and getattr(self, "n_lags_", None) is None:
+            raise DimensionError(
+                f"Parameter `F_new`: {F.shape[1]} samples, expected n' <= {n} (the kernel was "
+                f"identified from {n} samples and is unknown beyond); set `n_lags` (an int "
+                "or 'auto') to truncate the kernel, which then predicts records of any length"
+            )
+        return F
+
+    def _kernel_for(self, n_new: int) -> np.ndarray:
+        """The kernel zero-padded to ``n_new`` samples (beyond ``n_lags_`` it is zero)."""
+        kern = self.kernel_
+        if n_new > kern.shape[2]:
+            kern = np.concatenate([kern, np.zeros(kern.shape[:2] + (n_new - kern.shape[2],))],
+                                  axis=2)
+        return kern
+
+    @property
+    def diagnostics_(self) -> dict:
+        """The base diagnostics and ``n_lags`` (when the kernel is truncated)."""
+        out = super().diagnostics_
+        if getattr(self, "n_lags_", None) is not None:
+            out["n_lags"] = int(self.n_lags_)
+        return out
+
+
+class SingleLoad(_ForcedMethod):
+    """Single-load method (§3.3.1, Eqs. 3.43–3.45).
+
+    Assumes ``C(t)`` diagonal in the POM basis (identity-proportional mass, light
+    proportional damping) and identifies each diagonal kernel from one load case by an
+    independent scalar deconvolution ``v̂_i = Q̌_i c_ii`` (Eq. 3.43, ``Q̌_i`` from Eq. 3.40).
+    A new load is predicted by ``ṽ_i = c_ii * q̃_i`` (Eq. 3.44) and ``W̃ = Σ u_i ṽ_iᵀ``
+    (Eq. 3.45).
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        Number of POMs; default from ``energy`` (or ``basis.shape[1]``).
+    energy : float
+        Cumulative energy fraction (Eq. 2.3, σ-based) when ``n_modes`` is None (0.99).
+    solver : str
+        Deconvolution solver name (:func:`podbench.deconvolution.available_solvers`):
+        ``"ls"`` (default, Eq. 3.76) or ``"tls"`` (Eqs. 3.78–3.80), dense; or a structured
+        solver that never forms the convolution matrix: ``"block"`` (exact, equals ``"ls"``
+        for forces that start with zeros), ``"fft"`` or ``"cgls"`` (Tikhonov-regularized,
+        for noisy data), ``"stls"`` (structured total least squares: the kernel and a
+        correction of the force samples); all: :func:`podbench.deconvolution.available_solvers`.
+    solver_options : dict, optional
+        Keyword options of the solver (e.g. ``{"rcond": 1e-3}`` or
+        ``{"noise_level": 1e-4}`` for ``"tls"``).
+    tol : float
+        ``fit`` raises :class:`IllConditionedError` if a modal force is too small to
+        deconvolve: ``‖q_i‖ <= tol·‖F‖_F`` (default 1e-6; the load is orthogonal to a POM).
+    max_growth : float
+        ``fit`` raises :class:`IllConditionedError` when a deconvolution amplifies the data
+        by more than this, ``‖A‖‖X‖/‖B‖ > max_growth`` (default 1e8, the ``"block"``
+        solver's own limit; :func:`~podbench.methods.base.amplification`): the kernel
+        would be amplified noise or model error (e.g. one record with random forces, whose
+        convolution matrix is ill-conditioned). The value reached is
+        ``solver_info_["amplification"]``.
+    n_lags : None, int or "auto"
+        Kernel truncation (beyond the dissertation): the identified kernel is set to zero
+        from lag ``n_lags`` on, ``C(t_s) = 0`` for ``s >= n_lags``. ``"auto"``: the rule
+        :data:`KERNEL_TAIL` on the fitted kernel. None (default, the dissertation's): no
+        truncation. With a truncated kernel ``predict`` accepts records of any length
+        (``Ṽ = Δt Σ_{p<n_lags} C(t_p) q̃[s−p]`` is defined for every ``s``); without it a
+        record longer than the training ones is refused (the kernel is unknown beyond).
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+    povs_ : (k,) ndarray
+    pocs_ : (n, k) ndarray
+    kernel_ : (k, k, n) ndarray
+        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); diagonal for SL; zero from ``n_lags_`` on.
+    n_lags_ : int or None
+        Lags kept (None: no truncation).
+    fit_residual_ : float
+        Relative residual of the deconvolutions, ``‖Q̌ c − v̂‖ / ‖v̂‖`` over all modes.
+    dt_ : float
+    n_modes_ : int
+    """
+
+    abbreviation = "SL"
+    excitation_kind = "forced"
+    n_records = (1, 1)
+
+    def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
+                 tol=1e-6, max_growth=1e8, n_lags=None):
+        self.n_modes = n_modes
+        self.energy = energy
+        self.solver = solver
+        self.solver_options = solver_options
+        self.tol = tol
+        self.max_growth = max_growth
+        self.n_lags = n_lags
+
+    def _validate_params(self) -> None:
+        check_n_modes(self.n_modes)
+        check_energy(self.energy)
+        make_method_solver(self.solver, self.solver_options)
+        check_tol(self.tol)
+        check_max_growth(self.max_growth)
+        _check_n_lags(self.n_lags)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", "F", "dt")
+
+    def coupled_twin(self) -> MultipleLoad:
+        """ML with the same solver (the full kernel ``C(t)`` instead of its diagonal)."""
+        return MultipleLoad(n_modes=self.n_modes, solver=self.solver,
+                            solver_options=self.solver_options, n_lags=self.n_lags)
+
+    def fit(self, records, F=None, *, dt=None, basis=None) -> SingleLoad:
+        """Identify the diagonal kernel from one forced response that starts at rest.
+
+        Parameters
+        ----------
+        records : record, or (m, n) array_like
+            The training record (``W`` in in, ``F`` in lbf at the same sensors and times,
+            ``dt`` in s), or its displacements ``W`` (array form).
+        F : (m, n) array_like, optional
+            Array form only: the forces (lbf).
+        dt : float, optional
+            Array form only: the sampling interval (s).
+        basis : (m, k) array_like, optional
+            Orthonormal basis to use instead of the POMs of ``W``.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if is_record_input(records):
+            _no_arrays_beside_records(F=F, dt=dt)
+            rec = self._training_records(records)[0]
+            W, F, dt = rec.W, rec.F, rec.dt
+        else:
+            dt = check_dt(dt)
+            W = check_snapshots(records)
+            F = check_force(F, W, "F")
+        return self._fit(W, F, dt, basis)
+
+    def _fit(self, W, F, dt, basis) -> SingleLoad:
+        n_modes = check_n_modes(self.n_modes)
+        energy = check_energy(self.energy)
+        solver = make_method_solver(self.solver, self.solver_options)
+        tol = check_tol(self.tol)
+        U, povs, pocs = select_basis(W, n_modes, basis, energy=energy)
+        k, n = U.shape[1], W.shape[1]
+        Vh = U.T @ W
+        Q = U.T @ F
+        scale = float(np.linalg.norm(F))
+        if scale == 0:
+            raise IllConditionedError("Parameter `F`: the force matrix is zero")
+        bad = modal_share_too_small(np.linalg.norm(Q, axis=1), scale, tol)
+        if np.any(bad):
+            raise IllConditionedError(
+                f"SL: the modal force of mode(s) {as_int_list(bad)} is too small to deconvolve "
+                f"(‖u_iᵀF‖ <= tol·‖F‖ = {tol * scale:.3g}, tol = {tol:g}): the load is "
+                "(nearly) orthogonal to the POM; use fewer modes or MultipleLoad"
+            )
+        kernel = np.zeros((k, k, n))
+        num = 0.0
+        infos = []
+        for i in range(k):
+            c, info = solve_deconvolution(solver, [Q[i : i + 1]], Vh[i], dt,
+                                          check_max_growth(self.max_growth), f"SL mode {i + 1}")
+            kernel[i, i] = c
+            infos.append(info)
+            num += float(np.sum((convolution_product([Q[i : i + 1]], c, dt) - Vh[i]) ** 2))
+        nv = np.linalg.norm(Vh)
+        self.solver_ = solver
+        self.solver_info_ = infos
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.kernel_ = self._truncate(kernel)
+        self.fit_residual_ = float(np.sqrt(num) / nv) if nv > 0 else float(np.sqrt(num))
+        self.dt_ = dt
+        self.n_modes_ = k
+        return self
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new load (Eqs. 3.44–3.45).
+
+        Parameters
+        ----------
+        record : record, or (m, n') array_like
+            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
+            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
+            ``n_lags``), column 0 at ``t = 0``.
+
+        Returns
+        -------
+        (m, n') ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        F = self._check_new_force(self._new_force(record))
+        q = self.modes_.T @ F
+        idx = np.arange(self.n_modes_)
+        v = convolve(self._kernel_for(F.shape[1])[idx, idx], q, self.dt_)
+        return self.modes_ @ v
+
+
+class MultipleLoad(_ForcedMethod):
+    """Multiple-load method (§3.3.2, Eqs. 3.46–3.49).
+
+    With the POMs ``U`` (``m × k``) of the first load case, every case ``j`` gives scaled POC
+    histories ``ʲV̂ = (Uᵀ ʲW)ᵀ`` (``n × k``, Eq. 3.46) and modal forces ``ʲq_i = u_iᵀ ʲF``
+    (Eq. 3.47). The full kernel ``C̄`` (``k·n × k``, Eq. 3.42) solves the block system
+
+        ``[¹V̂; ²V̂; …] = [ʲQ̌_i]_{j,i} C̄``   (Eq. 3.48, ``n_cases·n × k·n``),
+
+    and a new load is predicted by ``Ṽ = [Q̃̌_1 … Q̃̌_k] C̄`` (Eq. 3.49), computed here as a
+    fast convolution. No diagonal assumption: for a linear time-invariant system, ``k``
+    equal to the number of sensors and forces whose first sample is zero the prediction is
+    exact.
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        ``k``; default the number of load cases (or ``basis.shape[1]``). Must not exceed it;
+        more load cases than modes give an over-determined system (an extension).
+    solver : str
+        ``"ls"`` (default) or ``"tls"`` (dense); ``"block"`` (exact, as many load cases as
+        modes), ``"fft"``, ``"cgls"``, ``"stls"`` (structured); see
+        :mod:`podbench.deconvolution`.
+    solver_options : dict, optional
+        Keyword options of the solver.
+    max_cond : float
+        ``fit`` raises :class:`IllConditionedError` if the load cases are (nearly)
+        linearly dependent: the condition number of the ``n_cases × k·n`` matrix whose row
+        ``j`` is the flattened modal-force history ``ʲq`` exceeds ``max_cond``
+        (default 1e10).
+
+    max_growth : float
+        ``fit`` raises :class:`IllConditionedError` when a deconvolution amplifies the data
+        by more than this, ``‖A‖‖X‖/‖B‖ > max_growth`` (default 1e8, the ``"block"``
+        solver's own limit; :func:`~podbench.methods.base.amplification`): the kernel
+        would be amplified noise or model error (e.g. one record with random forces, whose
+        convolution matrix is ill-conditioned). The value reached is
+        ``solver_info_["amplification"]``.
+    basis : {"first", "all"}
+        Where the POMs come from when ``fit`` gets no ``basis=``: ``"first"`` (default, the
+        dissertation's) the POMs of the first load case; ``"all"`` the leading POMs of all
+        training records side by side, ``[¹W ²W …]`` (the peers' basis; beyond the
+        dissertation). ``fit(…, basis=U)`` overrides both.
+    n_lags : None, int or "auto"
+        Kernel truncation (beyond the dissertation): the identified kernel is set to zero
+        from lag ``n_lags`` on, ``C(t_s) = 0`` for ``s >= n_lags``. ``"auto"``: the rule
+        :data:`KERNEL_TAIL` on the fitted kernel. None (default, the dissertation's): no
+        truncation. With a truncated kernel ``predict`` accepts records of any length
+        (``Ṽ = Δt Σ_{p<n_lags} C(t_p) q̃[s−p]`` is defined for every ``s``); without it a
+        record longer than the training ones is refused (the kernel is unknown beyond).
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+        POMs of the first load case (or of all, ``basis="all"``).
+    povs_ : (k,) ndarray
+    pocs_ : (n, k) ndarray
+    kernel_ : (k, k, n) ndarray
+        ``C(t_s) = kernel_[:, :, s]`` (in/(lbf·s)); ``kernel_[l, i] = c_li``; zero from
+        ``n_lags_`` on.
+    Cbar_ : (k·n, k) ndarray
+        ``C̄`` of Eq. 3.42 (as solved, before truncation).
+    n_lags_ : int or None
+        Lags kept (None: no truncation).
+    condition_number_ : float
+        Condition number of the load cases' modal-force histories (see ``max_cond``).
+    fit_residual_ : float
+        ``‖A C̄ − B‖ / ‖B‖`` of the block system.
+    dt_ : float
+    n_modes_ : int
+    """
+
+    abbreviation = "ML"
+    excitation_kind = "forced"
+    coupled = True
+    records_per_mode = True
+
+    def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
+                 max_growth=1e8, basis="first", n_lags=None):
+        self.n_modes = n_modes
+        self.solver = solver
+        self.solver_options = solver_options
+        self.max_cond = max_cond
+        self.max_growth = max_growth
+        self.basis = basis
+        self.n_lags = n_lags
+
+    def _validate_params(self) -> None:
+        check_n_modes(self.n_modes)
+        make_method_solver(self.solver, self.solver_options)
+        check_max_cond(self.max_cond)
+        check_max_growth(self.max_growth)
+        check_choice(self.basis, "basis", _BASES)
+        _check_n_lags(self.n_lags)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", "F", "dt")
+
+    def fit(self, records, F=None, *, dt=None, basis=None) -> MultipleLoad:
+        """Identify the full kernel ``C(t)`` from several forced responses that start at rest.
+
+        Parameters
+        ----------
+        records : sequence of records, or sequence of (m, n) array_like
+            The training records (``W`` in in, ``F`` in lbf, one ``dt`` in s), or their
+            displacements (array form), all of one shape.
+        F : sequence of (m, n) array_like, optional
+            Array form only: the forces of each load case (lbf).
+        dt : float, optional
+            Array form only: the sampling interval (s).
+        basis : (m, k) array_like, optional
+            Orthonormal basis to use instead of the POMs (overrides the ``basis``
+            hyperparameter).
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if is_record_input(records):
+            _no_arrays_beside_records(F=F, dt=dt)
+            recs = self._training_records(records)
+            Ws, Fs, dt = [r.W for r in recs], [r.F for r in recs], recs[0].dt
+        else:
+            dt = check_dt(dt)
+            Ws = check_datasets(records)
+            Fs = check_forces(F, Ws)
+        return self._fit(Ws, Fs, dt, basis)
+
+    def _fit(self, Ws, Fs, dt, basis) -> MultipleLoad:
+        n_modes = check_n_modes(self.n_modes)
+        solver = make_method_solver(self.solver, self.solver_options)
+        max_cond = check_max_cond(self.max_cond)
+        n_sets = len(Ws)
+        n = Ws[0].shape[1]
+        if basis is not None:
+            U, povs, pocs = select_basis(Ws[0], n_modes, basis)
+            k = U.shape[1]
+        else:
+            k = n_sets if n_modes is None else n_modes
+        if k > n_sets:
+            raise InputError(
+                f"ML: fewer load cases ({n_sets}) than modes ({k}); C̄ has k²n unknowns and "
+                f"each load case adds only k·n equations (Eq. 3.48), so k = {k} cases are needed"
+            )
+        if basis is None:
+            U, povs, pocs = (select_basis(Ws[0], k, None) if self.basis == "first"
+                             else _all_records_basis(Ws, k))
+        Qs = [U.T @ Fj for Fj in Fs]
+        L = np.stack([Qj.ravel() for Qj in Qs])  # n_sets × k·n
+        s = np.linalg.svd(L, compute_uv=False)
+        cond = float(s[0] / s[k - 1]) if s[k - 1] > 0 else np.inf
+        if not cond <= max_cond:
+            raise IllConditionedError(
+                f"ML: the load cases are (nearly) linearly dependent in the POM basis: "
+                f"condition number of their modal-force histories is {cond:.3g} > max_cond = "
+                f"{max_cond:g}; use linearly independent loads"
+            )
+        B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
+        Cbar, info = solve_deconvolution(solver, Qs, B, dt, check_max_growth(self.max_growth),
+                                         "ML (Eq. 3.48)")
+        kernel = np.empty((k, k, n))
+        for i in range(k):
+            kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
+        self.solver_ = solver
+        self.solver_info_ = info
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.Cbar_ = Cbar
+        self.kernel_ = self._truncate(kernel)
+        self.condition_number_ = cond
+        self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
+        self.dt_ = dt
+        self.n_modes_ = k
+        return self
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new load (Eq. 3.49 and Eq. 3.45).
+
+        Parameters
+        ----------
+        record : record, or (m, n') array_like
+            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
+            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
+            ``n_lags``), column 0 at ``t = 0``.
+
+        Returns
+        -------
+        (m, n') ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        F = self._check_new_force(self._new_force(record))
+        v = convolve_kernel(self._kernel_for(F.shape[1]), self.modes_.T @ F, self.dt_)
+        return self.modes_ @ v

@@ -1,0 +1,400 @@
+"""Free-response methods (§3.2): POV recalculation (POVR) and the multiple data set method (MDS).
+
+Both predict the response to a new initial displacement ``w̃0`` (in) or a new initial
+velocity ``ẇ̃0`` (in/s) from responses to other initial conditions; neither needs Δt.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from podbench.core.records import Record, is_record
+from podbench.core.validation import check_choice
+from podbench.errors import IllConditionedError, InputError
+from podbench.sysid.methods.base import (
+    PODMethod,
+    as_int_list,
+    check_datasets,
+    check_energy,
+    check_max_cond,
+    check_n_modes,
+    check_profile,
+    check_profiles,
+    check_snapshots,
+    check_tol,
+    is_record_input,
+    modal_share_too_small,
+    select_basis,
+)
+
+__all__ = ["POVR", "MDS"]
+
+_EXCITATIONS = ("displacement", "velocity")
+_X0 = {"displacement": "w0", "velocity": "v0"}  # the record field each excitation reads
+# (noun, symbol, what of the POC is divided by) per excitation, for messages
+_WORD = {
+    "displacement": ("displacement", "w0", "value"),
+    "velocity": ("velocity", "v0", "derivative"),
+}
+
+
+def first_column_w0(records, excitation: str) -> list:
+    """The records as a list; for displacements a record without ``w0`` gets ``W[:, 0]``
+    (the response's first sample is its initial displacement)."""
+    recs = [records] if is_record(records) else list(records)
+    if excitation != "displacement":
+        return recs
+    return [Record(W=r.W, w0=np.asarray(r.W, dtype=float)[:, 0])
+            if getattr(r, "w0", None) is None else r for r in recs]
+
+
+class POVR(PODMethod):
+    """Proper orthogonal value recalculation (§3.2.1–3.2.2, Eqs. 3.11–3.18, 3.24).
+
+    The POMs ``u_j`` and POC histories ``v_j`` of one response are kept and only the POVs
+    change (Eq. 3.11): ``W̃ = Σ_j σ̃_j u_j v_jᵀ`` with
+
+    * initial displacement (Eq. 3.13): ``σ̃_j = u_jᵀ w̃0 / v_{j,0}``;
+    * initial velocity (Eqs. 3.17–3.18): ``v̇_{j,0} = u_jᵀ ẇ0 / σ_j`` and
+      ``σ̃_j = u_jᵀ ẇ̃0 / v̇_{j,0}``.
+
+    Both are computed as ``σ̃_j = σ_j · (u_jᵀ x̃0) / (u_jᵀ x0)`` (Eq. 3.24), where ``x0`` is
+    the training initial profile. For a displacement ``x0`` defaults to ``W[:, 0]``, and then
+    ``u_jᵀ x0 = σ_j v_{j,0}`` makes this Eq. 3.13 exactly (as in the MATLAB). POVR assumes
+    the modal state-transition matrices ``Φ11`` / ``Φ12`` are diagonal in the POM basis
+    (identity-proportional mass, light proportional damping): see :class:`MDS` otherwise.
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        Number of POMs ``k``. Default: the smallest ``k`` whose POVs hold ``energy`` of the
+        signal (Eq. 2.3, σ-based); with ``basis`` given, ``basis.shape[1]``.
+    excitation : {"displacement", "velocity"}
+        Kind of initial condition used for training and prediction.
+    energy : float
+        Cumulative energy fraction used when ``n_modes`` is None (default 0.99).
+    tol : float
+        Guard on the divisor ``u_jᵀ x0`` (the initial POC value ``σ_j v_{j,0}`` or
+        derivative ``σ_j v̇_{j,0}``): ``fit`` raises :class:`IllConditionedError` if
+        ``|u_jᵀ x0| <= tol·‖x0‖₂`` for some mode (default 1e-6), i.e. when the training
+        initial condition has (almost) no share in a mode that the response contains.
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+        POMs ``u_j``.
+    povs_ : (k,) ndarray
+        POVs ``σ_j`` of the training response (in).
+    pocs_ : (n, k) ndarray
+        POC histories ``v_j`` (dimensionless).
+    initial_coordinates_ : (k,) ndarray
+        ``u_jᵀ x0`` (in or in/s): ``σ_j v_{j,0}`` (displacement) or ``σ_j v̇_{j,0}``
+        (velocity).
+    Phi_ : (n, k, k) ndarray
+        The diagonal ``Φ11(t_i)`` (displacement, Eq. 3.21) or ``Φ12(t_i)`` (velocity, s)
+        POVR implies: ``σ_j v_j(t_i) / (u_jᵀ x0)`` on the diagonal.
+    n_modes_ : int
+
+    Examples
+    --------
+    >>> model = POVR(n_modes=3, excitation="displacement").fit(W, w0)  # doctest: +SKIP
+    >>> W_new = model.predict(w0_new)                                  # doctest: +SKIP
+    """
+
+    abbreviation = "POVR"
+    excitation_kind = "free"
+    n_records = (1, 1)
+
+    def __init__(self, *, n_modes=None, excitation="displacement", energy=0.99, tol=1e-6):
+        self.n_modes = n_modes
+        self.excitation = excitation
+        self.energy = energy
+        self.tol = tol
+
+    def _validate_params(self) -> None:
+        check_choice(self.excitation, "excitation", _EXCITATIONS)
+        check_n_modes(self.n_modes)
+        check_energy(self.energy)
+        check_tol(self.tol)
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
+
+    def coupled_twin(self) -> MDS:
+        """MDS for the same excitation (Φ11 / Φ12 without the diagonal assumption)."""
+        return MDS(excitation=self.excitation, n_modes=self.n_modes)
+
+    def fit(self, records, x0=None, *, basis=None) -> POVR:
+        """Identify the model from one free response.
+
+        Parameters
+        ----------
+        records : record, or (m, n) array_like
+            The training record (``W`` in in, and ``w0`` in in or ``v0`` in in/s by
+            ``excitation``; a displacement record without ``w0`` uses ``W[:, 0]``), or its
+            snapshot matrix ``W`` with column 0 at ``t = 0`` (array form).
+        x0 : (m,) array_like, optional
+            Array form only: the initial displacement ``w0`` (in; default ``W[:, 0]``) or
+            initial velocity ``ẇ0`` (in/s; required for ``excitation="velocity"``).
+        basis : (m, k) array_like, optional
+            Orthonormal basis to use instead of the POMs of ``W``.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if is_record_input(records):
+            if x0 is not None:
+                raise InputError("Parameter `x0`: give the initial profile in the record "
+                                 "(its w0 or v0), not beside it")
+            rec = self._training_records(first_column_w0(records, self.excitation))[0]
+            W, x0 = rec.W, getattr(rec, _X0[self.excitation])
+        else:
+            W = check_snapshots(records)
+            if x0 is None:
+                if self.excitation == "velocity":
+                    raise InputError(
+                        "Parameter `x0`: the initial velocity profile v0 (in/s) of the "
+                        "training response is required for excitation='velocity' (Eq. 3.18)"
+                    )
+                x0 = W[:, 0]
+        return self._fit(W, check_profile(x0, W.shape[0], "x0"), basis)
+
+    def _fit(self, W, x0, basis) -> POVR:
+        n_modes = check_n_modes(self.n_modes)
+        energy = check_energy(self.energy)
+        tol = check_tol(self.tol)
+        word, sym, what = _WORD[self.excitation]
+        U, povs, pocs = select_basis(W, n_modes, basis, energy=energy)
+        scale = float(np.linalg.norm(x0))
+        if scale == 0:
+            raise IllConditionedError(
+                f"Parameter `x0`: the initial {word} profile is zero; POVR cannot scale the "
+                "POVs (Eqs. 3.13/3.17)"
+            )
+        a = U.T @ x0
+        bad = modal_share_too_small(a, scale, tol)
+        if np.any(bad):
+            j = int(np.flatnonzero(bad)[0])
+            raise IllConditionedError(
+                f"POVR: the initial POC {what} of mode(s) {as_int_list(bad)} is too small to "
+                f"divide by: |u_jᵀ{sym}| = {abs(a[j]):.3g} <= tol·‖{sym}‖ = {tol * scale:.3g} "
+                f"(tol = {tol:g}). The training initial {word} barely excites this mode, so "
+                "the response in it comes from modal coupling, which POVR ignores; use MDS "
+                "(several data sets) or fewer modes"
+            )
+        k, n = U.shape[1], W.shape[1]
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.initial_coordinates_ = a
+        Phi = np.zeros((n, k, k))
+        idx = np.arange(k)
+        Phi[:, idx, idx] = (pocs * povs) / a
+        self.Phi_ = Phi
+        self.n_modes_ = k
+        return self
+
+    def _new_profile(self, record):
+        self._check_is_fitted()
+        if is_record(record):
+            return getattr(self._target_record(record), _X0[self.excitation])
+        return record
+
+    def new_povs(self, x0_new) -> np.ndarray:
+        """Recalculated POVs ``σ̃_j`` for a new initial profile (Eqs. 3.13 / 3.17), (k,)."""
+        self._check_is_fitted()
+        x = check_profile(x0_new, self.modes_.shape[0], "x0_new")
+        return self.povs_ * (self.modes_.T @ x) / self.initial_coordinates_
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new initial displacement (in) or velocity (in/s), Eq. 3.11.
+
+        Parameters
+        ----------
+        record : record, or (m,) array_like
+            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
+            new initial profile itself.
+
+        Returns
+        -------
+        (m, n) ndarray
+            Predicted displacements (in).
+        """
+        s_new = self.new_povs(self._new_profile(record))
+        return self.modes_ @ (s_new[:, None] * self.pocs_.T)
+
+
+class MDS(PODMethod):
+    """Multiple data set method (§3.2.3, Eqs. 3.25–3.33).
+
+    With the POMs ``U`` (``m × k``) of the first data set, every data set ``j`` is projected,
+    ``ʲV̂ᵀ = Uᵀ ʲW`` (Eq. 3.25), and its initial profile too, ``ʲv̂0 = Uᵀ ʲx0``
+    (Eq. 3.31). At every sample ``t_i``
+
+        ``Φ(t_i) = [¹V̂(:, i) … ᵏV̂(:, i)] V̂0⁻¹``,   ``V̂0 = [¹v̂0 … ᵏv̂0]``
+
+    (Eqs. 3.27 / 3.32; ``Φ11`` for displacements, ``Φ12`` for velocities) and the new
+    response is ``W̃(:, i) = U Φ(t_i) Uᵀ x̃0`` (Eqs. 3.28–3.29, 3.33). No diagonal assumption:
+    for a linear system and ``k`` equal to the number of sensors the prediction is exact.
+
+    ``k`` is the number of data sets by default (as in the dissertation). With more data
+    sets than modes, ``V̂0⁻¹`` becomes the pseudo-inverse (least squares over the data sets),
+    an extension of the dissertation.
+
+    Parameters
+    ----------
+    excitation : {"displacement", "velocity"}
+    n_modes : int, optional
+        ``k``; default the number of data sets (or ``basis.shape[1]``). Must not exceed the
+        number of data sets.
+    max_cond : float
+        ``fit`` raises :class:`IllConditionedError` if the 2-norm condition number of
+        ``V̂0`` exceeds this (default 1e10): the initial profiles are (nearly) linearly
+        dependent in the POM basis.
+    basis : {"first", "all"}
+        Where the POMs come from when ``fit`` gets no ``basis=``: ``"first"`` (default, the
+        dissertation's) the POMs of the first data set; ``"all"`` the leading POMs of all
+        data sets side by side, ``[¹W ²W …]`` (beyond the dissertation). ``fit(…, basis=U)``
+        overrides both. (POVR has one data set: there the two coincide.)
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+        POMs of the first data set (or of all, ``basis="all"``).
+    povs_ : (k,) ndarray
+        POVs of the first data set (in).
+    pocs_ : (n, k) ndarray
+        POC histories of the first data set.
+    initial_coordinates_ : (k, n_sets) ndarray
+        ``V̂0`` (in or in/s).
+    Phi_ : (n, k, k) ndarray
+        ``Φ11(t_i)`` (dimensionless) or ``Φ12(t_i)`` (s).
+    condition_number_ : float
+        2-norm condition number of ``V̂0``.
+    n_modes_ : int
+    """
+
+    abbreviation = "MDS"
+    excitation_kind = "free"
+    coupled = True
+    records_per_mode = True
+
+    def __init__(self, *, excitation="displacement", n_modes=None, max_cond=1e10,
+                 basis="first"):
+        self.excitation = excitation
+        self.n_modes = n_modes
+        self.max_cond = max_cond
+        self.basis = basis
+
+    def _validate_params(self) -> None:
+        check_choice(self.excitation, "excitation", _EXCITATIONS)
+        check_n_modes(self.n_modes)
+        check_max_cond(self.max_cond)
+        check_choice(self.basis, "basis", ("first", "all"))
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
+
+    def fit(self, records, x0=None, *, basis=None) -> MDS:
+        """Identify ``Φ11`` / ``Φ12`` from several free responses.
+
+        Parameters
+        ----------
+        records : sequence of records, or sequence of (m, n) array_like
+            The training records (``W`` in in; ``w0`` in in or ``v0`` in in/s by
+            ``excitation``; a displacement record without ``w0`` uses ``W[:, 0]``), or
+            their snapshot matrices (array form), all of one shape.
+        x0 : sequence of (m,) array_like, optional
+            Array form only: the initial displacements (in; default the first columns) or
+            velocities (in/s; required for ``excitation="velocity"``).
+        basis : (m, k) array_like, optional
+            Orthonormal basis to use instead of the POMs of the first record.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if is_record_input(records):
+            if x0 is not None:
+                raise InputError("Parameter `x0`: give the initial profiles in the records "
+                                 "(their w0 or v0), not beside them")
+            recs = self._training_records(first_column_w0(records, self.excitation))
+            Ws = [r.W for r in recs]
+            x0 = [getattr(r, _X0[self.excitation]) for r in recs]
+        else:
+            Ws = check_datasets(records)
+        return self._fit(Ws, x0, basis)
+
+    def _fit(self, Ws, x0, basis) -> MDS:
+        n_modes = check_n_modes(self.n_modes)
+        max_cond = check_max_cond(self.max_cond)
+        n_sets = len(Ws)
+        m, n = Ws[0].shape
+        word, sym, _ = _WORD[self.excitation]
+        if x0 is None:
+            if self.excitation == "velocity":
+                raise InputError(
+                    "Parameter `x0`: the initial velocity profiles (in/s) of the data sets "
+                    "are required for excitation='velocity' (Eq. 3.31)"
+                )
+            x0 = [Wj[:, 0] for Wj in Ws]
+        X0 = np.column_stack(check_profiles(x0, n_sets, m, "x0"))
+        if basis is not None:
+            U, povs, pocs = select_basis(Ws[0], n_modes, basis)
+            k = U.shape[1]
+        else:
+            k = n_sets if n_modes is None else n_modes
+        if k > n_sets:
+            raise InputError(
+                f"MDS: fewer data sets ({n_sets}) than modes ({k}); Φ (k × k) needs at least "
+                f"k = {k} responses to linearly independent initial {word}s (Eq. 3.26)"
+            )
+        if basis is None and self.basis == "all":
+            U_all, _, _ = select_basis(np.hstack(Ws), k, None)
+            U, povs, pocs = select_basis(Ws[0], None, U_all)
+        elif basis is None:
+            U, povs, pocs = select_basis(Ws[0], k, None)
+        V0 = U.T @ X0  # k × n_sets
+        s = np.linalg.svd(V0, compute_uv=False)
+        cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
+        if not cond <= max_cond:
+            raise IllConditionedError(
+                f"MDS: the initial {word} profiles are (nearly) linearly dependent in the POM "
+                f"basis: condition number of V̂0 = Uᵀ[{sym}¹ … {sym}ᴺ] is {cond:.3g} > "
+                f"max_cond = {max_cond:g}; use linearly independent initial {word}s"
+            )
+        Vh = np.stack([U.T @ Wj for Wj in Ws])  # n_sets × k × n
+        V0_inv = np.linalg.solve(V0, np.eye(k)) if n_sets == k else np.linalg.pinv(V0)
+        # Φ(t_i) = [¹V̂(:,i) … ᴺV̂(:,i)] V̂0⁻¹ for every i at once
+        self.Phi_ = np.einsum("jki,jl->ikl", Vh, V0_inv)
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.initial_coordinates_ = V0
+        self.condition_number_ = cond
+        self.n_modes_ = k
+        return self
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new initial displacement (in) or velocity (in/s), Eqs. 3.28–3.29.
+
+        Parameters
+        ----------
+        record : record, or (m,) array_like
+            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
+            new initial profile itself.
+
+        Returns
+        -------
+        (m, n) ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        if is_record(record):
+            record = getattr(self._target_record(record), _X0[self.excitation])
+        x = check_profile(record, self.modes_.shape[0], "x0_new")
+        v_new = self.Phi_ @ (self.modes_.T @ x)  # n × k
+        return self.modes_ @ v_new.T

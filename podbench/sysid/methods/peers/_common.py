@@ -1,0 +1,226 @@
+"""What the peers share: the output/input basis, discrete state-space simulation, delay
+coordinates, the time hold-out rule for hyperparameters, and the optional-import message.
+
+Every peer works on the coordinates of one orthonormal basis ``U`` (``m × k``): outputs
+``y_j = Uᵀ w_j`` (in) and inputs ``u_j = Uᵀ f_j`` (lbf), the same projection ML uses for its
+modal forces (Eq. 3.47). Without ``basis=`` the basis is the ``k`` leading POMs of all the
+training records side by side (``[¹W ²W …]``), ``k`` by default the number of training
+records (the forces of ``n_rec`` point-load tests span at most ``n_rec`` input directions,
+and ML, the twin, needs ``k ≤ n_rec``). The prediction is ``Ŵ = U Ŷ``.
+
+Sampling: column ``j`` is ``t_j = j·Δt``; training and target records start at rest
+(``W[:, 0] = 0``, ``F[:, 0] = 0``), so every peer simulates from a zero state.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+
+from podbench.errors import InputError, NotFittedError
+from podbench.sysid.methods.base import PODMethod, check_n_modes, select_basis
+from podbench.sysid.methods.forced import MultipleLoad
+from podbench.sysid.pod import snapshot_svd
+
+__all__ = ["PeerMethod", "require", "simulate", "holdout_split"]
+
+EXTRA_HINT = "pip install 'podbench[peers]'"
+
+HOLDOUT_RTOL = 0.01
+"""The hold-out rule takes the simplest candidate within 1 % of the best hold-out error."""
+HOLDOUT_FLOOR = 1e-9
+"""Hold-out errors below this are round-off: all count as equal (the simplest wins)."""
+
+
+def require(module: str, method: str, what: str):
+    """Import an optional dependency of a peer; one line naming the extra if it is missing.
+
+    Raises
+    ------
+    InputError
+        ``"<method> needs <what>: pip install 'podbench[peers]'"``.
+    """
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise InputError(f"{method} needs {what}: {EXTRA_HINT}") from None
+
+
+def simulate(A, B, C, D, U_in) -> np.ndarray:
+    """Zero-state response of ``x_{j+1} = A x_j + B u_j``, ``y_j = C x_j + D u_j``.
+
+    Parameters
+    ----------
+    A : (N, N) ndarray
+    B : (N, k_in) ndarray
+    C : (k_out, N) ndarray
+    D : (k_out, k_in) ndarray
+    U_in : (k_in, n) or (R, k_in, n) ndarray
+        Inputs of one record, or of ``R`` records at once; ``x_0 = 0``.
+
+    Returns
+    -------
+    (k_out, n) or (R, k_out, n) ndarray
+    """
+    U_in = np.asarray(U_in, dtype=float)
+    single = U_in.ndim == 2
+    Us = U_in[None] if single else U_in
+    R, _, n = Us.shape
+    N = A.shape[0]
+    X = np.zeros((N, R))
+    BU = np.einsum("ik,rkn->nir", B, Us)  # (n, N, R)
+    states = np.empty((n, N, R))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j in range(n):
+            states[j] = X
+            X = A @ X + BU[j]
+        Y = np.einsum("oi,nir->ron", C, states) + np.einsum("ok,rkn->ron", D, Us)
+    return Y[0] if single else Y
+
+
+def holdout_split(n: int, holdout: float) -> int:
+    """First sample of the hold-out window: ``n1 = n − round(holdout·n)`` (at least 2)."""
+    return max(2, n - int(round(holdout * n)))
+
+
+def relative_error(Y_hat, Y) -> float:
+    """``‖Ŷ − Y‖_F / ‖Y‖_F`` (inf for a non-finite prediction)."""
+    if not np.all(np.isfinite(Y_hat)):
+        return float("inf")
+    ny = float(np.linalg.norm(Y))
+    return float(np.linalg.norm(Y_hat - Y) / ny) if ny > 0 else float(np.linalg.norm(Y_hat))
+
+
+def check_holdout(holdout) -> float:
+    if isinstance(holdout, bool) or not isinstance(holdout, (int, float)) or \
+            not 0.05 <= holdout <= 0.5:
+        raise InputError(f"Parameter `holdout`: must be a fraction in [0.05, 0.5] of each "
+                         f"training record, got {holdout!r}")
+    return float(holdout)
+
+
+def check_int_or_none(value, name: str, *, lo: int = 1):
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
+        raise InputError(f"Parameter `{name}`: must be an integer >= {lo} or None, "
+                         f"got {value!r}")
+    return int(value)
+
+
+class PeerMethod(PODMethod):
+    """Base of the peers: forced records, an output/input basis, a forced coupled twin (ML).
+
+    Subclasses implement ``_identify(Ys, Us, n_fit)`` (identify from the first ``n_fit``
+    samples of every record, in basis coordinates; returns a model object) and
+    ``_respond(model, Uin)`` (zero-state response, ``(R, k, n)``), and name the
+    hyperparameter the hold-out rule chooses.
+    """
+
+    excitation_kind = "forced"
+    coupled = False
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", "F", "dt")
+
+    def coupled_twin(self):
+        """ML in the peer's basis (the POD method that identifies the full kernel ``C(t)``
+        without a model order: their difference is what the peer's model form loses)."""
+
+        return MultipleLoad(n_modes=getattr(self, "n_modes", None), solver="block")
+
+    def _basis(self, recs, basis):
+        Wall = np.hstack([r.W for r in recs])
+        n_modes = check_n_modes(getattr(self, "n_modes", None))
+        if basis is None and n_modes is None:
+            n_modes = len(recs)
+        if basis is not None:
+            U, povs, pocs = select_basis(Wall, n_modes, basis)
+        else:
+            pod = snapshot_svd(Wall)
+            n_modes = min(n_modes, pod.modes.shape[1])
+            U, povs, pocs = pod.modes[:, :n_modes], pod.povs[:n_modes], pod.pocs[:, :n_modes]
+        return U, povs, pocs
+
+    def _fit_records(self, records, basis):
+        self._validate_params()
+        recs = self._training_records(records)
+        U, povs, pocs = self._basis(recs, basis)
+        Ys = np.stack([U.T @ r.W for r in recs])  # (R, k, n)
+        Us = np.stack([U.T @ r.F for r in recs])
+        return recs, U, povs, pocs, Ys, Us
+
+    def _set_basis(self, U, povs, pocs, dt):
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.n_modes_ = U.shape[1]
+        self.dt_ = dt
+
+    def _select_by_holdout(self, Ys, Us, candidates, identify, respond, holdout):
+        """The hold-out rule: the first (simplest) candidate whose hold-out error is within
+        :data:`HOLDOUT_RTOL` of the smallest (errors below :data:`HOLDOUT_FLOOR` count as
+        equal: round-off).
+
+        For each candidate (given simplest first), the model is identified from the first
+        ``n1`` samples of every training record (:func:`holdout_split`), every training
+        record is simulated from rest with its whole force, and the error is
+        ``‖Ŷ − Y‖/‖Y‖`` over samples ``n1 … n−1`` of all records together.
+        Returns ``(best, errors)``.
+        """
+        n = Ys.shape[2]
+        n1 = holdout_split(n, holdout)
+        errors = []
+        for cand in candidates:
+            try:
+                model = identify(Ys[:, :, :n1], Us[:, :, :n1], cand)
+                Yh = respond(model, Us)
+                errors.append(relative_error(Yh[:, :, n1:], Ys[:, :, n1:]))
+            except (np.linalg.LinAlgError, ValueError):
+                errors.append(float("inf"))
+        errors = np.asarray(errors)
+        if not np.any(np.isfinite(errors)):
+            raise InputError(f"{type(self).__name__}: no candidate of the hold-out rule gives "
+                             "a finite prediction of the training records")
+        bound = max(np.min(errors) * (1.0 + HOLDOUT_RTOL), HOLDOUT_FLOOR)
+        return candidates[int(np.flatnonzero(errors <= bound)[0])], errors
+
+    def _new_inputs(self, record) -> np.ndarray:
+        self._check_is_fitted()
+        rec = self._target_record(record)
+        if rec.F.shape[0] != self.modes_.shape[0]:
+            raise InputError(f"Parameter `record.F`: {rec.F.shape[0]} rows, the peer was fitted "
+                             f"on {self.modes_.shape[0]} sensors")
+        return self.modes_.T @ rec.F
+
+    def _check_is_fitted(self) -> None:
+        if not hasattr(self, "modes_"):
+            raise NotFittedError(
+                f"This {type(self).__name__} instance is not fitted yet; call `fit` before "
+                "`predict`"
+            )
+
+
+def delay_coordinates(Ys, Us, delays: int):
+    """Delay-embedded states and inputs of records that start at rest.
+
+    State ``z_j = [y_j; y_{j−1}; …; y_{j−d+1}]`` (``d·k``), step input
+    ``v_j = [u_{j+1}; u_j; …; u_{j+1−d}]`` (``(d+1)·k``), so that
+    ``z_{j+1} = A z_j + B v_j`` holds exactly for the average-acceleration Newmark map of
+    ``d/2``-per-coordinate second-order dynamics (the implicit step uses ``f_{j+1}``).
+    Samples before ``t_0`` are zero (rest).
+
+    Returns
+    -------
+    Z : (R, d·k, n) ndarray
+    V : (R, (d+1)·k, n) ndarray
+        ``V[:, :, j]`` drives the step ``j → j+1`` (its last column uses ``u_n = 0``).
+    """
+    R, k, n = Ys.shape
+    Ypad = np.concatenate([np.zeros((R, k, delays)), Ys], axis=2)
+    Z = np.concatenate([Ypad[:, :, delays - i : delays - i + n] for i in range(delays)], axis=1)
+    Upad = np.concatenate([np.zeros((R, k, delays)), Us, np.zeros((R, k, 1))], axis=2)
+    V = np.concatenate([Upad[:, :, delays + 1 - i : delays + 1 - i + n]
+                        for i in range(delays + 1)], axis=1)
+    return Z, V

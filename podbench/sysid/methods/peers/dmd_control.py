@@ -1,0 +1,153 @@
+"""Dynamic mode decomposition with control (DMDc, Proctor, Brunton & Kutz 2016) via PyDMD.
+
+On the delay coordinates of :func:`~podbench.methods.peers._common.delay_coordinates`
+(state ``z_j = [y_j; …; y_{j−d+1}]``, step input ``v_j = [u_{j+1}; …; u_{j+1−d}]``, ``y =
+Uᵀw``, ``u = Uᵀf``), DMDc fits ``z_{j+1} ≈ A z_j + B v_j`` over the snapshot pairs of all
+training records: the SVD of ``Ω = [Z; V]`` and the rank-``r`` POD basis ``Û`` of the
+shifted snapshots give ``Ã = Ûᵀ Z' Ṽ Σ̃⁻¹ Ũ_1ᵀ Û`` and ``B̃ = Ûᵀ Z' Ṽ Σ̃⁻¹ Ũ_2ᵀ`` (PyDMD's
+``DMDBUnknownOperator``, the algorithm of ``pydmd.DMDc`` with B unknown). PyDMD's ``DMDc``
+class takes one trajectory, and the pairs that join one record to the next would be false
+transitions, so the operator is called on the pairs of every record stacked. A new load is
+predicted by simulating ``x̃_{j+1} = Ã x̃_j + B̃ v_j`` from rest, ``ŷ_j = (Û x̃_j)_{1:k}``.
+
+Why delays: a state of ``k`` displacement coordinates alone holds no velocity, so a linear
+map of it cannot carry ``k`` oscillating modes; two successive displacements can (``d = 2``,
+the default, fixed by this argument before any measurement). ``d = 1`` is plain DMDc on the
+POD coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from podbench.errors import InputError
+from podbench.sysid.methods.peers._common import (
+    PeerMethod,
+    check_holdout,
+    check_int_or_none,
+    delay_coordinates,
+    require,
+    simulate,
+)
+
+__all__ = ["DMDc"]
+
+
+class DMDc(PeerMethod):
+    """DMD with control (PyDMD) on the delay coordinates of an output/input basis.
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        ``k``, the size of the output/input basis: the POMs of all training records side by
+        side (default: as many as training records), or ``basis.shape[1]``.
+    delays : int
+        Number ``d`` of successive outputs in the state (2).
+    svd_rank : int or float, optional
+        PyDMD's ``svd_rank`` (truncation of the shifted snapshots; an int ``r``, an energy
+        fraction in (0, 1), 0 for PyDMD's optimal hard threshold, −1 for none). None
+        (default): chosen by the hold-out rule over ``r = 1 … d·k`` (identify from the first
+        ``1 − holdout`` of every training record, simulate every training record from rest,
+        the smallest ``r`` within 1 % of the best error over the last ``holdout``).
+    svd_rank_omega : int or float
+        PyDMD's ``svd_rank_omega`` (truncation of ``Ω = [Z; V]``; −1: none).
+    holdout : float
+        Fraction of each training record held out by the rank rule (0.25).
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+    Atilde_ : (r, r) ndarray
+    Btilde_ : (r, (d+1)·k) ndarray
+    basis_ : (d·k, r) ndarray
+        PyDMD's POD basis ``Û`` of the shifted snapshots.
+    rank_ : int
+    eigs_ : (r,) complex ndarray
+        DMD eigenvalues (discrete, per sample).
+    """
+
+    abbreviation = "DMDc"
+
+    def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=-1,
+                 holdout=0.25):
+        self.n_modes = n_modes
+        self.delays = delays
+        self.svd_rank = svd_rank
+        self.svd_rank_omega = svd_rank_omega
+        self.holdout = holdout
+
+    def _validate_params(self) -> None:
+        check_int_or_none(self.n_modes, "n_modes")
+        if check_int_or_none(self.delays, "delays") is None:
+            raise InputError("Parameter `delays`: must be an integer >= 1, got None")
+        for name in ("svd_rank", "svd_rank_omega"):
+            value = getattr(self, name)
+            if value is None and name == "svd_rank":
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+                    (isinstance(value, float) and not 0 < value < 1) or \
+                    (isinstance(value, int) and value < -1):
+                raise InputError(f"Parameter `{name}`: PyDMD's rank (an int >= -1 or an energy "
+                                 f"fraction in (0, 1)), got {value!r}")
+        check_holdout(self.holdout)
+        require("pydmd", "DMDc", "PyDMD")
+
+    def _identify(self, Ys, Us, rank):
+        dmdc = require("pydmd.dmdc", "DMDc", "PyDMD")
+        Z, V = delay_coordinates(Ys, Us, self.delays)
+        X = np.hstack(list(Z[:, :, :-1]))
+        Y = np.hstack(list(Z[:, :, 1:]))
+        I = np.hstack(list(V[:, :, :-1]))  # noqa: E741 - PyDMD's name for the inputs
+        op = dmdc.DMDBUnknownOperator(svd_rank=rank, svd_rank_omega=self.svd_rank_omega,
+                                      tlsq_rank=0)
+        Ur, Bfull = op.compute_operator(X, Y, I)
+        Atilde = np.real_if_close(op.as_numpy_array)
+        Btilde = Ur.conj().T @ Bfull
+        return np.real(Atilde), np.real(Btilde), np.real(Ur)
+
+    def _respond(self, model, Uin):
+        Atilde, Btilde, Ur = model
+        k = Uin.shape[-2]
+        R = Uin[None] if Uin.ndim == 2 else Uin
+        _, V = delay_coordinates(np.zeros_like(R), R, self.delays)
+        C = Ur[:k]
+        out = simulate(Atilde, Btilde, C, np.zeros((k, Btilde.shape[1])), V)
+        return out[0] if Uin.ndim == 2 else out
+
+    def fit(self, records, *, basis=None) -> DMDc:
+        """Fit ``(Ã, B̃)`` on forced records that start at rest (``basis``: replaces the
+        POMs of the training records); returns ``self``."""
+        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
+        k = U.shape[1]
+        errors = None
+        rank = self.svd_rank
+        if rank is None:
+            candidates = list(range(1, self.delays * k + 1))
+            rank, errors = self._select_by_holdout(Ys, Us, candidates, self._identify,
+                                                   self._respond, self.holdout)
+        Atilde, Btilde, Ur = self._identify(Ys, Us, rank)
+        self._set_basis(U, povs, pocs, recs[0].dt)
+        self.Atilde_, self.Btilde_, self.basis_ = Atilde, Btilde, Ur
+        self.rank_ = int(Atilde.shape[0])
+        self.eigs_ = np.linalg.eigvals(Atilde)
+        self.holdout_errors_ = errors
+        Yh = self._respond((Atilde, Btilde, Ur), Us)
+        self.fit_residual_ = float(np.linalg.norm(Yh - Ys) / np.linalg.norm(Ys))
+        return self
+
+    def predict(self, record) -> np.ndarray:
+        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
+        Uin = self._new_inputs(record)  # checks that the model is fitted
+        return self.modes_ @ self._respond((self.Atilde_, self.Btilde_, self.basis_), Uin)
+
+    @property
+    def diagnostics_(self) -> dict:
+        """``n_modes``, ``rank`` (the rule's choice), ``delays``, ``fit_residual`` (training
+        records simulated from rest), ``holdout_error``, ``spectral_radius``."""
+        out = super().diagnostics_
+        out["rank"] = self.rank_
+        out["delays"] = int(self.delays)
+        out["spectral_radius"] = float(np.max(np.abs(self.eigs_)))
+        if self.holdout_errors_ is not None:
+            out["holdout_error"] = float(self.holdout_errors_[self.rank_ - 1])
+        return out

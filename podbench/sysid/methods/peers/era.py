@@ -1,0 +1,424 @@
+"""Eigensystem Realization Algorithm with observer/Kalman filter identification (ERA/OKID).
+
+From several forced records that start at rest, OKID (Juang, Phan, Horta & Longman 1993,
+"Identification of observer/Kalman filter Markov parameters") fits, by least squares over
+all records stacked, the ARX form of a system with an observer
+
+    ``y_j = D u_j + Σ_{i=1}^{p} (α_i u_{j−i} + β_i y_{j−i})``                       (1)
+
+(``y = Uᵀw``, ``u = Uᵀf`` in a basis ``U``; samples before ``t_0`` are zero: rest). Its
+transfer function ``H(z) = (I − β(z))⁻¹ (D + α(z))`` gives the system Markov parameters by
+
+    ``h_0 = D``,  ``h_j = α_j + Σ_{i=1}^{min(j, p)} β_i h_{j−i}``  (``α_j = 0`` for ``j > p``). (2)
+
+ERA (Juang & Pappa 1985) factors the block Hankel matrix ``H(0) = [h_{a+b+1}]`` (``s × s``
+blocks) by the SVD ``H(0) = P Σ Qᵀ`` and, truncated to order ``N``,
+
+    ``A = Σ_N^{-1/2} P_Nᵀ H(1) Q_N Σ_N^{-1/2}``, ``B = Σ_N^{1/2} Q_Nᵀ E_in``,
+    ``C = E_outᵀ P_N Σ_N^{1/2}``, ``D = h_0``                                           (3)
+
+with ``H(1) = [h_{a+b+2}]``. A new load is predicted by simulating ``(A, B, C, D)`` from rest
+with its modal forces, ``Ŵ = U Ŷ``. For a linear time-invariant system sampled by any
+one-step map (Newmark included), ``k = m``, enough lags (``p·k ≥`` the state dimension) and
+``N`` equal to the state dimension, the prediction is exact.
+
+**Free decay** (``excitation="displacement"`` or ``"velocity"``, beside MDS). A free response
+of a linear time-invariant system sampled by a one-step map is ``x_{t+1} = A x_t``,
+``y_t = C x_t``, and its initial state is linear in the initial profile, ``x_0 = B u`` with
+``u = Uᵀx0`` (``x0 = w0``, in, or ``v0``, in/s). Hence
+
+    ``y_t = h_t u``,  ``h_t = C A^t B``  (``k × k``, ``t = 0 … n−1``),               (4)
+
+the free-decay "Markov parameters". From ``R ≥ k`` records with independent profiles,
+stacked as ``Y_t = [¹y_t … ᴿy_t]`` and ``X_0 = [¹u … ᴿu]``,
+
+    ``h_t = Y_t X_0⁺``                                                              (5)
+
+(MDS's ``Φ(t)``, Eq. 3.27/3.32). ERA factors the Hankel matrix ``H(0) = [h_{a+b}]`` of these
+(the sequence shifted by one against the forced case, ``h_t`` playing ``h_{t+1}``) and (3)
+gives ``(A, B, C)`` of order ``N``. A new profile ``ũ = Uᵀx̃0`` is predicted by
+``ŷ_t = C A^t x̂_0`` with ``x̂_0 = B ũ``: the initial state of order ``N`` that (4) ties to
+the profile (for displacements it carries the zero initial velocity the records had, which
+a least-squares fit ``C x̂_0 ≈ ũ`` of the first sample alone would not know). Unlike MDS's
+``Φ(t_i)``, one per sample of the training records, the realization predicts any length.
+For a linear structure, ``k = m`` and ``N`` = the state dimension (``2m`` for Newmark's
+``(w, ẇ)``) the prediction is exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from podbench.core.records import is_record
+from podbench.core.validation import check_choice
+from podbench.errors import InputError
+from podbench.sysid.methods.free import MDS, first_column_w0
+from podbench.sysid.methods.peers._common import (
+    PeerMethod,
+    check_holdout,
+    check_int_or_none,
+    simulate,
+)
+from podbench.sysid.statespace import era_realization, realize
+
+__all__ = ["ERA", "okid_markov", "era_realization", "free_markov"]
+
+_EXCITATIONS = ("forced", "displacement", "velocity")
+_X0 = {"displacement": "w0", "velocity": "v0"}
+
+
+def free_markov(Ys, X0) -> np.ndarray:
+    """Free-decay Markov parameters ``h_t = Y_t X_0⁺`` (Eq. 5).
+
+    Parameters
+    ----------
+    Ys : (R, k, n) ndarray
+        Outputs of ``R`` free decays (in).
+    X0 : (R, k) ndarray
+        Their initial profiles in the basis (in or in/s).
+
+    Returns
+    -------
+    (n, k, k) ndarray
+        ``h_t`` (dimensionless for displacements, s for velocities).
+    """
+    return np.einsum("rkt,rl->tkl", Ys, np.linalg.pinv(X0.T))
+
+
+def simulate_free(A, B, C, X0, n: int) -> np.ndarray:
+    """``y_t = C A^t B u`` for the profiles ``X0`` (``(R, k)``); returns ``(R, k, n)``."""
+    X = B @ X0.T  # (N, R)
+    out = np.empty((X0.shape[0], C.shape[0], n))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for t in range(n):
+            out[:, :, t] = (C @ X).T
+            X = A @ X
+    return out
+
+
+def _regressors(Ys, Us, lags: int):
+    """Rows ``[u_j, u_{j−1}, y_{j−1}, …, u_{j−p}, y_{j−p}]`` of (1) for every record and
+    sample (zero before ``t_0``); returns ``(Phi, Y)``, ``(R·n, dim)`` and ``(R·n, k_out)``."""
+    R, k_out, n = Ys.shape
+    k_in = Us.shape[1]
+    Upad = np.concatenate([np.zeros((R, k_in, lags)), Us], axis=2)
+    Ypad = np.concatenate([np.zeros((R, k_out, lags)), Ys], axis=2)
+    blocks = [Upad[:, :, lags : lags + n]]
+    for i in range(1, lags + 1):
+        blocks.append(Upad[:, :, lags - i : lags - i + n])
+        blocks.append(Ypad[:, :, lags - i : lags - i + n])
+    Phi = np.concatenate(blocks, axis=1)  # (R, dim, n)
+    return (Phi.transpose(0, 2, 1).reshape(R * n, -1),
+            Ys.transpose(0, 2, 1).reshape(R * n, k_out))
+
+
+def okid_markov(Ys, Us, lags: int, n_markov: int):
+    """System Markov parameters from forced records that start at rest (OKID, Eqs. 1–2).
+
+    Parameters
+    ----------
+    Ys : (R, k_out, n) ndarray
+        Outputs of ``R`` records.
+    Us : (R, k_in, n) ndarray
+        Their inputs (``u_j`` at ``t_j``, zero state at ``t_0``).
+    lags : int
+        Observer order ``p``.
+    n_markov : int
+        Number of Markov parameters returned (``h_0 … h_{n_markov−1}``).
+
+    Returns
+    -------
+    h : (n_markov, k_out, k_in) ndarray
+    residual : float
+        ``‖Φθ − Y‖ / ‖Y‖`` of the least-squares fit of (1).
+    """
+    R, k_out, _ = Ys.shape
+    k_in = Us.shape[1]
+    # one scale for outputs and one for inputs (in and lbf differ by orders of magnitude);
+    # the minimum-norm solution is then not decided by the units
+    sy = float(np.sqrt(np.mean(Ys**2))) or 1.0
+    su = float(np.sqrt(np.mean(Us**2))) or 1.0
+    Phi, Y = _regressors(Ys / sy, Us / su, lags)
+    theta, *_ = np.linalg.lstsq(Phi, Y, rcond=None)
+    ny = float(np.linalg.norm(Y))
+    residual = float(np.linalg.norm(Phi @ theta - Y) / ny) if ny > 0 else 0.0
+    T = theta.T  # (k_out, dim)
+    D = T[:, :k_in]
+    alpha, beta = [], []
+    pos = k_in
+    for _ in range(lags):
+        alpha.append(T[:, pos : pos + k_in])
+        beta.append(T[:, pos + k_in : pos + k_in + k_out])
+        pos += k_in + k_out
+    h = np.zeros((n_markov, k_out, k_in))
+    h[0] = D
+    for j in range(1, n_markov):
+        acc = alpha[j - 1].copy() if j <= lags else np.zeros((k_out, k_in))
+        for i in range(1, min(j, lags) + 1):
+            acc += beta[i - 1] @ h[j - i]
+        h[j] = acc
+    return h * (sy / su), residual
+
+
+class ERA(PeerMethod):
+    """ERA/OKID peer: a discrete state-space realization identified from forced records.
+
+    Parameters
+    ----------
+    n_modes : int, optional
+        ``k``, the size of the output/input basis: the POMs of all training records side by
+        side (default: as many as training records), or ``basis.shape[1]``.
+    order : int, optional
+        State dimension ``N`` of the realization. None (default): chosen by the hold-out
+        rule over ``1 … max_order``: identify from the first ``1 − holdout`` of every
+        training record, simulate every training record from rest with its whole force,
+        take the order with the smallest error over the last ``holdout`` of the samples
+        (the smallest order within 1 % of the best); then identify again from the whole records.
+    max_order : int
+        Largest order the rule considers (40), and through it the default ``lags``.
+    lags : int, optional
+        Observer order ``p`` of Eq. 1. None: ``ceil(max(max_order, order)/k)``, so that a
+        deadbeat observer of any order considered exists (Juang et al. 1993: ``p·k ≥ N``).
+    holdout : float
+        Fraction of each training record held out by the order rule (0.25).
+    excitation : {"forced", "displacement", "velocity"}
+        ``"forced"`` (default): ERA/OKID from forced records that start at rest.
+        ``"displacement"`` / ``"velocity"``: ERA from free decays (Eqs. 4–5; records with
+        ``w0`` or ``v0``, beside MDS); ``lags`` is then unused and the order rule holds out
+        the last ``holdout`` of every decay.
+
+    Attributes
+    ----------
+    modes_ : (m, k) ndarray
+        The basis (POMs of all training records, or ``basis``).
+    A_, B_, C_, D_ : ndarrays
+        The discrete realization (``x_{j+1} = A x_j + B u_j``, ``y_j = C x_j + D u_j``;
+        ``u`` in lbf, ``y`` in in, both in the basis).
+    markov_ : (L, k, k) ndarray
+        System Markov parameters of Eq. 2 (in/lbf).
+    hankel_sv_ : (s·k,) ndarray
+        Singular values of ``H(0)``.
+    order_, lags_ : int
+    holdout_errors_ : (max_order,) ndarray or None
+        Hold-out error of every order the rule tried (None when ``order`` is given).
+    fit_residual_ : float
+        Relative residual of the OKID least squares (Eq. 1) on the whole records.
+    """
+
+    abbreviation = "ERA"
+
+    def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
+                 excitation="forced"):
+        self.n_modes = n_modes
+        self.order = order
+        self.max_order = max_order
+        self.lags = lags
+        self.holdout = holdout
+        self.excitation = excitation
+
+    @property
+    def excitation_kind(self) -> str:
+        """``"free"`` for the free-decay variant, else ``"forced"``."""
+        return "forced" if self.excitation == "forced" else "free"
+
+    def required_fields(self) -> tuple[str, ...]:
+        if self.excitation in _X0:
+            return ("W", _X0[self.excitation])
+        return ("W", "F", "dt")
+
+    def coupled_twin(self):
+        """ML in the peer's basis (forced), MDS (free decay)."""
+        if self.excitation in _X0:
+
+            return MDS(excitation=self.excitation, n_modes=self.n_modes)
+        return super().coupled_twin()
+
+    def _validate_params(self) -> None:
+        check_int_or_none(self.n_modes, "n_modes")
+        check_int_or_none(self.order, "order")
+        if check_int_or_none(self.max_order, "max_order") is None:
+            raise InputError("Parameter `max_order`: must be an integer >= 1, got None")
+        check_int_or_none(self.lags, "lags")
+        check_holdout(self.holdout)
+        check_choice(self.excitation, "excitation", _EXCITATIONS)
+
+    # ------------------------------------------------------------------ identification
+    def _lags(self, k: int) -> int:
+        if self.lags is not None:
+            return int(self.lags)
+        top = max(self.max_order, self.order or 0)
+        return int(np.ceil(top / k))
+
+    @staticmethod
+    def _blocks(n: int) -> int:
+        """Hankel block rows = columns: half the record (the Markov parameters a record of
+        ``n`` samples holds, ``h_1 … h_{n−1}``)."""
+        return max(1, (n - 1) // 2)
+
+    def _factor(self, Ys, Us, lags, blocks):
+        h, residual = okid_markov(Ys, Us, lags, 2 * blocks + 1)
+        if not np.all(np.isfinite(h)):
+            raise np.linalg.LinAlgError("OKID Markov parameters are not finite")
+        return h, residual, era_realization(h, blocks)
+
+    def fit(self, records, *, basis=None) -> ERA:
+        """Identify ``(A, B, C, D)`` from forced records that start at rest.
+
+        Parameters
+        ----------
+        records : sequence of records
+            Training records (``W`` in in, ``F`` in lbf at the sensors, one ``dt`` in s).
+        basis : (m, k) array_like, optional
+            Orthonormal basis replacing the POMs of the training records.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if self.excitation in _X0:
+            return self._fit_free(records, basis)
+        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
+        k, n = U.shape[1], Ys.shape[2]
+        lags = self._lags(k)
+        blocks = self._blocks(n)
+        rank_cap = blocks * k
+        errors = None
+        if self.order is None:
+            candidates = list(range(1, min(self.max_order, rank_cap) + 1))
+            factors: dict = {}  # the truncated records' factorization, shared by all orders
+
+            def identify(Yf, Uf, cand):
+                if not factors:
+                    factors["f"] = self._factor(Yf, Uf, lags, blocks)
+                h, _, (P, sv, Qt, H1) = factors["f"]
+                return realize(P, sv, Qt, H1, h[0], min(cand, int(np.sum(sv > 0))))
+
+            order, errors = self._select_by_holdout(
+                Ys, Us, candidates, identify, lambda mdl, Uin: simulate(*mdl, Uin),
+                self.holdout)
+        else:
+            order = self.order
+            if order > rank_cap:
+                raise InputError(f"Parameter `order`: {order} exceeds the {rank_cap} rows of "
+                                 f"the Hankel matrix ({blocks} blocks of {k})")
+        h, residual, (P, sv, Qt, H1) = self._factor(Ys, Us, lags, blocks)
+        A, B, C, D = realize(P, sv, Qt, H1, h[0], order)
+        self._set_basis(U, povs, pocs, recs[0].dt)
+        self.A_, self.B_, self.C_, self.D_ = A, B, C, D
+        self.markov_ = h
+        self.hankel_sv_ = sv
+        self.order_ = int(order)
+        self.lags_ = int(lags)
+        self.holdout_errors_ = errors
+        self.fit_residual_ = residual
+        return self
+
+    def _fit_free(self, records, basis) -> ERA:
+        """ERA from free decays (Eqs. 4–5, then 3); the order by the hold-out rule."""
+
+        recs = self._training_records(first_column_w0(records, self.excitation))
+        U, povs, pocs = self._basis(recs, basis)
+        field = _X0[self.excitation]
+        k = U.shape[1]
+        Ys = np.stack([U.T @ r.W for r in recs])  # (R, k, n)
+        X0 = np.stack([U.T @ getattr(r, field) for r in recs])  # (R, k)
+        if np.linalg.matrix_rank(X0) < k:
+            raise InputError(f"ERA: the {len(recs)} initial profiles span fewer than k = {k} "
+                             "directions of the basis; give more independent free decays or "
+                             "fewer modes (`n_modes`)")
+        n = Ys.shape[2]
+        # the profile as an impulse at t_0, so that the shared hold-out rule can cut records
+        Us = np.zeros_like(Ys)
+        Us[:, :, 0] = X0
+
+        def factor(Yf, X0f):
+            h = free_markov(Yf, X0f)
+            hh = np.concatenate([np.zeros((1, k, k)), h])  # hh[t+1] = h_t = C A^t B
+            blocks = max(1, (hh.shape[0] - 1) // 2)
+            return h, era_realization(hh, blocks)
+
+        def respond(mdl, Uin):
+            A, B, C = mdl
+            return simulate_free(A, B, C, Uin[:, :, 0], Uin.shape[2])
+
+        errors = None
+        h, (P, sv, Qt, H1) = factor(Ys, X0)
+        rank_cap = P.shape[1]
+        if self.order is None:
+            cache: dict = {}
+
+            def identify(Yf, Uf, cand):
+                if not cache:
+                    cache["f"] = factor(Yf, Uf[:, :, 0])
+                _, (Pf, svf, Qtf, H1f) = cache["f"]
+                N = min(cand, int(np.sum(svf > 0)))
+                return realize(Pf, svf, Qtf, H1f, np.zeros((k, k)), N)[:3]
+
+            candidates = list(range(1, min(self.max_order, rank_cap) + 1))
+            order, errors = self._select_by_holdout(Ys, Us, candidates, identify, respond,
+                                                    self.holdout)
+        else:
+            order = self.order
+            if order > rank_cap:
+                raise InputError(f"Parameter `order`: {order} exceeds the {rank_cap} rows of "
+                                 "the free-decay Hankel matrix")
+        A, B, C, D = realize(P, sv, Qt, H1, np.zeros((k, k)), order)
+        Yhat = simulate_free(A, B, C, X0, n)
+        ny = float(np.linalg.norm(Ys))
+        self._set_basis(U, povs, pocs, recs[0].dt)
+        self.A_, self.B_, self.C_, self.D_ = A, B, C, D
+        self.markov_ = h
+        self.hankel_sv_ = sv
+        self.order_ = int(order)
+        self.lags_ = 0
+        self.n_samples_ = n
+        self.holdout_errors_ = errors
+        self.fit_residual_ = float(np.linalg.norm(Yhat - Ys) / ny) if ny > 0 else 0.0
+        return self
+
+    def _predict_free(self, record) -> np.ndarray:
+        n = self.n_samples_
+        if is_record(record):
+            rec = self._target_record(record)
+            x = getattr(rec, _X0[self.excitation])
+            if x is None and self.excitation == "displacement":
+                x = rec.W[:, 0]
+            n = rec.W.shape[1]
+        else:
+            x = np.asarray(record, dtype=float)
+        m = self.modes_.shape[0]
+        if x.shape != (m,):
+            raise InputError(f"Parameter `x0_new`: expected shape ({m},) (one value per "
+                             f"sensor), got {x.shape}")
+        u = (self.modes_.T @ x)[None]
+        return self.modes_ @ simulate_free(self.A_, self.B_, self.C_, u, n)[0]
+
+    def predict(self, record) -> np.ndarray:
+        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in.
+        Free decay: the response to the record's ``w0`` / ``v0`` (or a profile array),
+        ``Ŵ_t = U C A^t B Uᵀx̃0``, as many samples as the record's ``W`` (or the training
+        records')."""
+        self._check_is_fitted()
+        if self.excitation in _X0:
+            return self._predict_free(record)
+        Uin = self._new_inputs(record)
+        return self.modes_ @ simulate(self.A_, self.B_, self.C_, self.D_, Uin)
+
+    @property
+    def diagnostics_(self) -> dict:
+        """``n_modes``, ``order`` and ``lags`` (the rules' choices), ``fit_residual`` (OKID),
+        ``holdout_error`` (of the chosen order), ``hankel_sv_ratio`` ``σ_{N+1}/σ_1`` and
+        ``spectral_radius`` of ``A``. ``fit_residual`` of the free variant: the realization's
+        relative error on the training decays."""
+        out = super().diagnostics_
+        out["order"] = self.order_
+        out["lags"] = self.lags_
+        sv = self.hankel_sv_
+        N = self.order_
+        out["hankel_sv_ratio"] = float(sv[N] / sv[0]) if N < sv.size and sv[0] > 0 else 0.0
+        out["spectral_radius"] = float(np.max(np.abs(np.linalg.eigvals(self.A_))))
+        if self.holdout_errors_ is not None:
+            out["holdout_error"] = float(self.holdout_errors_[N - 1])
+        return out
+
