@@ -113,7 +113,7 @@ def _response(rng, m=40, n=2500):
 
 def test_noise_is_relative_gaussian_seeded_and_scales_with_the_level():
     """The former model (per_entry_rms), kept as a named option; the per-channel default is
-    tested in tests/test_noise.py."""
+    tested in tests/sysid/test_noise.py."""
     r = _response(np.random.default_rng(7))
     rms_w = np.sqrt(np.mean(r.W ** 2))
     old = "per_entry_rms"

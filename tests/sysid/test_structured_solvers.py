@@ -71,7 +71,7 @@ def test_block_equals_dense_least_squares(k, r, lead):
 def test_block_scalar_vector_interface_matches_solve():
     n, dt = 60, 0.01
     q = np.zeros(n)
-    q[1:6] = 1.0  # the pulse of tests/methods/test_deconvolution.py: A has a zero diagonal
+    q[1:6] = 1.0  # the pulse of tests/sysid/test_deconvolution.py: A has a zero diagonal
     c_true = np.exp(-0.05 * np.arange(n)) * np.sin(0.4 * np.arange(n))
     v = dc.convolution_matrix(q, dt) @ c_true
     c = dc.deconvolve([q[None]], v, dt, "block")
@@ -243,7 +243,7 @@ def _noisy(X, level, rng):
 
 def _noisy_errors(case, method, k, level, solver, options, seeds=(0, 1, 2, 3, 4)):
     """Prediction errors (against the noise-free truth) of a fit on noisy W and F, with the
-    noise model and seeds of tests/methods/noise_study.py."""
+    noise model and seeds of tests/sysid/noise_study.py."""
     fc = forced_case(case)
     out = []
     for seed in seeds:

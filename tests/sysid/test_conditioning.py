@@ -3,8 +3,6 @@ correction, detrending, impact detection from the measured force alone."""
 
 import numpy as np
 import pytest
-from methods._cases import D, forced_case
-from methods._truth import rel_err
 
 from podbench import Record
 from podbench.core.response import Response
@@ -22,6 +20,9 @@ from podbench.sysid.conditioning import (
 )
 from podbench.sysid.methods import MultipleLoad
 from podbench.sysid.noise import NoiseSpec, noisy
+
+from ._cases import D, forced_case
+from ._truth import rel_err
 
 DT, N, M = 1e-4, 400, 6
 
