@@ -18,18 +18,16 @@ Quick tour::
 """
 
 from podbench import _compat, errors
+from podbench.api import StudyResult, run
 from podbench.core.records import Record
 from podbench.core.response import Response, displacement_norm, norm_percent_error
+from podbench.core.version import __version__ as __version__
 from podbench.dynamics import excitations, simulate
 from podbench.structures import list_structures, load_structure
 from podbench.structures.structure import Structure
 from podbench.sysid import deconvolution, methods, pod
 
-__version__ = "0.1.0"
-
 _compat.install()
-
-from podbench.api import StudyResult, run  # noqa: E402  (the entry point uses __version__)
 
 __all__ = [
     "run",

@@ -15,7 +15,7 @@ import textwrap
 import traceback
 from pathlib import Path
 
-from podbench import __version__, api
+from podbench import api
 from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
 from podbench.core.resources import (
     SWEEPS_STUDY,
@@ -23,6 +23,7 @@ from podbench.core.resources import (
     bundled_studies,
     display_path,
 )
+from podbench.core.version import __version__
 from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError
 from podbench.harness.progress import Progress

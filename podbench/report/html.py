@@ -22,6 +22,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import matplotlib
+import numpy
+import pandas as pd
+import scipy
+
+from podbench.core.version import __version__
+from podbench.harness import metrics
 from podbench.report.figures import percent
 
 __all__ = ["provenance", "render_report", "text_to_html"]
@@ -200,13 +207,6 @@ def _git(args, cwd) -> str | None:
 def provenance(command: str | None = None) -> dict:
     """Commit (``git rev-parse HEAD`` of podbench's checkout, ``"unknown"`` without git),
     UTC date, command and versions, as ``{label: text}``."""
-    import matplotlib
-    import numpy
-    import pandas
-    import scipy
-
-    from podbench import __version__
-
     here = Path(__file__).resolve().parent
     commit = _git(["rev-parse", "HEAD"], here) or "unknown"
     if commit != "unknown":
@@ -225,7 +225,7 @@ def provenance(command: str | None = None) -> dict:
         "Python": platform.python_version(),
         "NumPy": numpy.__version__,
         "SciPy": scipy.__version__,
-        "pandas": pandas.__version__,
+        "pandas": pd.__version__,
         "matplotlib": matplotlib.__version__,
     }
 
@@ -393,8 +393,6 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
     command : str, optional
         The command that produced the study (default: this process's command line).
     """
-    from podbench.harness.metrics import __doc__ as metrics_doc
-
     figures = figures or {}
     prov = provenance(command)
     n_figs = sum(len(v) for v in figures.values())
@@ -472,7 +470,7 @@ fit residual, condition numbers and the deconvolution solver's amplification, gr
 regularization and iterations.</p>
 {_fits_table(fits)}
 <h2 id="decomposition">Error decomposition</h2>
-{text_to_html(metrics_doc or "")}
+{text_to_html(metrics.__doc__ or "")}
 <h2 id="provenance">Provenance</h2>
 <dl class="prov">{prov_html}</dl>
 </main>
