@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import textwrap
 import traceback
@@ -510,6 +511,27 @@ def main(argv=None) -> int:
         print(f"{prog}: internal error: {type(exc).__name__}: {msg} (this is a bug; rerun "
               "with --debug for the traceback)", file=sys.stderr)
         return 3
+
+
+def reference_markdown() -> str:
+    """The command-line reference (docs/reference/cli.md): every command's ``--help``, as the
+    parser prints it at 100 columns."""
+    parser = _parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    old = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "100"
+    try:
+        parts = ["# Command line\n\nGenerated from the parser (`podbench <command> --help`); "
+                 "tests/test_docs_site.py checks that it is current.\n\n```text\n"
+                 + parser.format_help() + "```\n"]
+        for name, sp in subs.choices.items():
+            parts.append(f"\n## podbench {name}\n\n```text\n{sp.format_help()}```\n")
+    finally:
+        if old is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = old
+    return "".join(parts)
 
 
 if __name__ == "__main__":  # pragma: no cover
