@@ -32,13 +32,19 @@ from pathlib import Path
 import pandas as pd
 
 from podbench.core.atomic import atomic_write_text
-from podbench.core.resources import DEFAULT_STUDY, SWEEPS_STUDY, bundled_studies, resolve_bundled
+from podbench.core.resources import (
+    DEFAULT_STUDY,
+    SWEEPS_STUDY,
+    bundled_studies,
+    display_path,
+    resolve_bundled,
+)
 from podbench.errors import InputError, UnknownNameError
-from podbench.harness.linked import run_linked
+from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import run_checks
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
-from podbench.harness.runner import response_counts, run_study
+from podbench.harness.runner import plan, response_counts, run_study
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
 from podbench.report.figures import make_figure
@@ -311,6 +317,8 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     claims_file = load_claims_file(claims) if claims is not None else None  # before any work
     cache_dir = _check_run_options(jobs, cache)
     progress = _progress(progress, quiet)
+    if isinstance(progress, Progress):
+        progress.note(_announcement(files, scenarios, claims_file, claims, figures))
     t0 = time.perf_counter()
     results = run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                         progress=progress, keep_series=figures)
@@ -334,6 +342,26 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
                        claims=evaluated, figures=drawn, scenarios=scenarios, seconds=seconds,
                        simulated=n_sim, cached=n_cached, _units=results)
+
+
+def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) -> str:
+    """What a run is about to do, in one line: scenarios and units, the claims' linked
+    sensitivity study and nonlinearity checks (run beside the study, so that FINDINGS
+    can state each claim's verdict over the parameters the text leaves open), figures."""
+    n_units = len(plan(files))
+    parts = [f"{len(scenarios)} scenario{'s' if len(scenarios) != 1 else ''} "
+             f"({n_units} unit{'s' if n_units != 1 else ''} of structure × scenario)"]
+    if claims_file is not None:
+        linked = linked_scenarios(claims_file, scenarios)
+        if linked:
+            n = len(plan(list(linked)))
+            parts.append(f"the claims' sensitivity study ({n} units of "
+                         f"{display_path(claims_file.sensitivity)}, for FINDINGS' verdicts "
+                         "over the unstated parameters)")
+        if claims_file.nonlinearity is not None and _whole_study(claims, scenarios):
+            parts.append("the §5.2 nonlinearity checks")
+    parts.append("figures and report.html" if figures else "report.html")
+    return "podbench: running " + "; then ".join(parts)
 
 
 # ---------------------------------------------------------------------------- regress

@@ -287,6 +287,7 @@ def cmd_run(args) -> int:
         for folder in dict.fromkeys(Path(p).resolve().parent for p in parts):
             print(f"part of the study in {display_path(folder)}: written to {out}/, "
                   f"{api.DEFAULT_RESULTS / folder.name}/ left as it was")
+    print(f"report: {out / 'report.html'}")
     return 0
 
 
