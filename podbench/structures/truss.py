@@ -402,17 +402,11 @@ def satellite_truss(
     events: tuple[StiffnessEvent, ...] = ()
     removed: tuple[int, ...] = ()
     if fracture_element is not None:
-        if isinstance(fracture_element, bool) or not isinstance(
-                fracture_element, (int, np.integer)) or not 1 <= fracture_element <= n:
-            raise InputError(f"Parameter `fracture_element`: expected an integer in [1, {n}], "
-                             f"got {fracture_element!r}")
-        fracture_time = check_positive(fracture_time, "fracture_time", allow_zero=True)
-        event = _fracture_event(int(fracture_element), fracture_time, fracture_model, Ke, Me,
-                                P, free, n)
+        event = _fracture_event(fracture_element, fracture_time, fracture_model, Ke, Me, P,
+                                free, n)
         events, removed = (event,), event.removed_dofs
 
-    b = float(bay_length)
-    face_x = np.arange(n_faces) * b
+    face_x = np.arange(n_faces) * float(bay_length)
     dof_labels = tuple(f"face{c // 3}.{COORDINATES[c % 3]}" for c in free)
     _, T = _joint_geometry(float(side))
     metadata = {
@@ -429,7 +423,7 @@ def satellite_truss(
         "element_M": Me,
         "y_top": -T["top"][0, 2],
         "y_bottom": -T["bot-"][0, 2],
-        "bay_length": b,
+        "bay_length": float(bay_length),
         "side": float(side),
         "density": rho,
         "diagonal_pattern": diagonal_pattern,
@@ -459,11 +453,18 @@ def _assemble_constrained(blocks, P: sp.csr_matrix) -> sp.csr_matrix:
     return (P @ A @ P.T).tocsr()
 
 
-def _fracture_event(element: int, time: float, model: str, Ke: np.ndarray, Me: np.ndarray,
-                    P: sp.csr_matrix, free: np.ndarray, n: int) -> StiffnessEvent:
-    """The :class:`StiffnessEvent` of element ``element`` (1-based) breaking at ``time`` (s):
-    ``delta_K = −K_e``; with ``model = "element"`` also ``delta_M = −M_e`` and the DOFs of the
-    faces only this element holds removed (see the module docstring)."""
+def _fracture_event(fracture_element, fracture_time, model: str, Ke: np.ndarray,
+                    Me: np.ndarray, P: sp.csr_matrix, free: np.ndarray, n: int) -> StiffnessEvent:
+    """The :class:`StiffnessEvent` of element ``fracture_element`` (1-based, checked) breaking
+    at ``fracture_time`` (s): ``delta_K = −K_e``; with ``model = "element"`` also
+    ``delta_M = −M_e`` and the DOFs of the faces only this element holds removed (see the
+    module docstring)."""
+    if isinstance(fracture_element, bool) or not isinstance(
+            fracture_element, (int, np.integer)) or not 1 <= fracture_element <= n:
+        raise InputError(f"Parameter `fracture_element`: expected an integer in [1, {n}], "
+                         f"got {fracture_element!r}")
+    time = check_positive(fracture_time, "fracture_time", allow_zero=True)
+    element = int(fracture_element)
     e = element - 1
     dK = _assemble_constrained([(e, Ke)], P)
     dK = (-(dK + dK.T) * 0.5).tocsr()
