@@ -382,7 +382,7 @@ class ImpulseVelocity:
             return _solve(ref.mass(0.0), J, f"The mass matrix M(0) of {ref.name!r}")
 
         dt = self.dt
-        if dt is None:  # __init__ requires it; `dt` was reset afterwards
+        if dt is None:  # __init__ requires dt; only reached if it was set to None since
             raise InputError("Parameter `dt`: velocity='measured' needs the integration "
                              "step dt (s)")
         f = _load_vector(ref, self.impulses, self.by)

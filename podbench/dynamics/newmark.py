@@ -182,7 +182,7 @@ class _Model:
         self.el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in self.nonlinear]
 
         self.vm = s.variable_mass
-        self.m_t = np.zeros(n)  # m(t_j) of the variable mass (none: zero, never read)
+        self.m_t = np.zeros(n)  # m(t_j) of the variable mass; without one zeros, never read
         if self.vm is not None:
             self.m_t = self.vm(np.arange(n) * h)
             if self.m_t.shape != (n,) or not np.all(np.isfinite(self.m_t)):
