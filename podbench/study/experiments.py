@@ -89,11 +89,16 @@ peak — another BLAS kernel moves the last bits).
 from __future__ import annotations
 
 import io
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import tomllib
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 from podbench.core.atomic import replace_dir
 from podbench.core.response import Response

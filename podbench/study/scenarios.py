@@ -84,10 +84,14 @@ import hashlib
 import inspect
 import json
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import tomllib
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 from podbench.core.resources import display_path as _display
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
