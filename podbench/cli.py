@@ -85,24 +85,44 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    for add in (_add_run, _add_regress, _add_sweep, _add_experiment, _add_list):
+        add(sub)
+    return p
 
-    def common(sp, paths_help):
-        sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
-        sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
-                        help="worker processes for the (scenario, structure) units "
-                             "(default 1; results do not depend on N)")
-        sp.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
-                        help=f"truth-data cache folder (default {DEFAULT_CACHE}); entries are "
-                             "keyed by the content of structure and scenario")
-        sp.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
-        sp.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
-                        help="override the scenarios' integration engine (default: each "
-                             "scenario's own, normally newmark)")
-        sp.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress on stderr (neither the bar nor the plain lines)")
-        sp.add_argument("--debug", action="store_true",
-                        help="show the Python traceback of an internal error (exit code 3)")
 
+def _add_debug(sp) -> None:
+    sp.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
+
+
+def _add_jobs(sp, help_text: str) -> None:
+    sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N", help=help_text)
+
+
+def _add_cache_options(sp, *, cache_help: str, engine_help: str) -> None:
+    """``--cache``, ``--no-cache``, ``--engine`` and ``--quiet`` (run, regress and sweep)."""
+    sp.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
+                    help=f"truth-data cache folder (default {DEFAULT_CACHE}); {cache_help}")
+    sp.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
+    sp.add_argument("--engine", choices=("newmark", "exudyn"), default=None, help=engine_help)
+    sp.add_argument("-q", "--quiet", action="store_true",
+                    help="no progress on stderr (neither the bar nor the plain lines)")
+
+
+def _add_study_options(sp, paths_help: str) -> None:
+    """The paths and the options ``run`` and ``regress`` share."""
+    sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
+    _add_jobs(sp, "worker processes for the (scenario, structure) units "
+                  "(default 1; results do not depend on N)")
+    _add_cache_options(sp, cache_help="entries are keyed by the content of structure and "
+                                      "scenario",
+                       engine_help="override the scenarios' integration engine (default: each "
+                                   "scenario's own, normally newmark)")
+    _add_debug(sp)
+
+
+def _add_run(sub) -> None:
+    """``podbench run``."""
     r = sub.add_parser(
         "run", help="run scenarios and write tables, figures and findings",
         description=textwrap.fill(
@@ -121,9 +141,10 @@ Examples:
   podbench run my_study/                 # your folder of scenarios -> results/my_study
   podbench run my_study/a.toml           # one of your files -> results/a
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
-    common(r, "scenario files or folders of them, or a bundled study (chapter4) or scenario "
-              "(chapter4/beam_forced) by name when no such path exists (default: chapter4); "
-              "the claims.toml beside the scenarios is judged into FINDINGS.md")
+    _add_study_options(r, "scenario files or folders of them, or a bundled study (chapter4) or "
+                          "scenario (chapter4/beam_forced) by name when no such path exists "
+                          "(default: chapter4); the claims.toml beside the scenarios is judged "
+                          "into FINDINGS.md")
     r.add_argument("-o", "--out", default=None, metavar="DIR",
                    help="output folder (default results/<folder name> for a folder, "
                         "results/<file name> for a single file, the names joined by '+' for "
@@ -136,6 +157,9 @@ Examples:
                    help="format of OUT/figures/* (default png, 150 dpi; svg and pdf are "
                         "vector graphics); report.html embeds the figures in any format")
 
+
+def _add_regress(sub) -> None:
+    """``podbench regress``."""
     g = sub.add_parser(
         "regress", help="re-run the study and compare every error with the baseline",
         description="Re-run the scenarios (no figures, nothing written to results/ except "
@@ -144,9 +168,9 @@ Examples:
                     "nothing got worse, 1 with a readable diff when something did, 2 on "
                     "unusable input.",
         epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    common(g, "scenario files or folders of them, or a bundled study or scenario by name "
-              "(default: chapter4 and chapter5, the studies of results/baseline.csv); claims "
-              "are not judged and nothing is written")
+    _add_study_options(g, "scenario files or folders of them, or a bundled study or scenario "
+                          "by name (default: chapter4 and chapter5, the studies of "
+                          "results/baseline.csv); claims are not judged and nothing is written")
     g.add_argument("--baseline", default=str(DEFAULT_BASELINE), metavar="CSV",
                    help=f"baseline table (default {DEFAULT_BASELINE})")
     g.add_argument("--rtol", type=_tolerance, default=0.01,
@@ -158,6 +182,9 @@ Examples:
     g.add_argument("--table", default=None, metavar="CSV",
                    help="compare this existing summary.csv instead of re-running")
 
+
+def _add_sweep(sub) -> None:
+    """``podbench sweep``."""
     w = sub.add_parser(
         "sweep", help="run scenarios over noise levels, mode counts, seeds and solvers",
         description=textwrap.fill(
@@ -191,8 +218,7 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
     w.add_argument("paths", nargs="*", metavar="PATH",
                    help="scenario files or folders of them, or a bundled study or scenario by "
                         f"name (default: the bundled {SWEEPS_STUDY})")
-    w.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
-                   help="local worker processes (default 1; the table does not depend on N)")
+    _add_jobs(w, "local worker processes (default 1; the table does not depend on N)")
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the points on a Dask distributed cluster, e.g. "
                         "tcp://host:8786 (workers need podbench and the same project folder "
@@ -210,17 +236,14 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
                    help="output root: each scenario writes DIR/<scenario name>/sweep.csv and "
                         "sweep.md (default results); DIR/<scenario name> must not exist, be "
                         "empty, or be a previous sweep output (holding sweep.csv)")
-    w.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
-                   help=f"truth-data cache folder (default {DEFAULT_CACHE}); noise is added "
-                        "after loading, so sweep and run share entries")
-    w.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
-    w.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
-                   help="override the scenarios' integration engine")
-    w.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress on stderr (neither the bar nor the plain lines)")
-    w.add_argument("--debug", action="store_true",
-                   help="show the Python traceback of an internal error (exit code 3)")
+    _add_cache_options(w, cache_help="noise is added after loading, so sweep and run share "
+                                     "entries",
+                       engine_help="override the scenarios' integration engine")
+    _add_debug(w)
 
+
+def _add_experiment(sub) -> None:
+    """``podbench experiment``."""
     x = sub.add_parser(
         "experiment", help="write (or --check) the records of a virtual experiment",
         description=textwrap.fill(
@@ -240,18 +263,18 @@ Examples:
     x.add_argument("path", help="an experiment.toml, its folder, or a bundled study by name")
     x.add_argument("--check", action="store_true",
                    help="compare with a fresh generation instead of writing")
-    x.add_argument("--debug", action="store_true",
-                   help="show the Python traceback of an internal error (exit code 3)")
+    _add_debug(x)
 
+
+def _add_list(sub) -> None:
+    """``podbench list``."""
     ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
                         description="List the structures and scenarios bundled with podbench "
                                     "and those of the current folder (./structures, "
                                     "PODBENCH_STRUCTURES, ./scenarios), each with where it "
                                     "comes from, the built-in methods and the deconvolution "
                                     "solvers.")
-    ls.add_argument("--debug", action="store_true",
-                    help="show the Python traceback of an internal error (exit code 3)")
-    return p
+    _add_debug(ls)
 
 
 def _plural(n: int, word: str, plural: str | None = None) -> str:
