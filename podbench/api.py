@@ -20,7 +20,6 @@ with one line naming the file and the field, or the parameter.
 from __future__ import annotations
 
 import csv
-import difflib
 import os
 import shlex
 import shutil
@@ -46,6 +45,7 @@ from podbench.report.study import figure_tasks, write_study
 from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file
 from podbench.study.experiments import check_experiment, write_experiment
+from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.sysid.deconvolution import available_solvers
 
@@ -77,11 +77,6 @@ def _as_list(study) -> list:
                      f"{type(study).__name__}")
 
 
-def _did_you_mean(name: str, choices) -> str:
-    close = difflib.get_close_matches(str(name), list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Path]]:
     """The paths a study names and their scenario files.
 
@@ -107,7 +102,7 @@ def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Pat
                                            for f in find_scenarios([d])]
                 raise UnknownNameError(
                     f"{p}: no such file or folder, nor a bundled study or scenario"
-                    f"{_did_you_mean(str(p), choices)} (bundled studies: "
+                    f"{did_you_mean(str(p), choices)} (bundled studies: "
                     f"{', '.join(studies)}; podbench list shows every scenario)")
             resolved.append(b)
         else:
@@ -397,8 +392,8 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
         for name in solvers:
             if name not in available_solvers():
                 raise UnknownNameError(f"--solvers: unknown solver {name!r}"
-                                       f"{_did_you_mean(name, available_solvers())}; "
-                                       f"solvers: {', '.join(available_solvers())}")
+                                       f"{did_you_mean(name, available_solvers())} "
+                                       f"(solvers: {', '.join(available_solvers())})")
         axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
     cache_dir = None if cache is None else writable_folder(cache, "--cache")
@@ -427,7 +422,7 @@ def experiment(study, *, check: bool = False) -> list[Path]:
         b = resolve_bundled(str(study))
         if b is None or not b.is_dir():
             raise UnknownNameError(f"{study}: no such file or folder, nor a bundled study"
-                                   f"{_did_you_mean(str(study), bundled_studies())}")
+                                   f"{did_you_mean(str(study), bundled_studies())}")
         path = b
     return check_experiment(path) if check else write_experiment(path)
 
