@@ -361,6 +361,7 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     if update:
         atomic_write_text(baseline, table_csv(new))
         return len(new)
+    assert base is not None  # read above, before the run, unless update
     return compare(new, base, rtol=rtol, atol=atol)
 
 
@@ -413,7 +414,7 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
 
 
 # ------------------------------------------------------------------------- experiment
-def experiment(study, *, check: bool = False) -> list[Path]:
+def experiment(study, *, check: bool = False) -> list[Path] | list[str]:
     """Write (or with ``check``, compare with a fresh generation) the record files of a
     virtual experiment (``experiment.toml`` in a study folder, e.g. the bundled
     ``chapter5``). Returns the files written, or those that differ."""

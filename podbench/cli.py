@@ -319,7 +319,7 @@ def cmd_experiment(args) -> int:
         print(f"{len(files)} record file(s) differ from a fresh generation" if files
               else "every record file equals a fresh generation")
         return 1 if files else 0
-    folders = sorted({display_path(f.parent.parent) for f in files})
+    folders = sorted({display_path(Path(f).parent.parent) for f in files})
     print(f"{len(files)} record files written under {', '.join(folders)}")
     return 0
 
@@ -329,7 +329,7 @@ def cmd_regress(args) -> int:
                       update=args.update, table=args.table, jobs=args.jobs,
                       cache=_cache(args), engine=args.engine,
                       progress=Progress(quiet=args.quiet))
-    if args.update:
+    if isinstance(got, int):  # --update: the number of rows written
         print(f"baseline updated: {args.baseline} ({got} rows)")
         return 0
     print(got.report(args.rtol, args.atol))
@@ -419,7 +419,7 @@ def _list_arg(text, name: str, kind):
     """Parse a comma-separated option (``--noise 0,0.01``; ``--seeds 0-4``)."""
     if text is None:
         return None
-    out = []
+    out: list = []
     for item in text.split(","):
         item = item.strip()
         try:
@@ -483,7 +483,7 @@ def cmd_sweep(args) -> int:
     return 0
 
 
-def _one_line(text: str, limit: int = 1000) -> str:
+def _one_line(text: object, limit: int = 1000) -> str:
     text = " ".join(str(text).split())
     return text if len(text) <= limit else text[:limit - 3] + "..."
 

@@ -229,7 +229,8 @@ def make_figure(task: FigureTask):
             a1.set_ylabel("Norm ‖w(t)‖, in")
             a1.grid(True, alpha=0.3)
             a2.set_yscale("log")
-            finite = np.concatenate([p[np.isfinite(p)] for p in pe_all]) if pe_all else []
+            finite = (np.concatenate([p[np.isfinite(p)] for p in pe_all]) if pe_all
+                      else np.empty(0))
             if len(finite):
                 a2.set_ylim(max(float(np.min(finite)), 1e-3) / 2, float(np.max(finite)) * 2)
             a2.set_ylabel("Eq. 4.2 error, %")

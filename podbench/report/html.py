@@ -408,8 +408,9 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
 def _stats(df, evaluated, n_figs: int) -> str:
     """The counts at the top of the page (scenarios, rows, figures, claims, failures)."""
     n_ok = None if evaluated is None else sum(e["verdict"] == "reproduced" for e in evaluated)
-    stats = [(len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
-             (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
+    stats: list[tuple[object, str]] = [
+        (len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
+        (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
     if evaluated is not None:
         stats.append((f"{n_ok} / {len(evaluated)}", "claims reproduced"))
     n_failed = int((df["status"] != "ok").sum()) if len(df) else 0

@@ -165,7 +165,7 @@ class Case:
 
     def spec(self) -> dict:
         """A JSON-able description (used in cache keys)."""
-        out = {
+        out: dict[str, object] = {
             "initial_displacement": self.initial_displacement,
             "initial_velocity": self.initial_velocity,
             "force": list(self.force),
