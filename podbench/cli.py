@@ -121,26 +121,32 @@ def _add_study_options(sp, paths_help: str) -> None:
     _add_debug(sp)
 
 
+def _command(sub, name: str, help_text: str, description: str, epilog: str):
+    """The sub-parser of one command: its one-line help, its description (wrapped to 88
+    columns) and its epilog (shown as written)."""
+    return sub.add_parser(name, help=help_text, description=textwrap.fill(description, width=88),
+                          epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
 def _add_run(sub) -> None:
     """``podbench run``."""
-    r = sub.add_parser(
-        "run", help="run scenarios and write tables, figures and findings",
-        description=textwrap.fill(
-                    "Simulate the truth data (cached), fit every method of every scenario, "
-                    "predict every target and write OUT/summary.csv, OUT/summary.md, "
-                    "OUT/fits.csv, OUT/figures/*.png and (with a claims.toml beside the "
-                    "scenarios) OUT/FINDINGS.md. OUT is replaced as a whole only when "
-                    "everything is written. A part of a study (a scenario file given alone) "
-                    "is written to its own folder, results/<file name>, never over the "
-                    "study's results/<study>; an existing OUT that holds scenarios this run "
-                    "does not produce is refused.", width=88),
-        epilog=_EPILOG + """
+    r = _command(
+        sub, "run", "run scenarios and write tables, figures and findings",
+        "Simulate the truth data (cached), fit every method of every scenario, "
+        "predict every target and write OUT/summary.csv, OUT/summary.md, "
+        "OUT/fits.csv, OUT/figures/*.png and (with a claims.toml beside the "
+        "scenarios) OUT/FINDINGS.md. OUT is replaced as a whole only when "
+        "everything is written. A part of a study (a scenario file given alone) "
+        "is written to its own folder, results/<file name>, never over the "
+        "study's results/<study>; an existing OUT that holds scenarios this run "
+        "does not produce is refused.",
+        _EPILOG + """
 Examples:
   podbench run                           # the bundled Chapter 4 study -> results/chapter4
   podbench run chapter4/beam_forced      # one bundled scenario -> results/beam_forced
   podbench run my_study/                 # your folder of scenarios -> results/my_study
   podbench run my_study/a.toml           # one of your files -> results/a
-""", formatter_class=argparse.RawDescriptionHelpFormatter)
+""")
     _add_study_options(r, "scenario files or folders of them, or a bundled study (chapter4) or "
                           "scenario (chapter4/beam_forced) by name when no such path exists "
                           "(default: chapter4); the claims.toml beside the scenarios is judged "
@@ -160,14 +166,14 @@ Examples:
 
 def _add_regress(sub) -> None:
     """``podbench regress``."""
-    g = sub.add_parser(
-        "regress", help="re-run the study and compare every error with the baseline",
-        description="Re-run the scenarios (no figures, nothing written to results/ except "
-                    "with --update) and compare every error column with the baseline table. "
-                    "An error is worse when new > base·(1 + rtol) + atol. Exit 0 when "
-                    "nothing got worse, 1 with a readable diff when something did, 2 on "
-                    "unusable input.",
-        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    g = _command(
+        sub, "regress", "re-run the study and compare every error with the baseline",
+        "Re-run the scenarios (no figures, nothing written to results/ except "
+        "with --update) and compare every error column with the baseline table. "
+        "An error is worse when it exceeds base·(1 + rtol) + atol. Exit 0 when "
+        "nothing got worse, 1 with a readable diff when something did, 2 on "
+        "unusable input.",
+        _EPILOG)
     _add_study_options(g, "scenario files or folders of them, or a bundled study or scenario "
                           "by name (default: chapter4 and chapter5, the studies of "
                           "results/baseline.csv); claims are not judged and nothing is written")
@@ -185,24 +191,23 @@ def _add_regress(sub) -> None:
 
 def _add_sweep(sub) -> None:
     """``podbench sweep``."""
-    w = sub.add_parser(
-        "sweep", help="run scenarios over noise levels, mode counts, seeds and solvers",
-        description=textwrap.fill(
-                    "Run every point of the scenarios' [sweep] axes — noise levels × mode "
-                    "counts × seeds (× deconvolution solvers) × structures × methods — and "
-                    "write DIR/<scenario name>/sweep.csv (one row per point, method and "
-                    "target; columns as summary.csv plus noise, modes, seed, solver) and "
-                    "sweep.md (median and max over seeds). Noise is what a laboratory meets: "
-                    "Gaussian per measured channel, standard deviation = level × RMS of that "
-                    "channel's own record, on every sensor row of W and on the loaded rows "
-                    "of F only (noise_model = \"per_channel\"; \"per_entry_rms\" is the "
-                    "former whole-matrix model), seeded by (seed, scenario, structure, case, "
-                    "quantity, channel); targets are noise-free (see podbench.noise and "
-                    "docs/noise.md). The --noise/--n-modes/--seeds/"
-                    "--solvers options replace the file's axes. The table is identical "
-                    "whether the points run serially, in --jobs local processes or on a Dask "
-                    "cluster (--scheduler).", width=88),
-        epilog=_EPILOG + """
+    w = _command(
+        sub, "sweep", "run scenarios over noise levels, mode counts, seeds and solvers",
+        "Run every point of the scenarios' [sweep] axes — noise levels × mode "
+        "counts × seeds (× deconvolution solvers) × structures × methods — and "
+        "write DIR/<scenario name>/sweep.csv (one row per point, method and "
+        "target; columns as summary.csv plus noise, modes, seed, solver) and "
+        "sweep.md (median and max over seeds). Noise is what a laboratory meets: "
+        "Gaussian per measured channel, standard deviation = level × RMS of that "
+        "channel's own record, on every sensor row of W and on the loaded rows "
+        "of F only (noise_model = \"per_channel\"; \"per_entry_rms\" is the "
+        "former whole-matrix model), seeded by (seed, scenario, structure, case, "
+        "quantity, channel); targets are noise-free (see podbench.noise and "
+        "docs/noise.md). The --noise/--n-modes/--seeds/"
+        "--solvers options replace the file's axes. The table is identical "
+        "whether the points run serially, in --jobs local processes or on a Dask "
+        "cluster (--scheduler).",
+        _EPILOG + """
 Examples:
   podbench sweep                                   # the bundled sweeps, 1 process
   podbench sweep sweeps/beam_forced_noise --jobs 2
@@ -214,7 +219,7 @@ Examples:
   solvers = ["ls", "tls"]     noise_on = ["W", "F"]   coupled_train = "first"
 n_modes replaces every method's k; MDS and ML (k = number of training sets) train on their
 first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
-""", formatter_class=argparse.RawDescriptionHelpFormatter)
+""")
     w.add_argument("paths", nargs="*", metavar="PATH",
                    help="scenario files or folders of them, or a bundled study or scenario by "
                         f"name (default: the bundled {SWEEPS_STUDY})")
@@ -244,22 +249,20 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
 
 def _add_experiment(sub) -> None:
     """``podbench experiment``."""
-    x = sub.add_parser(
-        "experiment", help="write (or --check) the records of a virtual experiment",
-        description=textwrap.fill(
-            "Simulate the laboratory tests of an experiment.toml (podbench.experiments: the "
-            "tests, their loads, per-channel noise levels), and write one record file per "
-            "test, noise level and case under data/ beside it (each data/<test> folder "
-            "replaced atomically). The study's scenarios read those files back like "
-            "measurements. With --check nothing is written: the committed files are "
-            "compared byte for byte with a fresh generation (exit 1 when they differ).",
-            width=88),
-        epilog="""
+    x = _command(
+        sub, "experiment", "write (or --check) the records of a virtual experiment",
+        "Simulate the laboratory tests of an experiment.toml (podbench.experiments: the "
+        "tests, their loads, per-channel noise levels), and write one record file per "
+        "test, noise level and case under data/ beside it (each data/<test> folder "
+        "replaced atomically). The study's scenarios read those files back like "
+        "measurements. With --check nothing is written: the committed files are "
+        "compared byte for byte with a fresh generation (exit 1 when they differ).",
+        """
 Examples:
   podbench experiment chapter5           # the bundled Chapter 5 tests -> its data/
   podbench experiment my_study/          # my_study/experiment.toml -> my_study/data/
   podbench experiment chapter5 --check   # are the committed records up to date?
-""", formatter_class=argparse.RawDescriptionHelpFormatter)
+""")
     x.add_argument("path", help="an experiment.toml, its folder, or a bundled study by name")
     x.add_argument("--check", action="store_true",
                    help="compare with a fresh generation instead of writing")
