@@ -29,7 +29,7 @@ import re
 from podbench.core.userimport import UserImportError, import_object
 from podbench.errors import InputError, PodbenchError
 from podbench.study.hints import did_you_mean
-from podbench.sysid.deconvolution import available_solvers, make_solver
+from podbench.sysid.deconvolution import available_solvers, get_solver, make_solver
 from podbench.sysid.methods import BUILTIN_METHODS, Superposition
 
 __all__ = ["method_class", "build_estimator", "check_method_entry", "training_records",
@@ -92,6 +92,17 @@ def solver_hint(name) -> str:
     if not isinstance(name, str) or ":" in name or name in available_solvers():
         return ""
     return did_you_mean(name, available_solvers())
+
+
+def solver_options_hint(solver, options) -> str:
+    """``; did you mean 'max_iter'?`` for the first key of ``options`` that is not an option
+    of the built-in solver ``solver``, else ""."""
+    if not (isinstance(solver, str) and solver in available_solvers()
+            and isinstance(options, dict)):
+        return ""
+    names = get_solver(solver)._get_param_names()
+    unknown = [k for k in options if k not in names]
+    return did_you_mean(unknown[0], names) if unknown else ""
 
 
 def build_estimator(spec, method_of, base_dir=None):
@@ -160,6 +171,8 @@ def check_method_entry(spec, method_of, base_dir=None) -> tuple[str, str] | None
         if name is not None and name in spec.options:
             if name == "solver":
                 msg += solver_hint(spec.options["solver"])
+            elif name == "solver_options":
+                msg += solver_options_hint(spec.options.get("solver"), solver_options)
             return f"options.{name}", msg
         if isinstance(solver_options, dict) and name in solver_options:
             return f"options.solver_options.{name}", msg

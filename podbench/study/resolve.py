@@ -50,7 +50,8 @@ def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.str
             return load_structure(base_entry, search_path=_structure_search(scenario),
                                   overrides=variant.set, name=entry)
         except UnknownNameError as exc:
-            raise ScenarioFileError(f"{shown}: field `variants.{entry}.structure`: {exc}") \
+            hint = did_you_mean(variant.structure, list_structures(_structure_search(scenario)))
+            raise ScenarioFileError(f"{shown}: field `variants.{entry}.structure`: {exc}{hint}") \
                 from None
         except StructureFileError as exc:
             raise ScenarioFileError(f"{shown}: field `variants.{entry}.set`: {exc}") from None

@@ -98,6 +98,7 @@ from podbench.study.estimators import (
     method_class,
     option_names,
     solver_hint,
+    solver_options_hint,
 )
 from podbench.study.hints import did_you_mean
 from podbench.sysid.conditioning import DETREND_KINDS, Conditioning
@@ -635,7 +636,8 @@ def _solver_choice(t: Table, where: str, item, folder: Path) -> SolverChoice:
     try:  # bound to the solver's constructor now, before any simulation
         make_solver(name, options, base_dir=folder)
     except InputError as exc:
-        t.fail(where, " ".join(str(exc).split()) + solver_hint(name))
+        t.fail(where, " ".join(str(exc).split()) + solver_hint(name)
+               + solver_options_hint(name, options))
     return SolverChoice(label=label, solver=name, options=dict(options))
 
 

@@ -19,15 +19,24 @@ def beam_forced():
     return (resolve_bundled("chapter4") / "beam_forced.toml").read_text()
 
 
-@pytest.mark.parametrize("old, new, command, needle", [
-    ('"lti_beam", "ltv_beam"', '"lti_bem", "ltv_beam"', "run", "did you mean 'lti_beam'?"),
-    ('method = "SL"', 'method = "sl"', "run", "unknown method \"sl\"; did you mean 'SL'?"),
-    ('solver = "block"', 'solver = "blok"', "run", "did you mean 'block'?"),
-    ("", '\n[sweep]\nsolvers = ["lss"]\n', "sweep", "did you mean 'ls'?"),
+@pytest.mark.parametrize("old, new, extra, command, needle", [
+    ('"lti_beam", "ltv_beam"', '"lti_bem", "ltv_beam"', "", "run", "did you mean 'lti_beam'?"),
+    ('method = "SL"', 'method = "sl"', "", "run", "unknown method \"sl\"; did you mean 'SL'?"),
+    ('solver = "block"', 'solver = "blok"', "", "run", "did you mean 'block'?"),
+    ('solver = "block"', 'solver = "cgls", solver_options = { maxiter = 50 }', "", "run",
+     "unknown option 'maxiter' for solver 'cgls' (its options: reg, tol, max_iter); "
+     "did you mean 'max_iter'?"),
+    ("", "", '[sweep]\nsolvers = ["lss"]', "sweep", "did you mean 'ls'?"),
+    ("", "", '[sweep]\nsolvers = [{solver = "tls", options = {rcnd = 1e-2}}]', "sweep",
+     "did you mean 'rcond'?"),
+    ('"lti_beam", "ltv_beam"', '"stiff", "ltv_beam"',
+     '[variants.stiff]\nstructure = "lti_bem"\nset = { "E" = 1.0 }', "run",
+     "did you mean 'lti_beam'?"),
 ])
-def test_a_misspelt_name_gets_the_closest_one(beam_forced, tmp_path, capsys, old, new, command,
-                                              needle):
-    text = beam_forced + new if not old else beam_forced.replace(old, new, 1)
+def test_a_misspelt_name_gets_the_closest_one(beam_forced, tmp_path, capsys, old, new, extra,
+                                              command, needle):
+    text = beam_forced.replace(old, new, 1) if old else beam_forced
+    text += "\n" + extra + "\n" if extra else ""
     assert text != beam_forced
     folder = tmp_path / "study"
     folder.mkdir()
