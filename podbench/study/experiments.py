@@ -93,7 +93,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import tomllib
 
 from podbench.core.atomic import replace_dir
 from podbench.core.response import Response
@@ -108,7 +107,7 @@ from podbench.core.threads import single_blas_thread
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import excitation_from_dict
 from podbench.structures import load_structure
-from podbench.study.scenarios import EXPERIMENT_FILE, read_excitation
+from podbench.study.scenarios import EXPERIMENT_FILE, read_excitation, read_study_file
 from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
 PRECISIONS = ("float32", "float64")
@@ -164,12 +163,7 @@ def load_experiment(path) -> Experiment:
     if path.is_dir():
         path = path / EXPERIMENT_FILE
     shown = str(path)
-    if not path.is_file():
-        raise ScenarioFileError(f"{shown}: no such experiment file")
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
+    _, doc = read_study_file(path, shown, "experiment")
     try:
         top = Table(doc, file=shown)
         e = top.table("experiment", required=True)

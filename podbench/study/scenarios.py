@@ -306,21 +306,33 @@ def load_scenario(path, *, _stack: tuple = ()) -> Scenario:
     """
     path = Path(path)
     shown = _display(path)
+    raw, doc = read_study_file(path, shown, "scenario")
+    try:
+        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest(), _stack)
+    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
+        raise ScenarioFileError(str(exc)) from None
+
+
+def read_study_file(path: Path, shown: str, what: str) -> tuple[bytes, dict]:
+    """The bytes of a study's TOML file (a scenario, an experiment) and its parsed table.
+
+    Raises
+    ------
+    ScenarioFileError
+        ``<shown>: no such <what> file``, a TOML syntax error, text that is not UTF-8, a file
+        that cannot be read.
+    """
     if not path.is_file():
-        raise ScenarioFileError(f"{shown}: no such scenario file")
+        raise ScenarioFileError(f"{shown}: no such {what} file")
     try:
         raw = path.read_bytes()
-        doc = tomllib.loads(raw.decode("utf-8"))
+        return raw, tomllib.loads(raw.decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioFileError(f"{shown}: not UTF-8 text ({exc})") from None
     except OSError as exc:
         raise ScenarioFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
-    try:
-        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest(), _stack)
-    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
-        raise ScenarioFileError(str(exc)) from None
 
 
 def _load_base(sc: Table, path: Path, rel: str, stack: tuple) -> Scenario:
@@ -569,10 +581,10 @@ def _parse_sweep(t: Table, folder: Path) -> Sweep:
     noise_model = t.string("noise_model", "per_channel", choices=NOISE_MODELS)
     force_offset = t.number("force_offset", 0.0)
     force_drift = t.number("force_drift", 0.0)
-    n_modes = t.integers("n_modes", None, minimum=1)
-    if n_modes is not None:
-        _unique(t, "n_modes", n_modes)
-        n_modes = tuple(n_modes)
+    modes = t.integers("n_modes", None, minimum=1)
+    if modes is not None:
+        _unique(t, "n_modes", modes)
+    n_modes = None if modes is None else tuple(modes)
     seeds = tuple(t.integers("seeds", [0], minimum=0))
     _unique(t, "seeds", seeds)
     noise_on = t.strings("noise_on", ["W", "F"])
