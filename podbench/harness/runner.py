@@ -17,6 +17,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -86,7 +87,7 @@ def _case_error(scenario: Scenario, case: str, key: str, exc: Exception,
     return ScenarioFileError(f"{_display(scenario.path)}: field `{path}`{on}: {msg}")
 
 
-def _build_case(scenario: Scenario, case: str, refs: dict) -> list[tuple[str, object]]:
+def _build_case(scenario: Scenario, case: str, refs: dict) -> list[tuple[str, Any]]:
     """``(key, excitation)`` of every excitation of ``case`` (``refs``: name → Structure)."""
     out = []
     for key, d in scenario.cases[case].excitation_fields():
