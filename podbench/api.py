@@ -20,7 +20,6 @@ with one line naming the file and the field, or the parameter.
 from __future__ import annotations
 
 import csv
-import difflib
 import os
 import shlex
 import shutil
@@ -52,6 +51,7 @@ from podbench.report.study import figure_tasks, write_study
 from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file
 from podbench.study.experiments import check_experiment, write_experiment
+from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.sysid.deconvolution import available_solvers
 
@@ -83,11 +83,6 @@ def _as_list(study) -> list:
                      f"{type(study).__name__}")
 
 
-def _did_you_mean(name: str, choices) -> str:
-    close = difflib.get_close_matches(str(name), list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Path]]:
     """The paths a study names and their scenario files.
 
@@ -113,7 +108,7 @@ def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Pat
                                            for f in find_scenarios([d])]
                 raise UnknownNameError(
                     f"{p}: no such file or folder, nor a bundled study or scenario"
-                    f"{_did_you_mean(str(p), choices)} (bundled studies: "
+                    f"{did_you_mean(str(p), choices)} (bundled studies: "
                     f"{', '.join(studies)}; podbench list shows every scenario)")
             resolved.append(b)
         else:
@@ -394,6 +389,7 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     if update:
         atomic_write_text(baseline, table_csv(new))
         return len(new)
+    assert base is not None  # read above, before the run, unless update
     return compare(new, base, rtol=rtol, atol=atol)
 
 
@@ -425,8 +421,8 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
         for name in solvers:
             if name not in available_solvers():
                 raise UnknownNameError(f"--solvers: unknown solver {name!r}"
-                                       f"{_did_you_mean(name, available_solvers())}; "
-                                       f"solvers: {', '.join(available_solvers())}")
+                                       f"{did_you_mean(name, available_solvers())} "
+                                       f"(solvers: {', '.join(available_solvers())})")
         axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
     cache_dir = None if cache is None else writable_folder(cache, "--cache")
@@ -446,7 +442,7 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
 
 
 # ------------------------------------------------------------------------- experiment
-def experiment(study, *, check: bool = False) -> list[Path]:
+def experiment(study, *, check: bool = False) -> list[Path] | list[str]:
     """Write (or with ``check``, compare with a fresh generation) the record files of a
     virtual experiment (``experiment.toml`` in a study folder, e.g. the bundled
     ``chapter5``). Returns the files written, or those that differ."""
@@ -455,7 +451,7 @@ def experiment(study, *, check: bool = False) -> list[Path]:
         b = resolve_bundled(str(study))
         if b is None or not b.is_dir():
             raise UnknownNameError(f"{study}: no such file or folder, nor a bundled study"
-                                   f"{_did_you_mean(str(study), bundled_studies())}")
+                                   f"{did_you_mean(str(study), bundled_studies())}")
         path = b
     return check_experiment(path) if check else write_experiment(path)
 
