@@ -10,6 +10,8 @@ import pytest
 from podbench import api as pb_api
 from podbench import cli
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 README = Path(__file__).resolve().parents[2] / "README.md"
 
 

@@ -26,6 +26,8 @@ from podbench.report.figures import FigureTask, describe_case, draw_figure, make
 from podbench.report.html import text_to_html
 from podbench.study.scenarios import Case
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 CLAIMS = """
 [[claims]]
 id = "chain-mds-exact"
