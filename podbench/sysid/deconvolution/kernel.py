@@ -41,10 +41,10 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
-from podbench.core.validation import check_choice, check_positive
-from podbench.errors import InputError
+from podbench.errors import InvalidParameterError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.system import ConvolutionSystem
+from podbench.sysid.params import COUNT, FRACTION, POSITIVE, Options
 
 __all__ = ["KernelRegularized", "kernel_matrix", "log_marginal_likelihood", "DEFAULT_N_HYPER"]
 
@@ -265,6 +265,9 @@ class KernelRegularized(Solver):
 
     name = "kernel"
     structured = True
+    _parameter_constraints = {"kernel": [Options("dc", "tc")], "n_hyper": [None, COUNT],
+                              "lam": [None, FRACTION], "rho": [None, FRACTION],
+                              "gamma": [None, POSITIVE], "tol": [POSITIVE], "max_iter": [COUNT]}
 
     def __init__(self, *, kernel: str = "dc", n_hyper: int | None = DEFAULT_N_HYPER,
                  lam: float | None = None, rho: float | None = None,
@@ -278,20 +281,10 @@ class KernelRegularized(Solver):
         self.max_iter = max_iter
 
     def _validate_params(self) -> None:
-        check_choice(self.kernel, "kernel", ("dc", "tc"))
-        if self.n_hyper is not None:
-            check_positive(self.n_hyper, "n_hyper", integer=True)
-        if self.lam is not None and not 0 < self.lam < 1:
-            raise InputError(f"Parameter `lam`: must be in (0, 1), got {self.lam!r}")
-        if self.rho is not None:
-            if self.kernel == "tc":
-                raise InputError("Parameter `rho`: the TC kernel has no separate rho (ρ = √λ)")
-            if not 0 < self.rho < 1:
-                raise InputError(f"Parameter `rho`: must be in (0, 1), got {self.rho!r}")
-        if self.gamma is not None:
-            check_positive(self.gamma, "gamma")
-        check_positive(self.tol, "tol")
-        check_positive(self.max_iter, "max_iter", integer=True)
+        super()._validate_params()
+        if self.rho is not None and self.kernel == "tc":
+            raise InvalidParameterError(
+                "Parameter `rho`: the TC kernel has no separate rho (ρ = √λ)", param="rho")
 
     # ------------------------------------------------------------------ hyper-parameters
     def _hyper(self, system: ConvolutionSystem, scale: np.ndarray):

@@ -86,17 +86,16 @@ import scipy.fft
 import scipy.linalg
 import scipy.sparse.linalg
 
-from podbench.core.validation import check_positive
-from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.convolution import block_conv
 from podbench.sysid.deconvolution.system import ConvolutionSystem, first_sample
 from podbench.sysid.deconvolution.tikhonov import (
     DEFAULT_TIKHONOV_REG,
+    REG_NON_NEGATIVE,
     cgls_iterate,
     spectral_norm,
-    tikhonov_reg,
 )
+from podbench.sysid.params import COUNT, FRACTION, NON_NEGATIVE
 
 __all__ = ["STLS", "DEFAULT_STLS_TOL", "DEFAULT_STLS_MAX_ITER"]
 
@@ -171,6 +170,9 @@ class STLS(Solver):
 
     name = "stls"
     structured = True
+    _parameter_constraints = {"reg": REG_NON_NEGATIVE, "noise_ratio": [NON_NEGATIVE],
+                              "rank_tol": [FRACTION], "tol": [FRACTION], "max_iter": [COUNT],
+                              "inner_iter": [COUNT], "inner_tol": [FRACTION]}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, noise_ratio: float = 1.0,
                  rank_tol: float = 1e-8, tol: float = DEFAULT_STLS_TOL,
@@ -184,20 +186,10 @@ class STLS(Solver):
         self.inner_iter = inner_iter
         self.inner_tol = inner_tol
 
-    def _validate_params(self) -> None:
-        tikhonov_reg(self.reg, allow_zero=True)
-        check_positive(self.noise_ratio, "noise_ratio", allow_zero=True)
-        for name in ("rank_tol", "tol", "inner_tol"):
-            value = check_positive(getattr(self, name), name)
-            if value >= 1:
-                raise InputError(f"Parameter `{name}`: must be below 1, got {value!r}")
-        check_positive(self.max_iter, "max_iter", integer=True)
-        check_positive(self.inner_iter, "inner_iter", integer=True)
-
     def _solve(self, system: ConvolutionSystem):
-        X, info = _stls(system, tikhonov_reg(self.reg, allow_zero=True),
-                        float(self.noise_ratio), float(self.rank_tol), float(self.tol),
-                        int(self.max_iter), int(self.inner_iter), float(self.inner_tol))
+        p = self._params()
+        X, info = _stls(system, p["reg"], p["noise_ratio"], p["rank_tol"], p["tol"],
+                        p["max_iter"], p["inner_iter"], p["inner_tol"])
         return system.stack(X), info
 
 

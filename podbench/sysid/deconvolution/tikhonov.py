@@ -16,10 +16,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft
 
-from podbench.core.validation import check_positive
 from podbench.errors import ConvergenceError, IllConditionedError, InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.system import ConvolutionSystem, first_sample
+from podbench.sysid.params import COUNT, NON_NEGATIVE, POSITIVE, Interval, Options, check_param
 
 __all__ = [
     "FFTTikhonov",
@@ -78,11 +78,15 @@ def _embedding(G: np.ndarray, pad) -> tuple[int, int, int]:
     return d, m, scipy.fft.next_fast_len(max(int(np.ceil(pad * m)), 1), real=True)
 
 
+PAD: list = [Interval("number", 1)]
+REG_POSITIVE: list = [Options("gcv"), POSITIVE]
+"""``reg`` of ``"fft"``: ``"gcv"`` or a number > 0."""
+REG_NON_NEGATIVE: list = [Options("gcv"), NON_NEGATIVE]
+"""``reg`` of ``"cgls"`` and ``"stls"``: ``"gcv"`` or a number >= 0 (0: least squares)."""
+
+
 def _check_pad(pad) -> float:
-    pad = check_positive(pad, "pad")
-    if pad < 1:
-        raise InputError(f"Parameter `pad`: must be >= 1, got {pad!r}")
-    return pad
+    return check_param(pad, "pad", PAD)
 
 
 def _gcv_function(w, s, b2, perp, N: int, n_cases: int):
@@ -174,11 +178,7 @@ def _gcv_minimize(w, s, b2, perp, N, n_cases, lo=GCV_BOUNDS[0], hi=GCV_BOUNDS[1]
 
 def tikhonov_reg(reg, allow_zero: bool):
     """Validate ``reg``: ``"gcv"`` or a number (> 0, or >= 0 if ``allow_zero``)."""
-    if isinstance(reg, str):
-        if reg != "gcv":
-            raise InputError(f"Parameter `reg`: expected a number or \"gcv\", got {reg!r}")
-        return reg
-    return check_positive(reg, "reg", allow_zero=allow_zero)
+    return check_param(reg, "reg", REG_NON_NEGATIVE if allow_zero else REG_POSITIVE)
 
 
 def spectral_norm(Gh: np.ndarray) -> float:
@@ -304,13 +304,8 @@ def cgls_fft(
     (k·n,) or (k·n, r) ndarray
     """
     system = ConvolutionSystem(Q_list, B, dt)
-    X, _ = cgls_iterate(system, *_cgls_params(reg, tol, max_iter))
+    X, _ = cgls_iterate(system, *CGLS(reg=reg, tol=tol, max_iter=max_iter)._cgls_params())
     return system.stack(X)
-
-
-def _cgls_params(reg, tol, max_iter):
-    return (tikhonov_reg(reg, allow_zero=True), check_positive(tol, "tol"),
-            1000 if max_iter is None else check_positive(max_iter, "max_iter", integer=True))
 
 
 def cgls_iterate(system: ConvolutionSystem, reg, tol: float, max_iter: int):
@@ -502,17 +497,14 @@ class FFTTikhonov(Solver):
 
     name = "fft"
     structured = True
+    _parameter_constraints = {"reg": REG_POSITIVE, "pad": PAD}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, pad: float = 2.0):
         self.reg = reg
         self.pad = pad
 
-    def _validate_params(self) -> None:
-        tikhonov_reg(self.reg, allow_zero=False)
-        _check_pad(self.pad)
-
     def _solve(self, system: ConvolutionSystem):
-        X, info = _fft(system, tikhonov_reg(self.reg, allow_zero=False), self.pad)
+        X, info = _fft(system, **self._params())
         return system.stack(X), info
 
 
@@ -536,6 +528,8 @@ class CGLS(Solver):
 
     name = "cgls"
     structured = True
+    _parameter_constraints = {"reg": REG_NON_NEGATIVE, "tol": [POSITIVE],
+                              "max_iter": [None, COUNT]}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, tol: float = 1e-10,
                  max_iter: int = 1000):
@@ -543,9 +537,10 @@ class CGLS(Solver):
         self.tol = tol
         self.max_iter = max_iter
 
-    def _validate_params(self) -> None:
-        _cgls_params(self.reg, self.tol, self.max_iter)
+    def _cgls_params(self) -> tuple:
+        p = self._params()
+        return p["reg"], p["tol"], 1000 if p["max_iter"] is None else p["max_iter"]
 
     def _solve(self, system: ConvolutionSystem):
-        X, info = cgls_iterate(system, *_cgls_params(self.reg, self.tol, self.max_iter))
+        X, info = cgls_iterate(system, *self._cgls_params())
         return system.stack(X), info

@@ -19,10 +19,17 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.core.records import is_record
-from podbench.core.validation import as_finite_array, check_choice
+from podbench.core.validation import as_finite_array
 from podbench.errors import DimensionError, IllConditionedError, InputError
 from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
 from podbench.sysid.methods.base import (
+    BASES,
+    ENERGY,
+    MAX_COND,
+    MAX_GROWTH,
+    N_MODES,
+    SOLVER_PARAMS,
+    TOL,
     PODMethod,
     as_int_list,
     check_datasets,
@@ -41,6 +48,7 @@ from podbench.sysid.methods.base import (
     select_basis,
     solve_deconvolution,
 )
+from podbench.sysid.params import Interval, Options, check_param
 
 __all__ = ["SingleLoad", "MultipleLoad", "KERNEL_TAIL", "kernel_lags"]
 
@@ -49,7 +57,6 @@ KERNEL_TAIL = 1e-6
 fraction of the identified kernel's energy, ``Σ_{s≥L} ‖C(t_s)‖²_F <= KERNEL_TAIL ·
 Σ_s ‖C(t_s)‖²_F`` (fixed in advance; it reads only the kernel fitted on the training records)."""
 
-_BASES = ("first", "all")
 
 
 def kernel_lags(kernel: np.ndarray, tail: float = KERNEL_TAIL) -> int:
@@ -75,13 +82,11 @@ def kernel_lags(kernel: np.ndarray, tail: float = KERNEL_TAIL) -> int:
     return int(np.flatnonzero(beyond <= tail * total)[0]) + 1
 
 
+N_LAGS: list = [None, Options("auto"), Interval("integer", 1)]
+
+
 def _check_n_lags(n_lags):
-    if n_lags is None or n_lags == "auto":
-        return n_lags
-    if isinstance(n_lags, bool) or not isinstance(n_lags, (int, np.integer)) or n_lags < 1:
-        raise InputError(f"Parameter `n_lags`: expected None, 'auto' or an integer >= 1, "
-                         f"got {n_lags!r}")
-    return int(n_lags)
+    return check_param(n_lags, "n_lags", N_LAGS)
 
 
 def _all_records_basis(Ws, k: int):
@@ -219,6 +224,8 @@ class SingleLoad(_ForcedMethod):
     abbreviation = "SL"
     excitation_kind = "forced"
     n_records = (1, 1)
+    _parameter_constraints = {"n_modes": N_MODES, "energy": ENERGY, **SOLVER_PARAMS,
+                              "tol": TOL, "max_growth": MAX_GROWTH, "n_lags": N_LAGS}
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
                  tol=1e-6, max_growth=1e8, n_lags=None):
@@ -229,14 +236,6 @@ class SingleLoad(_ForcedMethod):
         self.tol = tol
         self.max_growth = max_growth
         self.n_lags = n_lags
-
-    def _validate_params(self) -> None:
-        check_n_modes(self.n_modes)
-        check_energy(self.energy)
-        make_method_solver(self.solver, self.solver_options)
-        check_tol(self.tol)
-        check_max_growth(self.max_growth)
-        _check_n_lags(self.n_lags)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -415,6 +414,8 @@ class MultipleLoad(_ForcedMethod):
     excitation_kind = "forced"
     coupled = True
     records_per_mode = True
+    _parameter_constraints = {"n_modes": N_MODES, **SOLVER_PARAMS, "max_cond": MAX_COND,
+                              "max_growth": MAX_GROWTH, "basis": BASES, "n_lags": N_LAGS}
 
     def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None):
@@ -425,14 +426,6 @@ class MultipleLoad(_ForcedMethod):
         self.max_growth = max_growth
         self.basis = basis
         self.n_lags = n_lags
-
-    def _validate_params(self) -> None:
-        check_n_modes(self.n_modes)
-        make_method_solver(self.solver, self.solver_options)
-        check_max_cond(self.max_cond)
-        check_max_growth(self.max_growth)
-        check_choice(self.basis, "basis", _BASES)
-        _check_n_lags(self.n_lags)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")

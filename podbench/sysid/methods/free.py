@@ -9,9 +9,13 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.core.records import Record, is_record
-from podbench.core.validation import check_choice
 from podbench.errors import IllConditionedError, InputError
 from podbench.sysid.methods.base import (
+    BASES,
+    ENERGY,
+    MAX_COND,
+    N_MODES,
+    TOL,
     PODMethod,
     as_int_list,
     check_datasets,
@@ -26,10 +30,12 @@ from podbench.sysid.methods.base import (
     modal_share_too_small,
     select_basis,
 )
+from podbench.sysid.params import Options
 
 __all__ = ["POVR", "MDS"]
 
 _EXCITATIONS = ("displacement", "velocity")
+EXCITATIONS: list = [Options(*_EXCITATIONS)]
 _X0 = {"displacement": "w0", "velocity": "v0"}  # the record field each excitation reads
 # (noun, symbol, what of the POC is divided by) per excitation, for messages
 _WORD = {
@@ -104,18 +110,14 @@ class POVR(PODMethod):
     abbreviation = "POVR"
     excitation_kind = "free"
     n_records = (1, 1)
+    _parameter_constraints = {"n_modes": N_MODES, "excitation": EXCITATIONS,
+                              "energy": ENERGY, "tol": TOL}
 
     def __init__(self, *, n_modes=None, excitation="displacement", energy=0.99, tol=1e-6):
         self.n_modes = n_modes
         self.excitation = excitation
         self.energy = energy
         self.tol = tol
-
-    def _validate_params(self) -> None:
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
-        check_n_modes(self.n_modes)
-        check_energy(self.energy)
-        check_tol(self.tol)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
@@ -280,6 +282,8 @@ class MDS(PODMethod):
     excitation_kind = "free"
     coupled = True
     records_per_mode = True
+    _parameter_constraints = {"excitation": EXCITATIONS, "n_modes": N_MODES,
+                              "max_cond": MAX_COND, "basis": BASES}
 
     def __init__(self, *, excitation="displacement", n_modes=None, max_cond=1e10,
                  basis="first"):
@@ -287,12 +291,6 @@ class MDS(PODMethod):
         self.n_modes = n_modes
         self.max_cond = max_cond
         self.basis = basis
-
-    def _validate_params(self) -> None:
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
-        check_n_modes(self.n_modes)
-        check_max_cond(self.max_cond)
-        check_choice(self.basis, "basis", ("first", "all"))
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)

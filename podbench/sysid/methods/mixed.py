@@ -52,10 +52,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.core.validation import check_choice
 from podbench.errors import DimensionError, IllConditionedError, InputError
 from podbench.sysid.deconvolution import convolution_product, convolve
 from podbench.sysid.methods.base import (
+    ENERGY,
+    MAX_GROWTH,
+    N_MODES,
+    SOLVER_PARAMS,
+    TOL,
     PODMethod,
     as_int_list,
     check_datasets,
@@ -76,6 +80,7 @@ from podbench.sysid.methods.base import (
 from podbench.sysid.methods.forced import MultipleLoad
 from podbench.sysid.methods.free import MDS
 from podbench.sysid.methods.superposition import Superposition
+from podbench.sysid.params import Options
 
 __all__ = ["MixedResponse"]
 
@@ -152,6 +157,9 @@ class MixedResponse(PODMethod):
     abbreviation = "MR"
     excitation_kind = "mixed"
     n_records = (3, 3)
+    _parameter_constraints = {"n_modes": N_MODES, "energy": ENERGY, **SOLVER_PARAMS,
+                              "velocity_scaling": [Options(*_SCALINGS)], "tol": TOL,
+                              "max_growth": MAX_GROWTH}
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
                  velocity_scaling="finite_difference", tol=1e-6, max_growth=1e8):
@@ -162,14 +170,6 @@ class MixedResponse(PODMethod):
         self.velocity_scaling = velocity_scaling
         self.tol = tol
         self.max_growth = max_growth
-
-    def _validate_params(self) -> None:
-        check_n_modes(self.n_modes)
-        check_energy(self.energy)
-        make_method_solver(self.solver, self.solver_options)
-        check_choice(self.velocity_scaling, "velocity_scaling", _SCALINGS)
-        check_tol(self.tol)
-        check_max_growth(self.max_growth)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "w0", "v0", "dt")

@@ -21,6 +21,7 @@ import numpy as np
 from podbench.errors import InputError, NotFittedError
 from podbench.sysid.methods.base import PODMethod, check_n_modes, select_basis
 from podbench.sysid.methods.forced import MultipleLoad
+from podbench.sysid.params import Interval
 from podbench.sysid.pod import snapshot_svd
 
 __all__ = ["PeerMethod", "require", "simulate", "holdout_split"]
@@ -92,21 +93,10 @@ def relative_error(Y_hat, Y) -> float:
     return float(np.linalg.norm(Y_hat - Y) / ny) if ny > 0 else float(np.linalg.norm(Y_hat))
 
 
-def check_holdout(holdout) -> float:
-    if isinstance(holdout, bool) or not isinstance(holdout, (int, float)) or \
-            not 0.05 <= holdout <= 0.5:
-        raise InputError(f"Parameter `holdout`: must be a fraction in [0.05, 0.5] of each "
-                         f"training record, got {holdout!r}")
-    return float(holdout)
-
-
-def check_int_or_none(value, name: str, *, lo: int = 1):
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise InputError(f"Parameter `{name}`: must be an integer >= {lo} or None, "
-                         f"got {value!r}")
-    return int(value)
+HOLDOUT: list = [Interval("number", 0.05, 0.5, closed="both")]
+"""``holdout``: the fraction of each training record the hold-out rule holds out."""
+INT_OR_NONE: list = [None, Interval("integer", 1)]
+DELAYS: list = [Interval("integer", 1)]
 
 
 class PeerMethod(PODMethod):
@@ -150,6 +140,32 @@ class PeerMethod(PODMethod):
         Ys = np.stack([U.T @ r.W for r in recs])  # (R, k, n)
         Us = np.stack([U.T @ r.F for r in recs])
         return recs, U, povs, pocs, Ys, Us
+
+    def _respond_delayed(self, A, B, C, Uin):
+        """Zero-state response of the delay model ``(A, B)`` read out by ``C`` to the basis
+        inputs ``Uin`` (``(k, n)`` or ``(R, k, n)``)."""
+        k = Uin.shape[-2]
+        R = Uin[None] if Uin.ndim == 2 else Uin
+        _, V = delay_coordinates(np.zeros_like(R), R, self.delays)
+        out = simulate(A, B, C, np.zeros((k, B.shape[1])), V)
+        return out[0] if Uin.ndim == 2 else out
+
+    def _fit_by_rule(self, records, basis, value, candidates):
+        """Fit the basis and the model (``_identify``), the rule's hyperparameter ``value``
+        chosen by the hold-out rule among ``candidates`` when None; sets the basis,
+        ``holdout_errors_`` and ``fit_residual_`` and returns ``(model, value)``."""
+        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
+        errors = None
+        if value is None:
+            value, errors = self._select_by_holdout(Ys, Us, candidates(U.shape[1]),
+                                                    self._identify, self._respond,
+                                                    self.holdout)
+        model = self._identify(Ys, Us, value)
+        self._set_basis(U, povs, pocs, recs[0].dt)
+        self.holdout_errors_ = errors
+        Yh = self._respond(model, Us)
+        self.fit_residual_ = float(np.linalg.norm(Yh - Ys) / np.linalg.norm(Ys))
+        return model, value
 
     def _set_basis(self, U, povs, pocs, dt):
         self.modes_ = U

@@ -50,15 +50,15 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.core.records import is_record
-from podbench.core.validation import check_choice
 from podbench.errors import InputError
 from podbench.sysid.methods.free import MDS, first_column_w0
 from podbench.sysid.methods.peers._common import (
+    HOLDOUT,
+    INT_OR_NONE,
     PeerMethod,
-    check_holdout,
-    check_int_or_none,
     simulate,
 )
+from podbench.sysid.params import Interval, Options
 from podbench.sysid.statespace import era_realization, realize
 
 __all__ = ["ERA", "okid_markov", "era_realization", "free_markov"]
@@ -206,6 +206,9 @@ class ERA(PeerMethod):
     """
 
     abbreviation = "ERA"
+    _parameter_constraints = {"n_modes": INT_OR_NONE, "order": INT_OR_NONE,
+                              "max_order": [Interval("integer", 1)], "lags": INT_OR_NONE,
+                              "holdout": HOLDOUT, "excitation": [Options(*_EXCITATIONS)]}
 
     def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
                  excitation="forced"):
@@ -232,15 +235,6 @@ class ERA(PeerMethod):
 
             return MDS(excitation=self.excitation, n_modes=self.n_modes)
         return super().coupled_twin()
-
-    def _validate_params(self) -> None:
-        check_int_or_none(self.n_modes, "n_modes")
-        check_int_or_none(self.order, "order")
-        if check_int_or_none(self.max_order, "max_order") is None:
-            raise InputError("Parameter `max_order`: must be an integer >= 1, got None")
-        check_int_or_none(self.lags, "lags")
-        check_holdout(self.holdout)
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
 
     # ------------------------------------------------------------------ identification
     def _lags(self, k: int) -> int:
