@@ -205,10 +205,15 @@ def check_param(value, name: str, constraints) -> Any:
 def validate_params(obj) -> dict:
     """Check every declared hyperparameter of ``obj`` (its class's
     ``_parameter_constraints``); returns ``{name: value}`` as used (numbers as ``int`` /
-    ``float``). Parameters without a declaration are returned unchecked."""
+    ``float``): the constructor's parameters (those without a declaration unchecked), then
+    declared ones the object has from a base class's constructor (a subclass that passes
+    some to ``super().__init__``)."""
     declared = getattr(type(obj), "_parameter_constraints", None) or {}
+    names = dict.fromkeys([*type(obj)._get_param_names(), *declared])
     out = {}
-    for name in type(obj)._get_param_names():
+    for name in names:
+        if not hasattr(obj, name):
+            continue
         value = getattr(obj, name)
         out[name] = check_param(value, name, declared[name]) if name in declared else value
     return out

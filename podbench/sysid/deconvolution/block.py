@@ -207,5 +207,6 @@ class BlockSubstitution(Solver):
         self.leaf = leaf
 
     def _solve(self, system: ConvolutionSystem):
-        X, info = _block(system, **self._params())
+        p = self._params()
+        X, info = _block(system, p["zero_tol"], p["max_cond"], p["max_growth"], p["leaf"])
         return system.stack(X), info
