@@ -96,6 +96,16 @@ class PODMethod(ParamsMixin):
         return None
 
     # ------------------------------------------------------------------ fitted state
+    def _set_basis(self, U, povs, pocs, dt: float | None = None) -> None:
+        """Set the fitted basis (``modes_``, ``povs_``, ``pocs_``, ``n_modes_``) and, for a
+        method that has one, the training sampling interval ``dt_``."""
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.n_modes_ = U.shape[1]
+        if dt is not None:
+            self.dt_ = dt
+
     def _check_is_fitted(self) -> None:
         if not hasattr(self, "modes_"):
             raise NotFittedError(
@@ -187,6 +197,19 @@ class PODMethod(ParamsMixin):
                     )
         return recs
 
+    def _records_or_none(self, records, **beside) -> list[Record] | None:
+        """The training records (:meth:`_training_records`) when ``fit`` got the record form
+        (a record or a sequence of records; then none of the array-form arguments
+        ``beside`` may be given too), else None (the array form)."""
+        if not is_record_input(records):
+            return None
+        for name, value in beside.items():
+            if value is not None:
+                raise InputError(
+                    f"Parameter `{name}`: give it in the records (their "
+                    f"{_BESIDE.get(name, name)}), not beside them")
+        return self._training_records(records)
+
     def _target_record(self, record, name: str = "record", *, fields: bool = True) -> Record:
         """A record to predict from: the fields the method needs (unless ``fields`` is
         False), its ``dt`` equal to the training one (when the method has one)."""
@@ -209,6 +232,7 @@ class PODMethod(ParamsMixin):
         return rec
 
 
+_BESIDE = {"x0": "w0 or v0"}  # the record field of an array-form argument, for messages
 _FIELD_WORDS = {
     "W": "the displacements W (in)",
     "F": "the force matrix F (lbf)",

@@ -42,7 +42,6 @@ from podbench.sysid.methods.base import (
     check_n_modes,
     check_snapshots,
     check_tol,
-    is_record_input,
     make_method_solver,
     modal_share_too_small,
     select_basis,
@@ -103,13 +102,6 @@ def _relative_residual(Qs, X, B, dt) -> float:
     return float(np.linalg.norm(AX - B) / nb) if nb > 0 else float(np.linalg.norm(AX))
 
 
-def _no_arrays_beside_records(**given) -> None:
-    for name, value in given.items():
-        if value is not None:
-            raise InputError(f"Parameter `{name}`: give it in the records (their {name}), "
-                             "not beside them")
-
-
 class _ForcedMethod(PODMethod):
     """What SL and ML share: the new force of a record, the solver diagnostics."""
 
@@ -153,6 +145,31 @@ class _ForcedMethod(PODMethod):
             kern = np.concatenate([kern, np.zeros(kern.shape[:2] + (n_new - kern.shape[2],))],
                                   axis=2)
         return kern
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new load: ``W̃ = U Ṽ`` (Eq. 3.45) with the modal response of
+        Eq. 3.44 (SL) or Eq. 3.49 (ML).
+
+        Parameters
+        ----------
+        record : record, or (m, n') array_like
+            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
+            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
+            ``n_lags``), column 0 at ``t = 0``.
+
+        Returns
+        -------
+        (m, n') ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        F = self._check_new_force(self._new_force(record))
+        return self.modes_ @ self._modal_response(self._kernel_for(F.shape[1]),
+                                                  self.modes_.T @ F)
+
+    def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """The modal response ``(k, n')`` to the modal forces ``q``, by the method's rule."""
+        raise NotImplementedError
 
     @property
     def diagnostics_(self) -> dict:
@@ -265,10 +282,9 @@ class SingleLoad(_ForcedMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            _no_arrays_beside_records(F=F, dt=dt)
-            rec = self._training_records(records)[0]
-            W, F, dt = rec.W, rec.F, rec.dt
+        recs = self._records_or_none(records, F=F, dt=dt)
+        if recs is not None:
+            W, F, dt = recs[0].W, recs[0].F, recs[0].dt
         else:
             dt = check_dt(dt)
             W = check_snapshots(records)
@@ -306,36 +322,15 @@ class SingleLoad(_ForcedMethod):
         nv = np.linalg.norm(Vh)
         self.solver_ = solver
         self.solver_info_ = infos
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs, dt)
         self.kernel_ = self._truncate(kernel)
         self.fit_residual_ = float(np.sqrt(num) / nv) if nv > 0 else float(np.sqrt(num))
-        self.dt_ = dt
-        self.n_modes_ = k
         return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new load (Eqs. 3.44–3.45).
-
-        Parameters
-        ----------
-        record : record, or (m, n') array_like
-            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
-            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
-            ``n_lags``), column 0 at ``t = 0``.
-
-        Returns
-        -------
-        (m, n') ndarray
-            Predicted displacements (in).
-        """
-        self._check_is_fitted()
-        F = self._check_new_force(self._new_force(record))
-        q = self.modes_.T @ F
+    def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``ṽ_i = c_ii * q̃_i`` (Eq. 3.44), the diagonal of the kernel only."""
         idx = np.arange(self.n_modes_)
-        v = convolve(self._kernel_for(F.shape[1])[idx, idx], q, self.dt_)
-        return self.modes_ @ v
+        return convolve(kernel[idx, idx], q, self.dt_)
 
 
 class MultipleLoad(_ForcedMethod):
@@ -451,9 +446,8 @@ class MultipleLoad(_ForcedMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            _no_arrays_beside_records(F=F, dt=dt)
-            recs = self._training_records(records)
+        recs = self._records_or_none(records, F=F, dt=dt)
+        if recs is not None:
             Ws, Fs, dt = [r.W for r in recs], [r.F for r in recs], recs[0].dt
         else:
             dt = check_dt(dt)
@@ -498,33 +492,13 @@ class MultipleLoad(_ForcedMethod):
             kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
         self.solver_ = solver
         self.solver_info_ = info
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs, dt)
         self.Cbar_ = Cbar
         self.kernel_ = self._truncate(kernel)
         self.condition_number_ = cond
         self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
-        self.dt_ = dt
-        self.n_modes_ = k
         return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new load (Eq. 3.49 and Eq. 3.45).
-
-        Parameters
-        ----------
-        record : record, or (m, n') array_like
-            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
-            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
-            ``n_lags``), column 0 at ``t = 0``.
-
-        Returns
-        -------
-        (m, n') ndarray
-            Predicted displacements (in).
-        """
-        self._check_is_fitted()
-        F = self._check_new_force(self._new_force(record))
-        v = convolve_kernel(self._kernel_for(F.shape[1]), self.modes_.T @ F, self.dt_)
-        return self.modes_ @ v
+    def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``Ṽ = [Q̃̌_1 … Q̃̌_k] C̄`` (Eq. 3.49) as a fast convolution."""
+        return convolve_kernel(kernel, q, self.dt_)

@@ -72,7 +72,6 @@ from podbench.sysid.methods.base import (
     check_profile,
     check_profiles,
     check_tol,
-    is_record_input,
     make_method_solver,
     select_basis,
     solve_deconvolution,
@@ -211,12 +210,8 @@ class MixedResponse(PODMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            for name, value in (("w0", w0), ("v0", v0), ("F", F), ("dt", dt)):
-                if value is not None:
-                    raise InputError(f"Parameter `{name}`: give it in the records (their "
-                                     f"{name}), not beside them")
-            recs = self._training_records(records)
+        recs = self._records_or_none(records, w0=w0, v0=v0, F=F, dt=dt)
+        if recs is not None:
             Ws = [r.W for r in recs]
             w0s, v0s, Fs, dt = [r.w0 for r in recs], [r.v0 for r in recs], \
                 [r.F for r in recs], recs[0].dt
@@ -275,9 +270,7 @@ class MixedResponse(PODMethod):
         self.povs_disp_, self.povs_vel_ = nD, nV
         self.solver_ = solver
         self.solver_info_ = infos
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs, dt)
         self.disp_histories_ = D
         self.vel_histories_ = V
         self.kernel_ = kernel
@@ -287,8 +280,6 @@ class MixedResponse(PODMethod):
         self.initial_velocity_coordinates_ = V0[:, 0]
         self.fit_residual_ = float(np.sqrt(res2 / rhs2)) if rhs2 > 0 else float(np.sqrt(res2))
         self.velocity_scaling_ = self.velocity_scaling
-        self.dt_ = dt
-        self.n_modes_ = k
         return self
 
     def predict(self, record=None, *, w0=None, v0=None, F=None) -> np.ndarray:

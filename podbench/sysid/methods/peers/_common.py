@@ -110,6 +110,14 @@ class PeerMethod(PODMethod):
 
     excitation_kind = "forced"
     coupled = False
+    #: ``(module, method, library)`` of the optional library the peer wraps (checked with
+    #: the hyperparameters, so a missing library fails when a scenario is read).
+    _requires: tuple[str, str, str] | None = None
+
+    def _validate_params(self) -> None:
+        super()._validate_params()
+        if self._requires is not None:
+            require(*self._requires)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -166,13 +174,6 @@ class PeerMethod(PODMethod):
         Yh = self._respond(model, Us)
         self.fit_residual_ = float(np.linalg.norm(Yh - Ys) / np.linalg.norm(Ys))
         return model, value
-
-    def _set_basis(self, U, povs, pocs, dt):
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
-        self.n_modes_ = U.shape[1]
-        self.dt_ = dt
 
     def _select_by_holdout(self, Ys, Us, candidates, identify, respond, holdout):
         """The hold-out rule: the first (simplest) candidate whose hold-out error is within

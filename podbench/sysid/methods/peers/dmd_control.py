@@ -70,6 +70,7 @@ class DMDc(PeerMethod):
     """
 
     abbreviation = "DMDc"
+    _requires = ("pydmd", "DMDc", "PyDMD")
     _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
                               "svd_rank": [None, *_PYDMD_RANK], "svd_rank_omega": _PYDMD_RANK,
                               "holdout": HOLDOUT}
@@ -81,10 +82,6 @@ class DMDc(PeerMethod):
         self.svd_rank = svd_rank
         self.svd_rank_omega = svd_rank_omega
         self.holdout = holdout
-
-    def _validate_params(self) -> None:
-        super()._validate_params()
-        require("pydmd", "DMDc", "PyDMD")
 
     def _identify(self, Ys, Us, rank):
         dmdc = require("pydmd.dmdc", "DMDc", "PyDMD")

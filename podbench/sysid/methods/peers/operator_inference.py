@@ -66,6 +66,7 @@ class OpInf(PeerMethod):
     """
 
     abbreviation = "OpInf"
+    _requires = ("opinf", "OpInf", "opinf")
     _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
                               "regularizer": [None, Interval("number", 0)], "holdout": HOLDOUT}
 
@@ -74,10 +75,6 @@ class OpInf(PeerMethod):
         self.delays = delays
         self.regularizer = regularizer
         self.holdout = holdout
-
-    def _validate_params(self) -> None:
-        super()._validate_params()
-        require("opinf", "OpInf", "opinf")
 
     def _identify(self, Ys, Us, rho):
         opinf = require("opinf", "OpInf", "opinf")
