@@ -37,8 +37,9 @@ def render() -> str:
     parts = [BEGIN, ""]
     for cls in METHODS:
         parts += [f"**`{cls.__name__}`** ({cls.abbreviation})", "", parameter_table(cls), ""]
-    for name, cls in SOLVERS.items():
-        parts += [f"**`{cls.__name__}`** (`solver=\"{name}\"`)", "", parameter_table(cls), ""]
+    for name, solver in SOLVERS.items():
+        parts += [f"**`{solver.__name__}`** (`solver=\"{name}\"`)", "",
+                  parameter_table(solver), ""]
     parts.append(END)
     return "\n".join(parts)
 

@@ -354,7 +354,7 @@ class Subspace(Solver):
         held = best = None
         candidates = []
         i = horizons[-1]
-        if fixed:
+        if self.order is not None:
             order = int(self.order)
         else:
             # the rule runs on the first n_rule samples of every record: poles from the

@@ -50,7 +50,8 @@ iteration limit; the dense least squares itself truncates at ``eps·σ_1``); at 
 every direction is damped by at least a factor 2."""
 
 
-def _circulant_spectrum(Gh: np.ndarray, Yh: np.ndarray, N: int):
+def _circulant_spectrum(Gh: np.ndarray, Yh: np.ndarray,
+                        N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-frequency SVD of the circulant embedding (length ``N``) of Eq. 3.48, from the
     transforms ``Gh = Δt·rfft(G, N)`` (F, n_cases, k) and ``Yh = rfft(Y, N)`` (F, n_cases, r).
 
@@ -521,7 +522,7 @@ class CGLS(Solver):
                               "max_iter": [None, COUNT]}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, tol: float = 1e-10,
-                 max_iter: int = 1000):
+                 max_iter: int | None = 1000):
         self.reg = reg
         self.tol = tol
         self.max_iter = max_iter

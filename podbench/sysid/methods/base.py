@@ -17,6 +17,7 @@ how the data were produced.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -72,6 +73,11 @@ class PODMethod(ParamsMixin):
     n_records: tuple[int, int | None] = (1, None)
     #: True when ``k`` may not exceed the number of training records (MDS, ML).
     records_per_mode = False
+
+    # fitted state (set by ``fit``; declared for type checkers, absent before)
+    modes_: np.ndarray
+    n_modes_: int
+    dt_: float
 
     def _validate_params(self) -> None:
         """Check the declared hyperparameters (:mod:`podbench.sysid.params`) and, for a
@@ -190,7 +196,7 @@ class PODMethod(ParamsMixin):
         if "dt" in self.required_fields():
             dt0 = recs[0].dt
             for j, r in enumerate(recs[1:], start=1):
-                if not np.isclose(r.dt, dt0, rtol=1e-12, atol=0.0):
+                if not np.isclose(cast(float, r.dt), cast(float, dt0), rtol=1e-12, atol=0.0):
                     raise DimensionError(
                         f"Parameter `{name}[{j}].dt`: {r.dt:g} s differs from `{name}[0].dt` = "
                         f"{dt0:g} s; all training records need one sampling interval"

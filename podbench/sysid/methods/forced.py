@@ -16,6 +16,8 @@ Newmark response to a force with ``F[:, 0] ≠ 0`` is *not* a causal convolution
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from podbench.core.records import is_record
@@ -104,6 +106,9 @@ def _relative_residual(Qs, X, B, dt) -> float:
 
 class _ForcedMethod(PODMethod):
     """What SL and ML share: the new force of a record, the solver diagnostics."""
+
+    n_lags: int | str | None
+    kernel_: np.ndarray
 
     def _new_force(self, record):
         if is_record(record):
@@ -448,7 +453,7 @@ class MultipleLoad(_ForcedMethod):
         self._validate_params()
         recs = self._records_or_none(records, F=F, dt=dt)
         if recs is not None:
-            Ws, Fs, dt = [r.W for r in recs], [r.F for r in recs], recs[0].dt
+            Ws, Fs, dt = [r.W for r in recs], [cast(np.ndarray, r.F) for r in recs], recs[0].dt
         else:
             dt = check_dt(dt)
             Ws = check_datasets(records)

@@ -50,6 +50,8 @@ training records (:func:`~podbench.methods.mixed_design.design_conditioning`).
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from podbench.errors import DimensionError, IllConditionedError, InputError
@@ -213,8 +215,9 @@ class MixedResponse(PODMethod):
         recs = self._records_or_none(records, w0=w0, v0=v0, F=F, dt=dt)
         if recs is not None:
             Ws = [r.W for r in recs]
-            w0s, v0s, Fs, dt = [r.w0 for r in recs], [r.v0 for r in recs], \
-                [r.F for r in recs], recs[0].dt
+            w0s, v0s, Fs = ([cast(np.ndarray, getattr(r, f)) for r in recs]
+                            for f in ("w0", "v0", "F"))
+            dt = recs[0].dt
         else:
             if v0 is None or F is None:
                 raise InputError("Parameter `v0` and `F`: the initial velocities (in/s) and "

@@ -120,4 +120,4 @@ class Superposition(PODMethod):
     def predict(self, record) -> np.ndarray:
         """The sum of the parts' predictions for ``record`` (each reads its own fields)."""
         self._check_is_fitted()
-        return sum(np.asarray(p.predict(record), dtype=float) for p in self.parts_)
+        return np.asarray(sum(np.asarray(p.predict(record), dtype=float) for p in self.parts_))

@@ -15,6 +15,7 @@ Sampling: column ``j`` is ``t_j = j·Δt``; training and target records start at
 from __future__ import annotations
 
 import importlib
+from typing import cast
 
 import numpy as np
 
@@ -205,11 +206,11 @@ class PeerMethod(PODMethod):
 
     def _new_inputs(self, record) -> np.ndarray:
         self._check_is_fitted()
-        rec = self._target_record(record)
-        if rec.F.shape[0] != self.modes_.shape[0]:
-            raise InputError(f"Parameter `record.F`: {rec.F.shape[0]} rows, the peer was fitted "
+        F = cast(np.ndarray, self._target_record(record).F)  # a field the peer requires
+        if F.shape[0] != self.modes_.shape[0]:
+            raise InputError(f"Parameter `record.F`: {F.shape[0]} rows, the peer was fitted "
                              f"on {self.modes_.shape[0]} sensors")
-        return self.modes_.T @ rec.F
+        return self.modes_.T @ F
 
     def _check_is_fitted(self) -> None:
         if not hasattr(self, "modes_"):

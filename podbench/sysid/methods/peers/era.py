@@ -220,7 +220,7 @@ class ERA(PeerMethod):
         self.excitation = excitation
 
     @property
-    def excitation_kind(self) -> str:
+    def excitation_kind(self) -> str:  # type: ignore[override]
         """``"free"`` for the free-decay variant, else ``"forced"``."""
         return "forced" if self.excitation == "forced" else "free"
 
@@ -288,9 +288,12 @@ class ERA(PeerMethod):
                 h, _, (P, sv, Qt, H1) = factors["f"]
                 return realize(P, sv, Qt, H1, h[0], min(cand, int(np.sum(sv > 0))))
 
-            order, errors = self._select_by_holdout(
-                Ys, Us, candidates, identify, lambda mdl, Uin: simulate(*mdl, Uin),
-                self.holdout)
+            def respond(mdl, Uin):
+                A, B, C, D = mdl
+                return simulate(A, B, C, D, Uin)
+
+            order, errors = self._select_by_holdout(Ys, Us, candidates, identify, respond,
+                                                    self.holdout)
         else:
             order = self.order
             if order > rank_cap:
