@@ -309,14 +309,7 @@ def check_profiles(xs, n_sets: int, m: int, name: str) -> list[np.ndarray]:
             f"Parameter `{name}`: expected {n_sets} profiles (one per data set), got a single "
             f"1-D array of shape {xs.shape}"
         )
-    try:
-        count = len(xs)
-    except TypeError:
-        raise InputError(f"Parameter `{name}`: expected a sequence of profiles") from None
-    if count != n_sets:
-        raise DimensionError(
-            f"Parameter `{name}`: expected {n_sets} profiles (one per data set), got {count}"
-        )
+    _check_count(xs, n_sets, name, "profiles")
     return [check_profile(x, m, f"{name}[{j}]") for j, x in enumerate(xs)]
 
 
@@ -327,17 +320,21 @@ def check_forces(Fs, Ws, name: str = "F") -> list[np.ndarray]:
             f"Parameter `{name}`: expected a sequence of (m, n) force matrices, got a single "
             f"2-D array of shape {Fs.shape}; wrap it in a list"
         )
-    try:
-        count = len(Fs)
-    except TypeError:
-        raise InputError(f"Parameter `{name}`: expected a sequence of force matrices") from None
-    if count != len(Ws):
-        raise DimensionError(
-            f"Parameter `{name}`: expected {len(Ws)} force matrices (one per data set), "
-            f"got {count}"
-        )
+    _check_count(Fs, len(Ws), name, "force matrices")
     pairs = enumerate(zip(Fs, Ws, strict=True))
     return [check_force(F, W, f"{name}[{j}]") for j, (F, W) in pairs]
+
+
+def _check_count(xs, n_sets: int, name: str, what: str) -> None:
+    """``xs`` is a sequence of ``n_sets`` items, one per data set."""
+    try:
+        count = len(xs)
+    except TypeError:
+        raise InputError(f"Parameter `{name}`: expected a sequence of {what}") from None
+    if count != n_sets:
+        raise DimensionError(
+            f"Parameter `{name}`: expected {n_sets} {what} (one per data set), got {count}"
+        )
 
 
 def check_force(F, W: np.ndarray, name: str = "F") -> np.ndarray:
