@@ -10,6 +10,7 @@ from __future__ import annotations
 __all__ = [
     "PodbenchError",
     "InputError",
+    "InvalidParameterError",
     "DimensionError",
     "IllConditionedError",
     "NotFittedError",
@@ -27,6 +28,21 @@ class PodbenchError(Exception):
 
 class InputError(PodbenchError, ValueError):
     """Input data that podbench cannot use (NaN/Inf, wrong type, out-of-range value)."""
+
+
+class InvalidParameterError(InputError):
+    """A hyperparameter of a method or solver with a bad value; :attr:`param` names it.
+
+    The message is one line: "Parameter `n_modes`: expected an integer >= 1, got 0"
+    (scikit-learn's ``InvalidParameterError``, podbench's message style).
+    """
+
+    def __init__(self, message: str = "", param: str | None = None):
+        super().__init__(message)
+        self.param = param
+
+    def __reduce__(self):  # keep `param` across processes
+        return type(self), (str(self), self.param)
 
 
 class DimensionError(InputError):

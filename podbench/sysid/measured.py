@@ -40,6 +40,7 @@ import io
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -304,7 +305,7 @@ def write_record(path, record, *, sensors=None, sensor_positions=None) -> Path:
     pos = sensor_positions if sensor_positions is not None else getattr(
         record, "sensor_positions", None)
     if fmt in ("npz", "mat"):
-        out = {"W": W, "F": F, "dt": dt, "sensors": np.array(labels)}
+        out: dict[str, Any] = {"W": W, "F": F, "dt": dt, "sensors": np.array(labels)}
         for name in ("w0", "v0"):
             if getattr(record, name, None) is not None:
                 out[name] = np.asarray(getattr(record, name), dtype=float)

@@ -215,7 +215,7 @@ def n_modes_for_energy(s, threshold: float = 0.99, kind: str = "sigma") -> int:
         raise InputError(f"Parameter `threshold`: must be in (0, 1], got {threshold!r}")
     cum = np.cumsum(energy_fractions(s, kind))
     # a relative slack of a few ulps so that e.g. threshold=1.0 is reachable despite round-off
-    return int(min(np.searchsorted(cum, threshold - 8 * np.finfo(float).eps) + 1, cum.size))
+    return min(int(np.searchsorted(cum, threshold - 8 * np.finfo(float).eps)) + 1, cum.size)
 
 
 def numerical_rank(s, shape: tuple[int, int]) -> int:

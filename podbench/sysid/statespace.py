@@ -41,7 +41,8 @@ def era_realization(h, blocks: int):
     return P, sv, Qt, H1
 
 
-def realize(P, sv, Qt, H1, D, order: int):
+def realize(P, sv, Qt, H1, D,
+            order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, C, D)`` of order ``N`` from :func:`era_realization` (Eq. 3)."""
     k_out, k_in = D.shape
     N = order

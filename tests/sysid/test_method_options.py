@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from podbench import Record
-from podbench.errors import DimensionError, InputError
+from podbench.errors import DimensionError, InputError, InvalidParameterError
 from podbench.sysid.methods import ERA, MDS, MultipleLoad, SingleLoad
 from podbench.sysid.methods.forced import KERNEL_TAIL, kernel_lags
 from podbench.sysid.pod import snapshot_svd
@@ -52,8 +52,11 @@ def test_mds_basis_all_is_exact_on_the_coupled_chain():
 
 @pytest.mark.parametrize("cls", [MultipleLoad, MDS])
 def test_bad_basis_choice_is_one_line_naming_it(cls):
-    with pytest.raises(InputError, match=r"^Parameter `basis`: 'every'"):
+    with pytest.raises(InvalidParameterError,
+                       match=r"^Parameter `basis`: expected one of 'first', 'all', got 'every'$"
+                       ) as info:
         cls(basis="every")._validate_params()
+    assert info.value.param == "basis" and isinstance(info.value, InputError)
 
 
 # ---------------------------------------------------------------------- n_lags
@@ -148,7 +151,8 @@ def test_era_free_predicts_beyond_the_training_length():
 
 
 def test_era_free_bad_excitation_and_too_few_profiles():
-    with pytest.raises(InputError, match=r"^Parameter `excitation`: 'free'"):
+    with pytest.raises(InvalidParameterError, match=r"^Parameter `excitation`: expected one "
+                       r"of 'forced', 'displacement', 'velocity', got 'free'$"):
         ERA(excitation="free")._validate_params()
     recs, _ = _free_records(free_case("coupled", "displacement"), "displacement")
     with pytest.raises(InputError, match="fewer than k = 5"):

@@ -17,7 +17,13 @@ import numpy as np
 import pytest
 import sklearn.base
 
-from podbench.errors import ConvergenceError, DimensionError, InputError, UnknownNameError
+from podbench.errors import (
+    ConvergenceError,
+    DimensionError,
+    InputError,
+    InvalidParameterError,
+    UnknownNameError,
+)
 from podbench.sysid import deconvolution as dc
 
 pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
@@ -288,16 +294,20 @@ def test_make_solver_builds_and_rejects():
     with pytest.raises(InputError, match=r"Parameter `solver_options`: unknown option 'regg' "
                                          r"for solver 'cgls' \(its options: reg, tol, max_iter\)"):
         dc.make_solver("cgls", {"regg": 1e-3})
-    with pytest.raises(InputError, match="Parameter `max_iter`: expected an integer"):
+    with pytest.raises(InvalidParameterError, match=r"^Parameter `max_iter`: expected None or "
+                                                    r"an integer >= 1, got 2\.5$") as info:
         dc.make_solver("cgls", {"max_iter": 2.5})
-    with pytest.raises(InputError, match="Parameter `rcond`: must be below 1"):
+    assert info.value.param == "max_iter"
+    with pytest.raises(InvalidParameterError, match=r"^Parameter `rcond`: expected a number "
+                                                    r"in \(0, 1\), got 2\.0$"):
         dc.make_solver("tls", {"rcond": 2.0})
     with pytest.raises(InputError, match="Parameters `rcond`, `noise_level`, `rank`"):
         dc.make_solver("tls", {"rcond": 1e-2, "rank": 3})
     with pytest.raises(InputError, match="Parameter `solver_options`: options \\['reg'\\] given "
                                          "with the solver instance"):
         dc.make_solver(solver, {"reg": 1.0})
-    with pytest.raises(InputError, match="Parameter `solver_options`: expected a dict"):
+    with pytest.raises(InvalidParameterError,
+                       match="Parameter `solver_options`: expected None or a dict"):
         dc.make_solver("ls", [("rcond", 1e-3)])
     with pytest.raises(InputError, match="Parameter `solver`: expected a solver name"):
         dc.make_solver(3)

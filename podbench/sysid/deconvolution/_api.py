@@ -22,6 +22,7 @@ from podbench.sysid.deconvolution.stls import STLS
 from podbench.sysid.deconvolution.subspace import Subspace
 from podbench.sysid.deconvolution.system import ConvolutionSystem
 from podbench.sysid.deconvolution.tikhonov import CGLS, FFTTikhonov
+from podbench.sysid.params import InstanceOf, check_names, check_param
 
 __all__ = [
     "make_solver",
@@ -44,6 +45,10 @@ _BUILTIN: dict[str, type[Solver]] = {
     "stls": STLS,
     "auto": Auto,
 }
+
+
+SOLVER_OPTIONS = [None, InstanceOf(Mapping, "a dict of keyword options")]
+"""What a method's ``solver_options`` (and :func:`make_solver`'s ``options``) admits."""
 
 
 def available_solvers() -> tuple[str, ...]:
@@ -96,12 +101,7 @@ def make_solver(solver, options: Mapping | None = None, *,
         Options with an instance, a bad option value (named), a class that is not a Solver,
         user code that cannot be imported.
     """
-    if options is not None and not isinstance(options, Mapping):
-        raise InputError(
-            f"Parameter `solver_options`: expected a dict of keyword options, got "
-            f"{type(options).__name__}"
-        )
-    options = dict(options or {})
+    options = dict(check_param(options, "solver_options", SOLVER_OPTIONS) or {})
     if isinstance(solver, Solver):
         if options:
             raise InputError(
@@ -133,13 +133,9 @@ def make_solver(solver, options: Mapping | None = None, *,
             f"Parameter `solver`: {label!r} is not a podbench.deconvolution.Solver subclass "
             f"(got {cls!r})"
         )
-    names = cls._get_param_names()
-    for key in options:
-        if key not in names:
-            raise UnknownOptionError(
-                f"Parameter `solver_options`: unknown option {key!r} for solver {label!r} "
-                f"(its options: {', '.join(names) or 'none'})"
-            )
+    check_names(options, cls._get_param_names(), where="Parameter `solver_options`",
+                kind="option", of=f" for solver {label!r}", error=UnknownOptionError,
+                param="solver_options")
     instance = cls(**options)
     instance._validate_params()
     return instance

@@ -20,8 +20,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from podbench.core.userimport import import_module_or_file
-from podbench.errors import DimensionError, IllConditionedError, InputError
+from podbench.errors import DimensionError, IllConditionedError, InputError, InvalidParameterError
 from podbench.sysid.deconvolution.system import ConvolutionSystem
+from podbench.sysid.params import ParamsMixin
 
 __all__ = ["Solver", "SolverResult", "UnknownOptionError", "INFO_KEYS"]
 
@@ -44,8 +45,9 @@ quantity), in this order; a solver may add its own after them:
 ``shift``       leading zero force samples shifted past."""
 
 
-class UnknownOptionError(InputError, TypeError):
-    """An option that the solver's constructor does not take (an :class:`InputError`, and a
+class UnknownOptionError(InvalidParameterError, TypeError):
+    """An option that the solver's constructor does not take (an
+    :class:`~podbench.errors.InvalidParameterError` of ``solver_options``, and a
     ``TypeError`` as an unknown keyword argument is in Python)."""
 
 
@@ -70,11 +72,13 @@ class SolverResult:
         return f"SolverResult(X=<array {self.X.shape}>, info={self.info!r})"
 
 
-class Solver:
+class Solver(ParamsMixin):
     """Base class of the deconvolution solvers.
 
     A solver of one's own: subclass, give the constructor keyword-only hyper-parameters that
-    it stores unchanged under the same names, check them in :meth:`_validate_params` (raise
+    it stores unchanged under the same names, declare what each admits in
+    ``_parameter_constraints`` (:mod:`podbench.sysid.params`; checked by
+    :meth:`_validate_params`, which a solver extends for checks across parameters, raising
     :class:`InputError` naming the parameter) and implement :meth:`_solve`, which returns
     ``X`` (``(k·n,)`` or ``(k·n, r)`` like ``system.B``'s columns) or ``(X, info)``.
     :meth:`solve` validates, calls it, checks ``X`` (shape, finite) and completes ``info``
@@ -82,6 +86,7 @@ class Solver:
 
         class ScipyLstsq(Solver):
             name = "scipy-lstsq"
+            _parameter_constraints = {"cond": [None, Interval("number", 0, 1)]}
 
             def __init__(self, *, cond=None):
                 self.cond = cond
@@ -112,43 +117,14 @@ class Solver:
     def _get_param_names(cls) -> list[str]:
         """Names of the constructor's parameters (the hyper-parameters), in order."""
         init = cls.__init__
-        if init is object.__init__:
-            return []
-        names = []
-        for p in inspect.signature(init).parameters.values():
-            if p.name == "self":
-                continue
-            if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-                raise TypeError(
-                    f"{cls.__name__}: a solver's constructor must name its hyper-parameters "
-                    f"(no *{p.name} / **{p.name})"
-                )
-            names.append(p.name)
-        return names
-
-    def get_params(self, deep: bool = True) -> dict:
-        """Hyper-parameters as a dict (``deep`` is accepted for scikit-learn; no nesting)."""
-        return {name: getattr(self, name) for name in self._get_param_names()}
-
-    def set_params(self, **params) -> Solver:
-        """Set hyper-parameters; ``TypeError`` naming an unknown one. Returns ``self``."""
-        valid = self._get_param_names()
-        for key in params:
-            if key not in valid:
-                raise TypeError(
-                    f"{type(self).__name__}.set_params: unknown parameter {key!r} (its "
-                    f"parameters: {', '.join(valid) or 'none'})"
-                )
-        for key, value in params.items():
-            setattr(self, key, value)
-        return self
-
-    def _validate_params(self) -> None:
-        """Check the hyper-parameters (no data); :class:`InputError` naming the parameter."""
-
-    def __repr__(self) -> str:
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({args})"
+        if init is not object.__init__:
+            for p in inspect.signature(init).parameters.values():
+                if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+                    raise TypeError(
+                        f"{cls.__name__}: a solver's constructor must name its "
+                        f"hyper-parameters (no *{p.name} / **{p.name})"
+                    )
+        return super()._get_param_names()
 
     # ------------------------------------------------------------------ solving
     def solve(self, system: ConvolutionSystem) -> SolverResult:

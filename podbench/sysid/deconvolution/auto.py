@@ -44,7 +44,6 @@ rubber-band beam's ML records cgls is better.
 
 from __future__ import annotations
 
-from podbench.core.validation import check_choice, check_positive
 from podbench.errors import ConvergenceError, IllConditionedError, InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.block import BlockSubstitution
@@ -57,6 +56,7 @@ from podbench.sysid.deconvolution.kernel import (
 from podbench.sysid.deconvolution.realization import Realization
 from podbench.sysid.deconvolution.subspace import Subspace
 from podbench.sysid.deconvolution.system import ConvolutionSystem
+from podbench.sysid.params import COUNT, POSITIVE, Options
 
 __all__ = ["Auto", "AUTO_THRESHOLD", "AUTO_TEST_UNKNOWNS"]
 
@@ -96,6 +96,9 @@ class Auto(Solver):
 
     name = "auto"
     structured = True
+    _parameter_constraints = {"threshold": [POSITIVE], "max_growth": [POSITIVE],
+                              "kernel": [Options("dc", "tc")], "n_hyper": [None, COUNT],
+                              "robust": [Options("subspace", "kernel", "realization")]}
 
     def __init__(self, *, threshold: float = AUTO_THRESHOLD, max_growth: float = 1e4,
                  kernel: str = "dc", n_hyper: int | None = DEFAULT_N_HYPER,
@@ -114,12 +117,6 @@ class Auto(Solver):
             m = max(16, AUTO_TEST_UNKNOWNS // system.k)
             m = None if m * system.k >= MAX_HYPER_UNKNOWNS else m
         return KernelRegularized(kernel=self.kernel, n_hyper=m)
-
-    def _validate_params(self) -> None:
-        check_positive(self.threshold, "threshold")
-        check_positive(self.max_growth, "max_growth")
-        self._test()._validate_params()
-        check_choice(self.robust, "robust", ("subspace", "kernel", "realization"))
 
     def _solve(self, system: ConvolutionSystem):
         extra = {"threshold": float(self.threshold)}

@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft
 
-from podbench.core.validation import check_positive
 from podbench.errors import IllConditionedError, InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.system import ConvolutionSystem
+from podbench.sysid.params import COUNT, NON_NEGATIVE, POSITIVE
 
 __all__ = ["BlockSubstitution", "block_substitution"]
 
@@ -123,15 +123,9 @@ def block_substitution(
         ``C̄`` (Eq. 3.42), as :func:`least_squares` on the dense matrix would return.
     """
     system = ConvolutionSystem(Q_list, B, dt)
-    X, _ = _block(system, *_block_params(zero_tol, max_cond, max_growth, leaf))
+    X, _ = _block(system, **BlockSubstitution(zero_tol=zero_tol, max_cond=max_cond,
+                                             max_growth=max_growth, leaf=leaf)._params())
     return system.stack(X)
-
-
-def _block_params(zero_tol, max_cond, max_growth, leaf):
-    return (check_positive(zero_tol, "zero_tol", allow_zero=True),
-            check_positive(max_cond, "max_cond"),
-            check_positive(max_growth, "max_growth"),
-            check_positive(leaf, "leaf", integer=True))
 
 
 def _block(system: ConvolutionSystem, zero_tol: float, max_cond: float, max_growth: float,
@@ -202,6 +196,8 @@ class BlockSubstitution(Solver):
 
     name = "block"
     structured = True
+    _parameter_constraints = {"zero_tol": [NON_NEGATIVE], "max_cond": [POSITIVE],
+                              "max_growth": [POSITIVE], "leaf": [COUNT]}
 
     def __init__(self, *, zero_tol: float = 0.0, max_cond: float = 1e8,
                  max_growth: float = 1e8, leaf: int = 32):
@@ -210,10 +206,7 @@ class BlockSubstitution(Solver):
         self.max_growth = max_growth
         self.leaf = leaf
 
-    def _validate_params(self) -> None:
-        _block_params(self.zero_tol, self.max_cond, self.max_growth, self.leaf)
-
     def _solve(self, system: ConvolutionSystem):
-        X, info = _block(system, *_block_params(self.zero_tol, self.max_cond,
-                                                self.max_growth, self.leaf))
+        p = self._params()
+        X, info = _block(system, p["zero_tol"], p["max_cond"], p["max_growth"], p["leaf"])
         return system.stack(X), info

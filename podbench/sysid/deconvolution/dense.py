@@ -24,6 +24,7 @@ from podbench.sysid.deconvolution._base import (
     relative_residual,
 )
 from podbench.sysid.deconvolution.system import DENSE_MAX_BYTES, ConvolutionSystem
+from podbench.sysid.params import COUNT, FRACTION, POSITIVE, Boolean, Interval, Options
 
 __all__ = [
     "DenseSolver",
@@ -292,12 +293,10 @@ class DenseSolver(Solver):
     """
 
     structured = False
+    _parameter_constraints = {"max_dense_bytes": [POSITIVE]}
 
     def __init__(self, *, max_dense_bytes: float = DENSE_MAX_BYTES):
         self.max_dense_bytes = max_dense_bytes
-
-    def _validate_params(self) -> None:
-        check_positive(self.max_dense_bytes, "max_dense_bytes")
 
     def _solve_matrix(self, A: np.ndarray, B: np.ndarray):
         raise NotImplementedError(
@@ -348,16 +347,12 @@ class LeastSquares(DenseSolver):
     """
 
     name = "ls"
+    _parameter_constraints = {"rcond": [None, POSITIVE], "max_dense_bytes": [POSITIVE]}
 
     def __init__(self, *, rcond: float | None = None,
                  max_dense_bytes: float = DENSE_MAX_BYTES):
         self.rcond = rcond
         self.max_dense_bytes = max_dense_bytes
-
-    def _validate_params(self) -> None:
-        super()._validate_params()
-        if self.rcond is not None:
-            check_positive(self.rcond, "rcond")
 
     def _solve_matrix(self, A, B):
         rcond = None if self.rcond is None else check_positive(self.rcond, "rcond")
@@ -387,6 +382,10 @@ class TruncatedTLS(DenseSolver):
     """
 
     name = "tls"
+    _parameter_constraints = {"rcond": [None, FRACTION], "noise_level": [None, POSITIVE],
+                              "rank": [None, Options("gap"), Interval("integer", 0)],
+                              "max_columns": [None, COUNT], "scale": [Boolean()],
+                              "max_dense_bytes": [POSITIVE]}
 
     def __init__(self, *, rcond: float | None = None, noise_level: float | None = None,
                  rank: int | str | None = None, max_columns: int | None = None,
@@ -401,21 +400,6 @@ class TruncatedTLS(DenseSolver):
     def _validate_params(self) -> None:
         super()._validate_params()
         _check_rule(self.rcond, self.noise_level, self.rank)
-        if self.rcond is not None:
-            rcond = check_positive(self.rcond, "rcond")
-            if rcond >= 1:
-                raise InputError(f"Parameter `rcond`: must be below 1, got {self.rcond!r}")
-        if self.noise_level is not None:
-            check_positive(self.noise_level, "noise_level")
-        if isinstance(self.rank, str):
-            if self.rank != "gap":
-                raise InputError(
-                    f"Parameter `rank`: expected an integer or 'gap', got {self.rank!r}")
-        elif self.rank is not None:
-            check_positive(self.rank, "rank", integer=True, allow_zero=True)
-        if not isinstance(self.scale, (bool, np.bool_)):
-            raise InputError(f"Parameter `scale`: expected True or False, got {self.scale!r}")
-        _tls_limit(self.max_columns)
 
     def _solve(self, system: ConvolutionSystem):
         N, M = system.shape

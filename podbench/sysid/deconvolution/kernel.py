@@ -41,10 +41,11 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
-from podbench.core.validation import check_choice, check_positive
-from podbench.errors import InputError
+from podbench.errors import InvalidParameterError
 from podbench.sysid.deconvolution._base import Solver
+from podbench.sysid.deconvolution._cg import coldot, fft_operators, pcg
 from podbench.sysid.deconvolution.system import ConvolutionSystem
+from podbench.sysid.params import COUNT, FRACTION, POSITIVE, Options
 
 __all__ = ["KernelRegularized", "kernel_matrix", "log_marginal_likelihood", "DEFAULT_N_HYPER"]
 
@@ -265,6 +266,9 @@ class KernelRegularized(Solver):
 
     name = "kernel"
     structured = True
+    _parameter_constraints = {"kernel": [Options("dc", "tc")], "n_hyper": [None, COUNT],
+                              "lam": [None, FRACTION], "rho": [None, FRACTION],
+                              "gamma": [None, POSITIVE], "tol": [POSITIVE], "max_iter": [COUNT]}
 
     def __init__(self, *, kernel: str = "dc", n_hyper: int | None = DEFAULT_N_HYPER,
                  lam: float | None = None, rho: float | None = None,
@@ -278,20 +282,10 @@ class KernelRegularized(Solver):
         self.max_iter = max_iter
 
     def _validate_params(self) -> None:
-        check_choice(self.kernel, "kernel", ("dc", "tc"))
-        if self.n_hyper is not None:
-            check_positive(self.n_hyper, "n_hyper", integer=True)
-        if self.lam is not None and not 0 < self.lam < 1:
-            raise InputError(f"Parameter `lam`: must be in (0, 1), got {self.lam!r}")
-        if self.rho is not None:
-            if self.kernel == "tc":
-                raise InputError("Parameter `rho`: the TC kernel has no separate rho (ρ = √λ)")
-            if not 0 < self.rho < 1:
-                raise InputError(f"Parameter `rho`: must be in (0, 1), got {self.rho!r}")
-        if self.gamma is not None:
-            check_positive(self.gamma, "gamma")
-        check_positive(self.tol, "tol")
-        check_positive(self.max_iter, "max_iter", integer=True)
+        super()._validate_params()
+        if self.rho is not None and self.kernel == "tc":
+            raise InvalidParameterError(
+                "Parameter `rho`: the TC kernel has no separate rho (ρ = √λ)", param="rho")
 
     # ------------------------------------------------------------------ hyper-parameters
     def _hyper(self, system: ConvolutionSystem, scale: np.ndarray):
@@ -409,7 +403,7 @@ class KernelRegularized(Solver):
         r = Y.shape[2]
         N = scipy.fft.next_fast_len(2 * n - 1, real=True)
         Gh = dt * scipy.fft.rfft(G / scale[None, None, :], N, axis=0)
-        GhT = np.ascontiguousarray(Gh.transpose(0, 2, 1))
+        A_fft, At_fft, GhT = fft_operators(Gh, N, n)
         w = 2 * np.pi * np.arange(Gh.shape[0]) / N
         s2 = (1.0 - rho**2) / np.abs(1.0 - rho * np.exp(-1j * w)) ** 2
         H = s2[:, None, None] * (GhT.conj() @ Gh)  # (F, k, k)
@@ -417,40 +411,17 @@ class KernelRegularized(Solver):
         Minv = np.stack([np.linalg.inv(H + gl * eye) for gl in g], axis=1).astype(np.complex64)
 
         def A(E):
-            X = _apply_S(E, lam, rho)
-            return scipy.fft.irfft(Gh @ scipy.fft.rfft(X, N, axis=0), N, axis=0)[:n]
+            return A_fft(_apply_S(E, lam, rho))
 
         def At(Z):
-            X = scipy.fft.irfft(GhT @ scipy.fft.rfft(Z[::-1], N, axis=0), N, axis=0)[:n][::-1]
-            return _apply_St(X, lam, rho)
+            return _apply_St(At_fft(Z), lam, rho)
 
         def precond(R):  # R (n, k, r)
             Rh = scipy.fft.rfft(R, N, axis=0)  # (F, k, r)
             Zh = np.einsum("frij,fjr->fir", Minv, Rh)
             return scipy.fft.irfft(Zh, N, axis=0)[:n]
 
-        def dot(X, Z):
-            return np.sum(X * Z, axis=(0, 1))
-
-        E = np.zeros((n, k, r))
         R = At(np.asarray(Y))
-        r0 = dot(R, R)
-        stop = self.tol**2 * r0
-        Z = precond(R)
-        P = Z.copy()
-        rz = dot(R, Z)
-        active = r0 > stop
-        it = 0
-        while np.any(active) and it < self.max_iter:
-            Qp = At(A(P)) + g * P
-            alpha = np.where(active, rz / np.where(active, dot(P, Qp), 1.0), 0.0)
-            E += alpha * P
-            R -= alpha * Qp
-            Z = precond(R)
-            rz_new = dot(R, Z)
-            beta = np.where(active, rz_new / np.where(rz != 0, rz, 1.0), 0.0)
-            P = np.where(active, Z + beta * P, 0.0)
-            rz = np.where(active, rz_new, rz)
-            active = active & (dot(R, R) > stop)
-            it += 1
+        E, _, it, active = pcg(lambda P: At(A(P)) + g * P, precond, np.zeros((n, k, r)), R,
+                               self.tol**2 * coldot(R, R), self.max_iter)
         return _apply_S(E, lam, rho), it, not bool(np.any(active))

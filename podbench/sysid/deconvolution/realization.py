@@ -47,7 +47,6 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from podbench.core.validation import check_choice, check_positive
 from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.block import BlockSubstitution
@@ -56,6 +55,7 @@ from podbench.sysid.deconvolution.kernel import KernelRegularized
 from podbench.sysid.deconvolution.stls import STLS
 from podbench.sysid.deconvolution.system import ConvolutionSystem
 from podbench.sysid.deconvolution.tikhonov import CGLS, FFTTikhonov
+from podbench.sysid.params import COUNT, FRACTION, Interval, Options
 from podbench.sysid.statespace import era_realization, realize
 
 __all__ = ["Realization", "holdout_choice", "pole_basis", "pole_regressors", "MAX_HANKEL_ROWS",
@@ -258,6 +258,11 @@ class Realization(Solver):
 
     name = "realization"
     structured = True
+    _parameter_constraints = {"order": [None, COUNT], "max_order": [COUNT],
+                              "holdout": [FRACTION], "rule": [Options("1se", "min")],
+                              "pilot": [Options(*PILOTS)],
+                              "n_pilot": [None, Interval("integer", 5)],
+                              "n_rule": [None, COUNT], "blocks": [None, COUNT]}
 
     def __init__(self, *, order: int | None = None, max_order: int = DEFAULT_MAX_ORDER,
                  holdout: float = 0.25, rule: str = "1se", pilot: str = "cgls",
@@ -273,26 +278,6 @@ class Realization(Solver):
         self.blocks = blocks
 
     # ------------------------------------------------------------------ parameters
-    def _validate_params(self) -> None:
-        if self.order is not None:
-            check_positive(self.order, "order", integer=True)
-        check_positive(self.max_order, "max_order", integer=True)
-        if not (isinstance(self.holdout, (int, float)) and 0 < self.holdout < 1):
-            raise InputError(f"Parameter `holdout`: must be in (0, 1), got {self.holdout!r}")
-        check_choice(self.rule, "rule", ("1se", "min"))
-        if not isinstance(self.pilot, str) or self.pilot not in PILOTS:
-            raise InputError(f"Parameter `pilot`: expected one of "
-                             f"{', '.join(map(repr, PILOTS))}, got {self.pilot!r}")
-        self._pilot_solver()
-        if self.n_pilot is not None:
-            check_positive(self.n_pilot, "n_pilot", integer=True)
-            if self.n_pilot < 5:
-                raise InputError(f"Parameter `n_pilot`: at least 5 samples, got {self.n_pilot}")
-        if self.n_rule is not None:
-            check_positive(self.n_rule, "n_rule", integer=True)
-        if self.blocks is not None:
-            check_positive(self.blocks, "blocks", integer=True)
-
     def _pilot_solver(self) -> Solver:
         return PILOTS[self.pilot]()
 

@@ -86,17 +86,16 @@ import scipy.fft
 import scipy.linalg
 import scipy.sparse.linalg
 
-from podbench.core.validation import check_positive
-from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.convolution import block_conv
 from podbench.sysid.deconvolution.system import ConvolutionSystem, first_sample
 from podbench.sysid.deconvolution.tikhonov import (
     DEFAULT_TIKHONOV_REG,
+    REG_NON_NEGATIVE,
     cgls_iterate,
     spectral_norm,
-    tikhonov_reg,
 )
+from podbench.sysid.params import COUNT, FRACTION, NON_NEGATIVE
 
 __all__ = ["STLS", "DEFAULT_STLS_TOL", "DEFAULT_STLS_MAX_ITER"]
 
@@ -171,6 +170,9 @@ class STLS(Solver):
 
     name = "stls"
     structured = True
+    _parameter_constraints = {"reg": REG_NON_NEGATIVE, "noise_ratio": [NON_NEGATIVE],
+                              "rank_tol": [FRACTION], "tol": [FRACTION], "max_iter": [COUNT],
+                              "inner_iter": [COUNT], "inner_tol": [FRACTION]}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, noise_ratio: float = 1.0,
                  rank_tol: float = 1e-8, tol: float = DEFAULT_STLS_TOL,
@@ -184,20 +186,10 @@ class STLS(Solver):
         self.inner_iter = inner_iter
         self.inner_tol = inner_tol
 
-    def _validate_params(self) -> None:
-        tikhonov_reg(self.reg, allow_zero=True)
-        check_positive(self.noise_ratio, "noise_ratio", allow_zero=True)
-        for name in ("rank_tol", "tol", "inner_tol"):
-            value = check_positive(getattr(self, name), name)
-            if value >= 1:
-                raise InputError(f"Parameter `{name}`: must be below 1, got {value!r}")
-        check_positive(self.max_iter, "max_iter", integer=True)
-        check_positive(self.inner_iter, "inner_iter", integer=True)
-
     def _solve(self, system: ConvolutionSystem):
-        X, info = _stls(system, tikhonov_reg(self.reg, allow_zero=True),
-                        float(self.noise_ratio), float(self.rank_tol), float(self.tol),
-                        int(self.max_iter), int(self.inner_iter), float(self.inner_tol))
+        p = self._params()
+        X, info = _stls(system, p["reg"], p["noise_ratio"], p["rank_tol"], p["tol"],
+                        p["max_iter"], p["inner_iter"], p["inner_tol"])
         return system.stack(X), info
 
 
@@ -221,110 +213,33 @@ def _stls(system: ConvolutionSystem, reg, rho: float, rank_tol: float, tol: floa
     Yw = Y / sig_y[None, :, None]
     D, ranks, sig_f = _force_channels(G, rank_tol)
     Dw = D * (rho * sig_f / sig_y)[:, None, None]  # ΔG_w[s, j] = Dw[j] e[s, j]
-    m = D.shape[2]
 
     # first step: Tikhonov least squares on the weighted system (λ by GCV unless given)
     wsys = ConvolutionSystem([Gw[:, j, :].T for j in range(n_cases)],
                              Yw.transpose(1, 0, 2).reshape(n_cases * n, r), dt)
     X, info0 = cgls_iterate(wsys, reg, 1e-10, 1000)
-    N = scipy.fft.next_fast_len(2 * n - 1, real=True)
-    Gh0 = dt * scipy.fft.rfft(Gw, N, axis=0)
-    smax = spectral_norm(Gh0)
-    lam = float(info0["reg"]) * smax
-    e = np.zeros((n, n_cases, m))
-
-    def fft(a):
-        return scipy.fft.rfft(a, N, axis=0)
-
-    def ifft(a):
-        return scipy.fft.irfft(a, N, axis=0)[:n]
-
-    def dG(e_):  # (n, n_cases, m) -> (n, n_cases, k)
-        return np.einsum("jkm,sjm->sjk", Dw, e_)
-
-    def dGt(M):  # adjoint of dG: (n, n_cases, k) -> (n, n_cases, m)
-        return np.einsum("jkm,sjk->sjm", Dw, M)
-
-    def residual(X_, e_):
-        return Yw - dt * block_conv(Gw + dG(e_), X_, N)
-
-    def objective(R, X_, e_):
-        return float(np.sum(R * R) + np.sum(e_ * e_) + lam**2 * np.sum(X_ * X_))
-
-    # right preconditioner of the kernel block: circulant (Δt² ĜᴴĜ + μ² I)^{-1/2}
-    mu2 = lam**2 if lam > 0 else (1e-6 * smax) ** 2
-    w_eig, V_eig = np.linalg.eigh(np.conj(Gh0).transpose(0, 2, 1) @ Gh0 + mu2 * np.eye(k))
-    Ph = (V_eig * (1.0 / np.sqrt(w_eig))[:, None, :]) @ np.conj(V_eig).transpose(0, 2, 1)
-
-    def precond(Z):  # (n, k, r), symmetric
-        return ifft(Ph @ fft(Z))
-
-    nx, ne = n * k * r, n * n_cases * m
-    R = residual(X, e)
-    phi = phi_start = objective(R, X, e)
+    stln = _Stln(Gw, Yw, Dw, dt, float(info0["reg"]))
+    e = np.zeros((n, n_cases, D.shape[2]))
+    R = stln.residual(X, e)
+    phi = phi_start = stln.objective(R, X, e)
     lsqr_iter = 0
     steps = 0
     floor = (1e-14 * float(np.linalg.norm(Yw))) ** 2  # a consistent system is solved
     converged = rho == 0 or not np.any(Dw) or phi <= floor
     while not converged and steps < max_iter:
-        Gc = Gw + dG(e)
-        Gch = dt * fft(Gc)
-        GchT = np.ascontiguousarray(Gch.transpose(0, 2, 1))
-        Xh = dt * fft(X)  # (F, k, r)
-        XhT = np.ascontiguousarray(Xh.transpose(0, 2, 1))  # (F, r, k)
-        # right preconditioner of the force block: per case the circulant model of
-        # (J_eᵀJ_e + I)^{-1/2}, symbol (I + conj(Ĥ_j) Ĥ_jᵀ)^{-1/2} with Ĥ_j = Dw_jᵀ Δt X̂
-        Hh = np.einsum("jkm,fkl->fjml", Dw, Xh)  # (F, n_cases, m, r)
-        Me = np.conj(Hh) @ Hh.transpose(0, 1, 3, 2) + np.eye(m)
-        we, Ve = np.linalg.eigh(Me)
-        Peh = (Ve * (1.0 / np.sqrt(we))[..., None, :]) @ np.conj(Ve).transpose(0, 1, 3, 2)
-
-        def precond_e(E, Peh=Peh):  # (n, n_cases, m), symmetric
-            return ifft((Peh @ fft(E)[..., None])[..., 0])
-
-        def matvec(v, Gch=Gch, Xh=Xh, precond_e=precond_e):
-            z = v[:nx].reshape(n, k, r)
-            de = precond_e(v[nx:].reshape(n, n_cases, m))
-            xz = precond(z)
-            out1 = ifft(Gch @ fft(xz)) + ifft(fft(dG(de)) @ Xh)
-            return np.concatenate([out1.ravel(), de.ravel(), lam * xz.ravel()])
-
-        def rmatvec(u, GchT=GchT, XhT=XhT, precond_e=precond_e):
-            u1 = u[: n * n_cases * r].reshape(n, n_cases, r)
-            u2 = u[n * n_cases * r: n * n_cases * r + ne].reshape(n, n_cases, m)
-            u3 = u[n * n_cases * r + ne:].reshape(n, k, r)
-            u1r = fft(u1[::-1])
-            gx = ifft(GchT @ u1r)[::-1] + lam * u3  # J_Xᵀ u1 + λ u3
-            ge = dGt(ifft(u1r @ XhT)[::-1]) + u2  # J_eᵀ u1 + u2
-            return np.concatenate([precond(gx).ravel(), precond_e(ge).ravel()])
-
-        op = scipy.sparse.linalg.LinearOperator(
-            (n * n_cases * r + ne + nx, nx + ne), matvec=matvec, rmatvec=rmatvec,
-            dtype=float)
-        rhs = np.concatenate([R.ravel(), -e.ravel(), -lam * X.ravel()])
-        sol = scipy.sparse.linalg.lsqr(op, rhs, atol=inner_tol, btol=inner_tol,
-                                       iter_lim=inner_iter)
-        lsqr_iter += int(sol[2])
-        dX = precond(sol[0][:nx].reshape(n, k, r))
-        de = precond_e(sol[0][nx:].reshape(n, n_cases, m))
-        t = 1.0
-        for _ in range(_MAX_HALVINGS):
-            Xt, et = X + t * dX, e + t * de
-            Rt = residual(Xt, et)
-            phit = objective(Rt, Xt, et)
-            if phit < phi:
-                break
-            t *= 0.5
-        else:
+        dX, de, its = stln.step(X, e, R, inner_iter, inner_tol)
+        lsqr_iter += its
+        trial = stln.line_search(X, e, dX, de, phi)
+        if trial is None:
             converged = True  # no descent along the step: at a stationary point
             break
         steps += 1
-        decrease = (phi - phit) / phi if phi > 0 else 0.0
-        X, e, R, phi = Xt, et, Rt, phit
+        decrease = (phi - trial[3]) / phi if phi > 0 else 0.0
+        X, e, R, phi = trial
         if decrease <= tol or phi <= floor:
             converged = True
 
-    correction = float(np.linalg.norm(dG(e) * sig_y[None, :, None]))
+    correction = float(np.linalg.norm(stln.dG(e) * sig_y[None, :, None]))
     gnorm = float(np.linalg.norm(G))
     info = {
         "reg": float(info0["reg"]), "reg_rule": info0["reg_rule"], "shift": d,
@@ -334,3 +249,107 @@ def _stls(system: ConvolutionSystem, reg, rho: float, rank_tol: float, tol: floa
         "force_channels": int(max(ranks)), "converged": bool(converged),
     }
     return np.concatenate([X, np.zeros((d, k, r))]), info
+
+
+class _Stln:
+    """The weighted STLN problem ``min ‖R‖² + ‖e‖² + λ²‖X‖²`` (module docstring) with FFT
+    products: its residual, objective, Gauss–Newton step (LSQR, right-preconditioned) and
+    line search."""
+
+    def __init__(self, Gw, Yw, Dw, dt: float, reg: float):
+        self.Gw, self.Yw, self.Dw, self.dt = Gw, Yw, Dw, dt
+        self.n, self.n_cases, self.k = Gw.shape
+        self.r, self.m = Yw.shape[2], Dw.shape[2]
+        self.N = scipy.fft.next_fast_len(2 * self.n - 1, real=True)
+        Gh0 = dt * self.fft(Gw)
+        smax = spectral_norm(Gh0)
+        self.lam = lam = reg * smax
+        # right preconditioner of the kernel block: circulant (Δt² ĜᴴĜ + μ² I)^{-1/2}
+        mu2 = lam**2 if lam > 0 else (1e-6 * smax) ** 2
+        w_eig, V_eig = np.linalg.eigh(np.conj(Gh0).transpose(0, 2, 1) @ Gh0
+                                      + mu2 * np.eye(self.k))
+        self.Ph = (V_eig * (1.0 / np.sqrt(w_eig))[:, None, :]) @ np.conj(V_eig).transpose(0, 2, 1)
+
+    def fft(self, a):
+        return scipy.fft.rfft(a, self.N, axis=0)
+
+    def ifft(self, a):
+        return scipy.fft.irfft(a, self.N, axis=0)[:self.n]
+
+    def dG(self, e_):  # (n, n_cases, m) -> (n, n_cases, k)
+        return np.einsum("jkm,sjm->sjk", self.Dw, e_)
+
+    def dGt(self, M):  # adjoint of dG: (n, n_cases, k) -> (n, n_cases, m)
+        return np.einsum("jkm,sjk->sjm", self.Dw, M)
+
+    def residual(self, X_, e_):
+        return self.Yw - self.dt * block_conv(self.Gw + self.dG(e_), X_, self.N)
+
+    def objective(self, R, X_, e_) -> float:
+        return float(np.sum(R * R) + np.sum(e_ * e_) + self.lam**2 * np.sum(X_ * X_))
+
+    def precond(self, Z):  # (n, k, r), symmetric
+        return self.ifft(self.Ph @ self.fft(Z))
+
+    def _force_precond(self, Xh):
+        """Right preconditioner of the force block: per case the circulant model of
+        (J_eᵀJ_e + I)^{-1/2}, symbol (I + conj(Ĥ_j) Ĥ_jᵀ)^{-1/2} with Ĥ_j = Dw_jᵀ Δt X̂."""
+        Hh = np.einsum("jkm,fkl->fjml", self.Dw, Xh)  # (F, n_cases, m, r)
+        Me = np.conj(Hh) @ Hh.transpose(0, 1, 3, 2) + np.eye(self.m)
+        we, Ve = np.linalg.eigh(Me)
+        Peh = (Ve * (1.0 / np.sqrt(we))[..., None, :]) @ np.conj(Ve).transpose(0, 1, 3, 2)
+
+        def precond_e(E):  # (n, n_cases, m), symmetric
+            return self.ifft((Peh @ self.fft(E)[..., None])[..., 0])
+
+        return precond_e
+
+    def step(self, X, e, R, inner_iter: int, inner_tol: float):
+        """The Gauss–Newton step ``(dX, de)`` at ``(X, e)`` by LSQR, and its iterations."""
+        n, n_cases, k, r, m, lam = self.n, self.n_cases, self.k, self.r, self.m, self.lam
+        fft, ifft, precond = self.fft, self.ifft, self.precond
+        nx, ne = n * k * r, n * n_cases * m
+        Gch = self.dt * fft(self.Gw + self.dG(e))
+        GchT = np.ascontiguousarray(Gch.transpose(0, 2, 1))
+        Xh = self.dt * fft(X)  # (F, k, r)
+        XhT = np.ascontiguousarray(Xh.transpose(0, 2, 1))  # (F, r, k)
+        precond_e = self._force_precond(Xh)
+
+        def matvec(v):
+            z = v[:nx].reshape(n, k, r)
+            de = precond_e(v[nx:].reshape(n, n_cases, m))
+            xz = precond(z)
+            out1 = ifft(Gch @ fft(xz)) + ifft(fft(self.dG(de)) @ Xh)
+            return np.concatenate([out1.ravel(), de.ravel(), lam * xz.ravel()])
+
+        def rmatvec(u):
+            u1 = u[: n * n_cases * r].reshape(n, n_cases, r)
+            u2 = u[n * n_cases * r: n * n_cases * r + ne].reshape(n, n_cases, m)
+            u3 = u[n * n_cases * r + ne:].reshape(n, k, r)
+            u1r = fft(u1[::-1])
+            gx = ifft(GchT @ u1r)[::-1] + lam * u3  # J_Xᵀ u1 + λ u3
+            ge = self.dGt(ifft(u1r @ XhT)[::-1]) + u2  # J_eᵀ u1 + u2
+            return np.concatenate([precond(gx).ravel(), precond_e(ge).ravel()])
+
+        op = scipy.sparse.linalg.LinearOperator(
+            (n * n_cases * r + ne + nx, nx + ne), matvec=matvec, rmatvec=rmatvec,
+            dtype=float)
+        rhs = np.concatenate([R.ravel(), -e.ravel(), -lam * X.ravel()])
+        sol = scipy.sparse.linalg.lsqr(op, rhs, atol=inner_tol, btol=inner_tol,
+                                       iter_lim=inner_iter)
+        dX = precond(sol[0][:nx].reshape(n, k, r))
+        de = precond_e(sol[0][nx:].reshape(n, n_cases, m))
+        return dX, de, int(sol[2])
+
+    def line_search(self, X, e, dX, de, phi: float):
+        """``(X, e, R, φ)`` at the first step ``t = 1, 1/2, …`` that lowers ``φ`` (None if
+        none of :data:`_MAX_HALVINGS` does)."""
+        t = 1.0
+        for _ in range(_MAX_HALVINGS):
+            Xt, et = X + t * dX, e + t * de
+            Rt = self.residual(Xt, et)
+            phit = self.objective(Rt, Xt, et)
+            if phit < phi:
+                return Xt, et, Rt, phit
+            t *= 0.5
+        return None

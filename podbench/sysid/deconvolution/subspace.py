@@ -72,7 +72,6 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from podbench.core.validation import check_choice, check_positive
 from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.realization import (
@@ -82,6 +81,7 @@ from podbench.sysid.deconvolution.realization import (
     pole_basis,
 )
 from podbench.sysid.deconvolution.system import ConvolutionSystem
+from podbench.sysid.params import COUNT, FRACTION, Interval, Options
 
 __all__ = ["Subspace", "subspace_factor", "subspace_poles", "RANK_TOL", "MAX_DATA_ROWS"]
 
@@ -285,6 +285,11 @@ class Subspace(Solver):
 
     name = "subspace"
     structured = True
+    _parameter_constraints = {"order": [None, COUNT], "max_order": [COUNT],
+                              "horizon": [None, Interval("integer", 2)],
+                              "instruments": [Options("po", "pi")], "rank_tol": [FRACTION],
+                              "holdout": [FRACTION], "rule": [Options("1se", "min")],
+                              "n_rule": [None, COUNT]}
 
     def __init__(self, *, order: int | None = None, max_order: int = 40,
                  horizon: int | None = None, instruments: str = "po",
@@ -298,25 +303,6 @@ class Subspace(Solver):
         self.holdout = holdout
         self.rule = rule
         self.n_rule = n_rule
-
-    def _validate_params(self) -> None:
-        if self.order is not None:
-            check_positive(self.order, "order", integer=True)
-        check_positive(self.max_order, "max_order", integer=True)
-        if self.horizon is not None:
-            check_positive(self.horizon, "horizon", integer=True)
-            if self.horizon < 2:
-                raise InputError(f"Parameter `horizon`: at least 2 block rows, got "
-                                 f"{self.horizon}")
-        check_choice(self.instruments, "instruments", ("po", "pi"))
-        check_positive(self.rank_tol, "rank_tol")
-        if not self.rank_tol < 1:
-            raise InputError(f"Parameter `rank_tol`: must be below 1, got {self.rank_tol!r}")
-        if not (isinstance(self.holdout, (int, float)) and 0 < self.holdout < 1):
-            raise InputError(f"Parameter `holdout`: must be in (0, 1), got {self.holdout!r}")
-        check_choice(self.rule, "rule", ("1se", "min"))
-        if self.n_rule is not None:
-            check_positive(self.n_rule, "n_rule", integer=True)
 
     def _horizons(self, n: int, k: int, r: int) -> list[int]:
         """The horizon (``horizon=``) or the default candidates: the shortest that admits
@@ -368,7 +354,7 @@ class Subspace(Solver):
         held = best = None
         candidates = []
         i = horizons[-1]
-        if fixed:
+        if self.order is not None:
             order = int(self.order)
         else:
             # the rule runs on the first n_rule samples of every record: poles from the

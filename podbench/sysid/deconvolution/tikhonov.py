@@ -16,10 +16,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft
 
-from podbench.core.validation import check_positive
 from podbench.errors import ConvergenceError, IllConditionedError, InputError
 from podbench.sysid.deconvolution._base import Solver
+from podbench.sysid.deconvolution._cg import coldot, fft_operators, pcg
 from podbench.sysid.deconvolution.system import ConvolutionSystem, first_sample
+from podbench.sysid.params import COUNT, NON_NEGATIVE, POSITIVE, Interval, Options, check_param
 
 __all__ = [
     "FFTTikhonov",
@@ -49,7 +50,8 @@ iteration limit; the dense least squares itself truncates at ``eps·σ_1``); at 
 every direction is damped by at least a factor 2."""
 
 
-def _circulant_spectrum(Gh: np.ndarray, Yh: np.ndarray, N: int):
+def _circulant_spectrum(Gh: np.ndarray, Yh: np.ndarray,
+                        N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-frequency SVD of the circulant embedding (length ``N``) of Eq. 3.48, from the
     transforms ``Gh = Δt·rfft(G, N)`` (F, n_cases, k) and ``Yh = rfft(Y, N)`` (F, n_cases, r).
 
@@ -78,11 +80,15 @@ def _embedding(G: np.ndarray, pad) -> tuple[int, int, int]:
     return d, m, scipy.fft.next_fast_len(max(int(np.ceil(pad * m)), 1), real=True)
 
 
+PAD: list = [Interval("number", 1)]
+REG_POSITIVE: list = [Options("gcv"), POSITIVE]
+"""``reg`` of ``"fft"``: ``"gcv"`` or a number > 0."""
+REG_NON_NEGATIVE: list = [Options("gcv"), NON_NEGATIVE]
+"""``reg`` of ``"cgls"`` and ``"stls"``: ``"gcv"`` or a number >= 0 (0: least squares)."""
+
+
 def _check_pad(pad) -> float:
-    pad = check_positive(pad, "pad")
-    if pad < 1:
-        raise InputError(f"Parameter `pad`: must be >= 1, got {pad!r}")
-    return pad
+    return check_param(pad, "pad", PAD)
 
 
 def _gcv_function(w, s, b2, perp, N: int, n_cases: int):
@@ -174,11 +180,7 @@ def _gcv_minimize(w, s, b2, perp, N, n_cases, lo=GCV_BOUNDS[0], hi=GCV_BOUNDS[1]
 
 def tikhonov_reg(reg, allow_zero: bool):
     """Validate ``reg``: ``"gcv"`` or a number (> 0, or >= 0 if ``allow_zero``)."""
-    if isinstance(reg, str):
-        if reg != "gcv":
-            raise InputError(f"Parameter `reg`: expected a number or \"gcv\", got {reg!r}")
-        return reg
-    return check_positive(reg, "reg", allow_zero=allow_zero)
+    return check_param(reg, "reg", REG_NON_NEGATIVE if allow_zero else REG_POSITIVE)
 
 
 def spectral_norm(Gh: np.ndarray) -> float:
@@ -304,13 +306,8 @@ def cgls_fft(
     (k·n,) or (k·n, r) ndarray
     """
     system = ConvolutionSystem(Q_list, B, dt)
-    X, _ = cgls_iterate(system, *_cgls_params(reg, tol, max_iter))
+    X, _ = cgls_iterate(system, *CGLS(reg=reg, tol=tol, max_iter=max_iter)._cgls_params())
     return system.stack(X)
-
-
-def _cgls_params(reg, tol, max_iter):
-    return (tikhonov_reg(reg, allow_zero=True), check_positive(tol, "tol"),
-            1000 if max_iter is None else check_positive(max_iter, "max_iter", integer=True))
 
 
 def cgls_iterate(system: ConvolutionSystem, reg, tol: float, max_iter: int):
@@ -320,7 +317,6 @@ def cgls_iterate(system: ConvolutionSystem, reg, tol: float, max_iter: int):
     G, Y, dt = system.G, system.Y, system.dt
     n, n_cases, k = G.shape
     r = Y.shape[2]
-    counts = {"iterations": 0, "solves": 0}
     # shift past leading zero samples (their equations and the last d lags drop out exactly;
     # without the shift the preconditioner would fill the last lags' null space)
     d = first_sample(G, 0.0)
@@ -328,86 +324,74 @@ def cgls_iterate(system: ConvolutionSystem, reg, tol: float, max_iter: int):
     G, Y, n = G[d:], Y[d:], n - d
     N = scipy.fft.next_fast_len(2 * n - 1, real=True)
     Gh = dt * scipy.fft.rfft(G, N, axis=0)  # (F, n_cases, k)
-    GhT = np.ascontiguousarray(Gh.transpose(0, 2, 1))  # transform of G[s]ᵀ (no conjugate)
-    GhH_Gh = GhT.conj() @ Gh
-    smax = spectral_norm(Gh)
+    normal = _TikhonovNormal(Gh, Y, N, n, tol, max_iter)
+    if reg == "gcv":
+        spectrum = _circulant_spectrum(Gh, scipy.fft.rfft(Y, N, axis=0), N)
+        reg, X = _gcv_exact(normal.solve, normal.rss, *spectrum, N, n_cases, n,
+                            min(TRIAL_ITER, max_iter))
+        rule = "gcv"
+    else:
+        X = normal.solve(reg)
+        rule = "fixed"
+    info = {"reg": float(reg), "reg_rule": rule, "shift": d,
+            "iterations": normal.iterations, "solves": normal.solves}
+    return np.concatenate([X, np.zeros((n_full - n, k, r))]), info
 
-    def A(X):  # (n, k, r) → (n, n_cases, r)
-        return scipy.fft.irfft(Gh @ scipy.fft.rfft(X, N, axis=0), N, axis=0)[:n]
 
-    def At(Z):  # (n, n_cases, r) → (n, k, r); (Aᵀz)[p] = Δt Σ_{s≥p} G[s−p]ᵀ z[s]
-        return scipy.fft.irfft(GhT @ scipy.fft.rfft(Z[::-1], N, axis=0), N, axis=0)[:n][::-1]
+class _TikhonovNormal:
+    """The regularized normal equations ``(AᵀA + λ²I) X = AᵀY`` of the shifted system, by
+    FFT products, solved by :func:`~podbench.sysid.deconvolution._cg.pcg` for one ``λ`` at a
+    time (counting iterations and solves over all of them)."""
 
-    def colnorm2(X):
-        return np.sum(X * X, axis=(0, 1))
+    def __init__(self, Gh: np.ndarray, Y: np.ndarray, N: int, n: int, tol: float,
+                 max_iter: int):
+        self.A, self.At, GhT = fft_operators(Gh, N, n)
+        self.GhH_Gh = GhT.conj() @ Gh
+        self.smax = spectral_norm(Gh)
+        self.Y, self.N, self.n, self.tol, self.max_iter = Y, N, n, tol, max_iter
+        self.AtY = self.At(Y)
+        self.iterations = 0
+        self.solves = 0
 
-    def coldot(X, Z):
-        return np.sum(X * Z, axis=(0, 1))
+    def rss(self, X) -> float:
+        """``‖Y − A X‖²`` (the true residual of the exact system)."""
+        return float(np.sum((self.Y - self.A(X)) ** 2))
 
-    AtY = At(Y)
-
-    def solve(reg_value: float, X0=None, limit: int = max_iter):
+    def solve(self, reg_value: float, X0=None, limit: int | None = None) -> np.ndarray:
         """CGLS for one λ (warm start ``X0``, at most ``limit`` iterations); returns ``X`` or
         raises ConvergenceError."""
-        limit = min(limit, max_iter)
-        lam2 = (reg_value * smax) ** 2
+        A, At, N, n, tol = self.A, self.At, self.N, self.n, self.tol
+        limit = self.max_iter if limit is None else min(limit, self.max_iter)
+        lam2 = (reg_value * self.smax) ** 2
         # preconditioner: the same Tikhonov operator for the circulant embedding of A,
         # inverted per frequency (it differs from AᵀA + λ²I by a term of the rank of the
         # force's support)
-        mu2 = lam2 if lam2 > 0 else (1e-6 * smax) ** 2
-        Minv = np.linalg.inv(GhH_Gh + mu2 * np.eye(k))  # (F, k, k) Hermitian
+        mu2 = lam2 if lam2 > 0 else (1e-6 * self.smax) ** 2
+        Minv = np.linalg.inv(self.GhH_Gh + mu2 * np.eye(self.GhH_Gh.shape[1]))  # Hermitian
 
         def precond(Z):
             return scipy.fft.irfft(Minv @ scipy.fft.rfft(Z, N, axis=0), N, axis=0)[:n]
 
         if X0 is None:
-            X = np.zeros((n, k, r))
-            R = AtY.copy()  # residual of the regularized normal equations
+            X = np.zeros(self.AtY.shape)
+            R = self.AtY.copy()  # residual of the regularized normal equations
         else:
             X = X0.copy()
-            R = AtY - At(A(X)) - lam2 * X
-        Z = precond(R)
-        P = Z.copy()
-        rho = coldot(R, Z)
-        r0 = colnorm2(AtY)
-        stop = (tol**2) * r0
-        active = colnorm2(R) > stop
-        it = 0
-        counts["solves"] += 1
-        while np.any(active):
-            if it == limit:
-                rel = float(np.sqrt(np.max(colnorm2(R)[active] / r0[active])))
-                raise ConvergenceError(
-                    f"solver 'cgls': no convergence in {limit} iterations (relative "
-                    f"normal-equation residual {rel:.3g} > tol = {tol:g}, reg = "
-                    f"{reg_value:.3g}); the system is ill-conditioned: use 'block' (exact) or "
-                    "a larger reg"
-                )
-            Qp = At(A(P)) + lam2 * P
-            pq = coldot(P, Qp)
-            alpha = np.where(active, rho / np.where(pq > 0, pq, 1.0), 0.0)
-            X += alpha * P
-            R -= alpha * Qp
-            Z = precond(R)
-            rho_new = coldot(R, Z)
-            beta = np.where(active, rho_new / np.where(rho != 0, rho, 1.0), 0.0)
-            P = np.where(active, Z + beta * P, 0.0)
-            rho = np.where(active, rho_new, rho)
-            active = active & (colnorm2(R) > stop)
-            it += 1
-            counts["iterations"] += 1
+            R = self.AtY - At(A(X)) - lam2 * X
+        r0 = coldot(self.AtY, self.AtY)
+        self.solves += 1
+        X, R, it, active = pcg(lambda P: At(A(P)) + lam2 * P, precond, X, R, (tol**2) * r0,
+                               limit)
+        self.iterations += it
+        if np.any(active):
+            rel = float(np.sqrt(np.max(coldot(R, R)[active] / r0[active])))
+            raise ConvergenceError(
+                f"solver 'cgls': no convergence in {limit} iterations (relative "
+                f"normal-equation residual {rel:.3g} > tol = {tol:g}, reg = "
+                f"{reg_value:.3g}); the system is ill-conditioned: use 'block' (exact) or "
+                "a larger reg"
+            )
         return X
-
-    if reg == "gcv":
-        spectrum = _circulant_spectrum(Gh, scipy.fft.rfft(Y, N, axis=0), N)
-        reg, X = _gcv_exact(solve, lambda X: float(np.sum((Y - A(X)) ** 2)), *spectrum, N,
-                            n_cases, n, min(TRIAL_ITER, max_iter))
-        rule = "gcv"
-    else:
-        X = solve(reg)
-        rule = "fixed"
-    info = {"reg": float(reg), "reg_rule": rule, "shift": d, **counts}
-    return np.concatenate([X, np.zeros((n_full - n, k, r))]), info
 
 
 TRIAL_ITER = 300
@@ -502,17 +486,15 @@ class FFTTikhonov(Solver):
 
     name = "fft"
     structured = True
+    _parameter_constraints = {"reg": REG_POSITIVE, "pad": PAD}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, pad: float = 2.0):
         self.reg = reg
         self.pad = pad
 
-    def _validate_params(self) -> None:
-        tikhonov_reg(self.reg, allow_zero=False)
-        _check_pad(self.pad)
-
     def _solve(self, system: ConvolutionSystem):
-        X, info = _fft(system, tikhonov_reg(self.reg, allow_zero=False), self.pad)
+        p = self._params()
+        X, info = _fft(system, p["reg"], p["pad"])
         return system.stack(X), info
 
 
@@ -536,16 +518,19 @@ class CGLS(Solver):
 
     name = "cgls"
     structured = True
+    _parameter_constraints = {"reg": REG_NON_NEGATIVE, "tol": [POSITIVE],
+                              "max_iter": [None, COUNT]}
 
     def __init__(self, *, reg: float | str = DEFAULT_TIKHONOV_REG, tol: float = 1e-10,
-                 max_iter: int = 1000):
+                 max_iter: int | None = 1000):
         self.reg = reg
         self.tol = tol
         self.max_iter = max_iter
 
-    def _validate_params(self) -> None:
-        _cgls_params(self.reg, self.tol, self.max_iter)
+    def _cgls_params(self) -> tuple:
+        p = self._params()
+        return p["reg"], p["tol"], 1000 if p["max_iter"] is None else p["max_iter"]
 
     def _solve(self, system: ConvolutionSystem):
-        X, info = cgls_iterate(system, *_cgls_params(self.reg, self.tol, self.max_iter))
+        X, info = cgls_iterate(system, *self._cgls_params())
         return system.stack(X), info

@@ -16,21 +16,23 @@ how the data were produced.
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
 from podbench.core.records import Record, as_record, is_record
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, IllConditionedError, InputError, NotFittedError
-from podbench.sysid.deconvolution import deconvolve, make_solver
+from podbench.sysid.deconvolution import Solver, deconvolve, make_solver
+from podbench.sysid.deconvolution._api import SOLVER_OPTIONS
+from podbench.sysid.params import InstanceOf, Interval, Options, ParamsMixin, check_param
 from podbench.sysid.pod import check_orthonormal, n_modes_for_energy, numerical_rank, snapshot_svd
 
 __all__ = ["PODMethod", "is_record_input"]
 
 
-class PODMethod:
+class PODMethod(ParamsMixin):
     """Base class of the identification methods (POVR, MDS, SL, ML, MR, superpositions, peers).
 
     The contract (scikit-learn's, over records instead of feature matrices):
@@ -39,9 +41,11 @@ class PODMethod:
       validated there, so :func:`sklearn.base.clone` works;
     * :meth:`get_params` / :meth:`set_params` read the constructor's signature (nested
       ``solver__reg`` names reach a solver object given as a hyperparameter);
-    * :meth:`_validate_params` checks the hyperparameters without data (``fit`` calls it;
-      the scenario loader calls it when a file is read, so a bad option fails before any
-      simulation);
+    * ``_parameter_constraints`` declares what each hyperparameter admits
+      (:mod:`podbench.sysid.params`); :meth:`_validate_params` checks them without data
+      (``fit`` calls it; the scenario loader calls it when a file is read, so a bad option
+      fails before any simulation) and raises
+      :class:`~podbench.errors.InvalidParameterError` naming ``.param``;
     * ``fit(records, *, basis=None)`` takes a record or a sequence of records (objects with
       ``W, F, w0, v0, dt``: :class:`~podbench.data.Record`, :class:`~podbench.data.Response`)
       and returns ``self``; learned state ends in ``_``; ``modes_`` is the ``m × k``
@@ -70,59 +74,18 @@ class PODMethod:
     #: True when ``k`` may not exceed the number of training records (MDS, ML).
     records_per_mode = False
 
-    # ------------------------------------------------------------------ parameters
-    @classmethod
-    def _get_param_names(cls) -> list[str]:
-        sig = inspect.signature(cls.__init__)
-        return [p.name for p in sig.parameters.values()
-                if p.name != "self" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
-
-    def get_params(self, deep: bool = True) -> dict:
-        """Hyperparameters as given to the constructor (``deep``: also ``name__param`` of
-        a hyperparameter that has ``get_params`` itself, e.g. a solver object)."""
-        out = {}
-        for name in self._get_param_names():
-            value = getattr(self, name)
-            if deep and hasattr(value, "get_params") and not isinstance(value, type):
-                out.update({f"{name}__{k}": v for k, v in value.get_params().items()})
-            out[name] = value
-        return out
-
-    def set_params(self, **params) -> PODMethod:
-        """Set hyperparameters (validated at the next ``fit``); returns ``self``.
-
-        Raises
-        ------
-        TypeError
-            An unknown hyperparameter name.
-        """
-        valid = self._get_param_names()
-        nested: dict[str, dict] = {}
-        for name, value in params.items():
-            head, sep, rest = name.partition("__")
-            if head not in valid:
-                raise TypeError(
-                    f"{type(self).__name__}.set_params: unknown parameter {head!r} "
-                    f"(valid: {', '.join(valid)})"
-                )
-            if sep:
-                nested.setdefault(head, {})[rest] = value
-            else:
-                setattr(self, name, value)
-        for head, sub in nested.items():
-            inner = getattr(self, head)
-            if not hasattr(inner, "set_params"):
-                raise TypeError(f"{type(self).__name__}.set_params: parameter {head!r} "
-                                f"({inner!r}) has no parameters of its own")
-            inner.set_params(**sub)
-        return self
-
-    def __repr__(self) -> str:
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params(deep=False).items())
-        return f"{type(self).__name__}({args})"
+    # fitted state (set by ``fit``; declared for type checkers, absent before)
+    modes_: np.ndarray
+    n_modes_: int
+    dt_: float
 
     def _validate_params(self) -> None:
-        """Check the hyperparameters without data; raise InputError naming the parameter."""
+        """Check the declared hyperparameters (:mod:`podbench.sysid.params`) and, for a
+        method that declares ``solver``, build its solver (an unknown name or option, a bad
+        option value)."""
+        params = self._params()
+        if "solver" in type(self)._parameter_constraints:
+            make_method_solver(params["solver"], params.get("solver_options"))
 
     # ------------------------------------------------------------------ declarations
     def required_fields(self) -> tuple[str, ...]:
@@ -139,6 +102,16 @@ class PODMethod:
         return None
 
     # ------------------------------------------------------------------ fitted state
+    def _set_basis(self, U, povs, pocs, dt: float | None = None) -> None:
+        """Set the fitted basis (``modes_``, ``povs_``, ``pocs_``, ``n_modes_``) and, for a
+        method that has one, the training sampling interval ``dt_``."""
+        self.modes_ = U
+        self.povs_ = povs
+        self.pocs_ = pocs
+        self.n_modes_ = U.shape[1]
+        if dt is not None:
+            self.dt_ = dt
+
     def _check_is_fitted(self) -> None:
         if not hasattr(self, "modes_"):
             raise NotFittedError(
@@ -223,12 +196,25 @@ class PODMethod:
         if "dt" in self.required_fields():
             dt0 = recs[0].dt
             for j, r in enumerate(recs[1:], start=1):
-                if not np.isclose(r.dt, dt0, rtol=1e-12, atol=0.0):
+                if not np.isclose(cast(float, r.dt), cast(float, dt0), rtol=1e-12, atol=0.0):
                     raise DimensionError(
                         f"Parameter `{name}[{j}].dt`: {r.dt:g} s differs from `{name}[0].dt` = "
                         f"{dt0:g} s; all training records need one sampling interval"
                     )
         return recs
+
+    def _records_or_none(self, records, **beside) -> list[Record] | None:
+        """The training records (:meth:`_training_records`) when ``fit`` got the record form
+        (a record or a sequence of records; then none of the array-form arguments
+        ``beside`` may be given too), else None (the array form)."""
+        if not is_record_input(records):
+            return None
+        for name, value in beside.items():
+            if value is not None:
+                raise InputError(
+                    f"Parameter `{name}`: give it in the records (their "
+                    f"{_BESIDE.get(name, name)}), not beside them")
+        return self._training_records(records)
 
     def _target_record(self, record, name: str = "record", *, fields: bool = True) -> Record:
         """A record to predict from: the fields the method needs (unless ``fields`` is
@@ -252,6 +238,7 @@ class PODMethod:
         return rec
 
 
+_BESIDE = {"x0": "w0 or v0"}  # the record field of an array-form argument, for messages
 _FIELD_WORDS = {
     "W": "the displacements W (in)",
     "F": "the force matrix F (lbf)",
@@ -322,14 +309,7 @@ def check_profiles(xs, n_sets: int, m: int, name: str) -> list[np.ndarray]:
             f"Parameter `{name}`: expected {n_sets} profiles (one per data set), got a single "
             f"1-D array of shape {xs.shape}"
         )
-    try:
-        count = len(xs)
-    except TypeError:
-        raise InputError(f"Parameter `{name}`: expected a sequence of profiles") from None
-    if count != n_sets:
-        raise DimensionError(
-            f"Parameter `{name}`: expected {n_sets} profiles (one per data set), got {count}"
-        )
+    _check_count(xs, n_sets, name, "profiles")
     return [check_profile(x, m, f"{name}[{j}]") for j, x in enumerate(xs)]
 
 
@@ -340,17 +320,21 @@ def check_forces(Fs, Ws, name: str = "F") -> list[np.ndarray]:
             f"Parameter `{name}`: expected a sequence of (m, n) force matrices, got a single "
             f"2-D array of shape {Fs.shape}; wrap it in a list"
         )
-    try:
-        count = len(Fs)
-    except TypeError:
-        raise InputError(f"Parameter `{name}`: expected a sequence of force matrices") from None
-    if count != len(Ws):
-        raise DimensionError(
-            f"Parameter `{name}`: expected {len(Ws)} force matrices (one per data set), "
-            f"got {count}"
-        )
+    _check_count(Fs, len(Ws), name, "force matrices")
     pairs = enumerate(zip(Fs, Ws, strict=True))
     return [check_force(F, W, f"{name}[{j}]") for j, (F, W) in pairs]
+
+
+def _check_count(xs, n_sets: int, name: str, what: str) -> None:
+    """``xs`` is a sequence of ``n_sets`` items, one per data set."""
+    try:
+        count = len(xs)
+    except TypeError:
+        raise InputError(f"Parameter `{name}`: expected a sequence of {what}") from None
+    if count != n_sets:
+        raise DimensionError(
+            f"Parameter `{name}`: expected {n_sets} {what} (one per data set), got {count}"
+        )
 
 
 def check_force(F, W: np.ndarray, name: str = "F") -> np.ndarray:
@@ -382,31 +366,32 @@ def check_dt(dt) -> float:
     return check_positive(dt, "dt")
 
 
+# ---------------------------------------------------------------------- declarations
+# What the methods' common hyperparameters admit (their `_parameter_constraints` use these).
+N_MODES: list = [None, Interval("integer", 1)]
+ENERGY: list = [Interval("number", 0, 1, closed="right")]
+TOL: list = [Interval("number", 0, 1, closed="neither")]
+MAX_COND: list = [Interval("number", 1)]
+MAX_GROWTH: list = [Interval("number", 1)]
+BASES: list = [Options("first", "all")]
+SOLVER: list = [InstanceOf((str, Solver, type), "a solver name, a Solver subclass or instance")]
+SOLVER_PARAMS: dict = {"solver": SOLVER, "solver_options": SOLVER_OPTIONS}
+
+
 def check_n_modes(n_modes) -> int | None:
-    if n_modes is None:
-        return None
-    return check_positive(n_modes, "n_modes", integer=True)
+    return check_param(n_modes, "n_modes", N_MODES)
 
 
 def check_energy(energy) -> float:
-    energy = check_positive(energy, "energy")
-    if energy > 1:
-        raise InputError(f"Parameter `energy`: must be in (0, 1], got {energy!r}")
-    return energy
+    return check_param(energy, "energy", ENERGY)
 
 
 def check_tol(tol, name: str = "tol") -> float:
-    tol = check_positive(tol, name)
-    if tol >= 1:
-        raise InputError(f"Parameter `{name}`: must be in (0, 1), got {tol!r}")
-    return tol
+    return check_param(tol, name, TOL)
 
 
 def check_max_cond(max_cond) -> float:
-    max_cond = check_positive(max_cond, "max_cond")
-    if max_cond < 1:
-        raise InputError(f"Parameter `max_cond`: must be >= 1, got {max_cond!r}")
-    return max_cond
+    return check_param(max_cond, "max_cond", MAX_COND)
 
 
 def make_method_solver(solver, solver_options):
@@ -416,11 +401,6 @@ def make_method_solver(solver, solver_options):
     ``"module:Class"`` name, or a solver instance (then ``solver_options`` must be empty).
     Raises InputError naming ``solver`` or ``solver_options``.
     """
-    if solver_options is not None and not isinstance(solver_options, dict):
-        raise InputError(
-            f"Parameter `solver_options`: expected a dict of keyword options, got "
-            f"{type(solver_options).__name__}"
-        )
     return make_solver(solver, solver_options)
 
 
@@ -440,10 +420,7 @@ def amplification(Q_list, X, B, dt: float) -> float:
 
 
 def check_max_growth(max_growth) -> float:
-    max_growth = check_positive(max_growth, "max_growth")
-    if max_growth < 1:
-        raise InputError(f"Parameter `max_growth`: must be >= 1, got {max_growth!r}")
-    return max_growth
+    return check_param(max_growth, "max_growth", MAX_GROWTH)
 
 
 def solve_deconvolution(solver, Q_list, B, dt: float, max_growth: float = np.inf,

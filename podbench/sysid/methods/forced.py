@@ -16,13 +16,22 @@ Newmark response to a force with ``F[:, 0] ≠ 0`` is *not* a causal convolution
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from podbench.core.records import is_record
-from podbench.core.validation import as_finite_array, check_choice
+from podbench.core.validation import as_finite_array
 from podbench.errors import DimensionError, IllConditionedError, InputError
 from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
 from podbench.sysid.methods.base import (
+    BASES,
+    ENERGY,
+    MAX_COND,
+    MAX_GROWTH,
+    N_MODES,
+    SOLVER_PARAMS,
+    TOL,
     PODMethod,
     as_int_list,
     check_datasets,
@@ -35,12 +44,12 @@ from podbench.sysid.methods.base import (
     check_n_modes,
     check_snapshots,
     check_tol,
-    is_record_input,
     make_method_solver,
     modal_share_too_small,
     select_basis,
     solve_deconvolution,
 )
+from podbench.sysid.params import Interval, Options, check_param
 
 __all__ = ["SingleLoad", "MultipleLoad", "KERNEL_TAIL", "kernel_lags"]
 
@@ -49,7 +58,6 @@ KERNEL_TAIL = 1e-6
 fraction of the identified kernel's energy, ``Σ_{s≥L} ‖C(t_s)‖²_F <= KERNEL_TAIL ·
 Σ_s ‖C(t_s)‖²_F`` (fixed in advance; it reads only the kernel fitted on the training records)."""
 
-_BASES = ("first", "all")
 
 
 def kernel_lags(kernel: np.ndarray, tail: float = KERNEL_TAIL) -> int:
@@ -75,13 +83,11 @@ def kernel_lags(kernel: np.ndarray, tail: float = KERNEL_TAIL) -> int:
     return int(np.flatnonzero(beyond <= tail * total)[0]) + 1
 
 
+N_LAGS: list = [None, Options("auto"), Interval("integer", 1)]
+
+
 def _check_n_lags(n_lags):
-    if n_lags is None or n_lags == "auto":
-        return n_lags
-    if isinstance(n_lags, bool) or not isinstance(n_lags, (int, np.integer)) or n_lags < 1:
-        raise InputError(f"Parameter `n_lags`: expected None, 'auto' or an integer >= 1, "
-                         f"got {n_lags!r}")
-    return int(n_lags)
+    return check_param(n_lags, "n_lags", N_LAGS)
 
 
 def _all_records_basis(Ws, k: int):
@@ -98,15 +104,11 @@ def _relative_residual(Qs, X, B, dt) -> float:
     return float(np.linalg.norm(AX - B) / nb) if nb > 0 else float(np.linalg.norm(AX))
 
 
-def _no_arrays_beside_records(**given) -> None:
-    for name, value in given.items():
-        if value is not None:
-            raise InputError(f"Parameter `{name}`: give it in the records (their {name}), "
-                             "not beside them")
-
-
 class _ForcedMethod(PODMethod):
     """What SL and ML share: the new force of a record, the solver diagnostics."""
+
+    n_lags: int | str | None
+    kernel_: np.ndarray
 
     def _new_force(self, record):
         if is_record(record):
@@ -148,6 +150,31 @@ class _ForcedMethod(PODMethod):
             kern = np.concatenate([kern, np.zeros(kern.shape[:2] + (n_new - kern.shape[2],))],
                                   axis=2)
         return kern
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new load: ``W̃ = U Ṽ`` (Eq. 3.45) with the modal response of
+        Eq. 3.44 (SL) or Eq. 3.49 (ML).
+
+        Parameters
+        ----------
+        record : record, or (m, n') array_like
+            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
+            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
+            ``n_lags``), column 0 at ``t = 0``.
+
+        Returns
+        -------
+        (m, n') ndarray
+            Predicted displacements (in).
+        """
+        self._check_is_fitted()
+        F = self._check_new_force(self._new_force(record))
+        return self.modes_ @ self._modal_response(self._kernel_for(F.shape[1]),
+                                                  self.modes_.T @ F)
+
+    def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """The modal response ``(k, n')`` to the modal forces ``q``, by the method's rule."""
+        raise NotImplementedError
 
     @property
     def diagnostics_(self) -> dict:
@@ -219,6 +246,8 @@ class SingleLoad(_ForcedMethod):
     abbreviation = "SL"
     excitation_kind = "forced"
     n_records = (1, 1)
+    _parameter_constraints = {"n_modes": N_MODES, "energy": ENERGY, **SOLVER_PARAMS,
+                              "tol": TOL, "max_growth": MAX_GROWTH, "n_lags": N_LAGS}
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
                  tol=1e-6, max_growth=1e8, n_lags=None):
@@ -229,14 +258,6 @@ class SingleLoad(_ForcedMethod):
         self.tol = tol
         self.max_growth = max_growth
         self.n_lags = n_lags
-
-    def _validate_params(self) -> None:
-        check_n_modes(self.n_modes)
-        check_energy(self.energy)
-        make_method_solver(self.solver, self.solver_options)
-        check_tol(self.tol)
-        check_max_growth(self.max_growth)
-        _check_n_lags(self.n_lags)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -266,10 +287,9 @@ class SingleLoad(_ForcedMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            _no_arrays_beside_records(F=F, dt=dt)
-            rec = self._training_records(records)[0]
-            W, F, dt = rec.W, rec.F, rec.dt
+        recs = self._records_or_none(records, F=F, dt=dt)
+        if recs is not None:
+            W, F, dt = recs[0].W, recs[0].F, recs[0].dt
         else:
             dt = check_dt(dt)
             W = check_snapshots(records)
@@ -307,36 +327,15 @@ class SingleLoad(_ForcedMethod):
         nv = np.linalg.norm(Vh)
         self.solver_ = solver
         self.solver_info_ = infos
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs, dt)
         self.kernel_ = self._truncate(kernel)
         self.fit_residual_ = float(np.sqrt(num) / nv) if nv > 0 else float(np.sqrt(num))
-        self.dt_ = dt
-        self.n_modes_ = k
         return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new load (Eqs. 3.44–3.45).
-
-        Parameters
-        ----------
-        record : record, or (m, n') array_like
-            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
-            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
-            ``n_lags``), column 0 at ``t = 0``.
-
-        Returns
-        -------
-        (m, n') ndarray
-            Predicted displacements (in).
-        """
-        self._check_is_fitted()
-        F = self._check_new_force(self._new_force(record))
-        q = self.modes_.T @ F
+    def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``ṽ_i = c_ii * q̃_i`` (Eq. 3.44), the diagonal of the kernel only."""
         idx = np.arange(self.n_modes_)
-        v = convolve(self._kernel_for(F.shape[1])[idx, idx], q, self.dt_)
-        return self.modes_ @ v
+        return convolve(kernel[idx, idx], q, self.dt_)
 
 
 class MultipleLoad(_ForcedMethod):
@@ -415,6 +414,8 @@ class MultipleLoad(_ForcedMethod):
     excitation_kind = "forced"
     coupled = True
     records_per_mode = True
+    _parameter_constraints = {"n_modes": N_MODES, **SOLVER_PARAMS, "max_cond": MAX_COND,
+                              "max_growth": MAX_GROWTH, "basis": BASES, "n_lags": N_LAGS}
 
     def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None):
@@ -425,14 +426,6 @@ class MultipleLoad(_ForcedMethod):
         self.max_growth = max_growth
         self.basis = basis
         self.n_lags = n_lags
-
-    def _validate_params(self) -> None:
-        check_n_modes(self.n_modes)
-        make_method_solver(self.solver, self.solver_options)
-        check_max_cond(self.max_cond)
-        check_max_growth(self.max_growth)
-        check_choice(self.basis, "basis", _BASES)
-        _check_n_lags(self.n_lags)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -458,10 +451,9 @@ class MultipleLoad(_ForcedMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            _no_arrays_beside_records(F=F, dt=dt)
-            recs = self._training_records(records)
-            Ws, Fs, dt = [r.W for r in recs], [r.F for r in recs], recs[0].dt
+        recs = self._records_or_none(records, F=F, dt=dt)
+        if recs is not None:
+            Ws, Fs, dt = [r.W for r in recs], [cast(np.ndarray, r.F) for r in recs], recs[0].dt
         else:
             dt = check_dt(dt)
             Ws = check_datasets(records)
@@ -505,33 +497,13 @@ class MultipleLoad(_ForcedMethod):
             kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
         self.solver_ = solver
         self.solver_info_ = info
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs, dt)
         self.Cbar_ = Cbar
         self.kernel_ = self._truncate(kernel)
         self.condition_number_ = cond
         self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
-        self.dt_ = dt
-        self.n_modes_ = k
         return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new load (Eq. 3.49 and Eq. 3.45).
-
-        Parameters
-        ----------
-        record : record, or (m, n') array_like
-            A record with the new forces ``F`` (lbf; its ``dt``, if given, must equal the
-            training one), or the force matrix itself; ``n' <= n`` samples (any ``n'`` with
-            ``n_lags``), column 0 at ``t = 0``.
-
-        Returns
-        -------
-        (m, n') ndarray
-            Predicted displacements (in).
-        """
-        self._check_is_fitted()
-        F = self._check_new_force(self._new_force(record))
-        v = convolve_kernel(self._kernel_for(F.shape[1]), self.modes_.T @ F, self.dt_)
-        return self.modes_ @ v
+    def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``Ṽ = [Q̃̌_1 … Q̃̌_k] C̄`` (Eq. 3.49) as a fast convolution."""
+        return convolve_kernel(kernel, q, self.dt_)

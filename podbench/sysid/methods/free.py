@@ -9,9 +9,13 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.core.records import Record, is_record
-from podbench.core.validation import check_choice
 from podbench.errors import IllConditionedError, InputError
 from podbench.sysid.methods.base import (
+    BASES,
+    ENERGY,
+    MAX_COND,
+    N_MODES,
+    TOL,
     PODMethod,
     as_int_list,
     check_datasets,
@@ -22,14 +26,15 @@ from podbench.sysid.methods.base import (
     check_profiles,
     check_snapshots,
     check_tol,
-    is_record_input,
     modal_share_too_small,
     select_basis,
 )
+from podbench.sysid.params import Options
 
 __all__ = ["POVR", "MDS"]
 
 _EXCITATIONS = ("displacement", "velocity")
+EXCITATIONS: list = [Options(*_EXCITATIONS)]
 _X0 = {"displacement": "w0", "velocity": "v0"}  # the record field each excitation reads
 # (noun, symbol, what of the POC is divided by) per excitation, for messages
 _WORD = {
@@ -48,7 +53,48 @@ def first_column_w0(records, excitation: str) -> list:
             if getattr(r, "w0", None) is None else r for r in recs]
 
 
-class POVR(PODMethod):
+class _FreeMethod(PODMethod):
+    """What POVR and MDS share: the record field of the excitation, and a displacement
+    record without ``w0`` taken to start at ``W[:, 0]``."""
+
+    excitation: str
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
+
+    def _training_records(self, records, name: str = "records") -> list[Record]:
+        return super()._training_records(first_column_w0(records, self.excitation), name)
+
+    def _new_profile(self, record):
+        self._check_is_fitted()
+        if is_record(record):
+            return getattr(self._target_record(record), _X0[self.excitation])
+        return record
+
+    def predict(self, record) -> np.ndarray:
+        """Response to a new initial displacement (in) or velocity (in/s): Eq. 3.11 (POVR),
+        Eqs. 3.28–3.29 (MDS).
+
+        Parameters
+        ----------
+        record : record, or (m,) array_like
+            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
+            new initial profile itself.
+
+        Returns
+        -------
+        (m, n) ndarray
+            Predicted displacements (in).
+        """
+        x = check_profile(self._new_profile(record), self.modes_.shape[0], "x0_new")
+        return self.modes_ @ self._modal_histories(x)
+
+    def _modal_histories(self, x: np.ndarray) -> np.ndarray:
+        """The modal response ``(k, n)`` to the new profile ``x`` by the method's rule."""
+        raise NotImplementedError
+
+
+class POVR(_FreeMethod):
     """Proper orthogonal value recalculation (§3.2.1–3.2.2, Eqs. 3.11–3.18, 3.24).
 
     The POMs ``u_j`` and POC histories ``v_j`` of one response are kept and only the POVs
@@ -104,21 +150,14 @@ class POVR(PODMethod):
     abbreviation = "POVR"
     excitation_kind = "free"
     n_records = (1, 1)
+    _parameter_constraints = {"n_modes": N_MODES, "excitation": EXCITATIONS,
+                              "energy": ENERGY, "tol": TOL}
 
     def __init__(self, *, n_modes=None, excitation="displacement", energy=0.99, tol=1e-6):
         self.n_modes = n_modes
         self.excitation = excitation
         self.energy = energy
         self.tol = tol
-
-    def _validate_params(self) -> None:
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
-        check_n_modes(self.n_modes)
-        check_energy(self.energy)
-        check_tol(self.tol)
-
-    def required_fields(self) -> tuple[str, ...]:
-        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
 
     def coupled_twin(self) -> MDS:
         """MDS for the same excitation (Φ11 / Φ12 without the diagonal assumption)."""
@@ -144,12 +183,9 @@ class POVR(PODMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            if x0 is not None:
-                raise InputError("Parameter `x0`: give the initial profile in the record "
-                                 "(its w0 or v0), not beside it")
-            rec = self._training_records(first_column_w0(records, self.excitation))[0]
-            W, x0 = rec.W, getattr(rec, _X0[self.excitation])
+        recs = self._records_or_none(records, x0=x0)
+        if recs is not None:
+            W, x0 = recs[0].W, getattr(recs[0], _X0[self.excitation])
         else:
             W = check_snapshots(records)
             if x0 is None:
@@ -185,22 +221,13 @@ class POVR(PODMethod):
                 "(several data sets) or fewer modes"
             )
         k, n = U.shape[1], W.shape[1]
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs)
         self.initial_coordinates_ = a
         Phi = np.zeros((n, k, k))
         idx = np.arange(k)
         Phi[:, idx, idx] = (pocs * povs) / a
         self.Phi_ = Phi
-        self.n_modes_ = k
         return self
-
-    def _new_profile(self, record):
-        self._check_is_fitted()
-        if is_record(record):
-            return getattr(self._target_record(record), _X0[self.excitation])
-        return record
 
     def new_povs(self, x0_new) -> np.ndarray:
         """Recalculated POVs ``σ̃_j`` for a new initial profile (Eqs. 3.13 / 3.17), (k,)."""
@@ -208,25 +235,12 @@ class POVR(PODMethod):
         x = check_profile(x0_new, self.modes_.shape[0], "x0_new")
         return self.povs_ * (self.modes_.T @ x) / self.initial_coordinates_
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new initial displacement (in) or velocity (in/s), Eq. 3.11.
-
-        Parameters
-        ----------
-        record : record, or (m,) array_like
-            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
-            new initial profile itself.
-
-        Returns
-        -------
-        (m, n) ndarray
-            Predicted displacements (in).
-        """
-        s_new = self.new_povs(self._new_profile(record))
-        return self.modes_ @ (s_new[:, None] * self.pocs_.T)
+    def _modal_histories(self, x: np.ndarray) -> np.ndarray:
+        """``σ̃_j v_j`` (Eq. 3.11), ``(k, n)``."""
+        return self.new_povs(x)[:, None] * self.pocs_.T
 
 
-class MDS(PODMethod):
+class MDS(_FreeMethod):
     """Multiple data set method (§3.2.3, Eqs. 3.25–3.33).
 
     With the POMs ``U`` (``m × k``) of the first data set, every data set ``j`` is projected,
@@ -280,6 +294,8 @@ class MDS(PODMethod):
     excitation_kind = "free"
     coupled = True
     records_per_mode = True
+    _parameter_constraints = {"excitation": EXCITATIONS, "n_modes": N_MODES,
+                              "max_cond": MAX_COND, "basis": BASES}
 
     def __init__(self, *, excitation="displacement", n_modes=None, max_cond=1e10,
                  basis="first"):
@@ -287,15 +303,6 @@ class MDS(PODMethod):
         self.n_modes = n_modes
         self.max_cond = max_cond
         self.basis = basis
-
-    def _validate_params(self) -> None:
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
-        check_n_modes(self.n_modes)
-        check_max_cond(self.max_cond)
-        check_choice(self.basis, "basis", ("first", "all"))
-
-    def required_fields(self) -> tuple[str, ...]:
-        return ("W", _X0[self.excitation]) if self.excitation in _X0 else ("W",)
 
     def fit(self, records, x0=None, *, basis=None) -> MDS:
         """Identify ``Φ11`` / ``Φ12`` from several free responses.
@@ -317,11 +324,8 @@ class MDS(PODMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            if x0 is not None:
-                raise InputError("Parameter `x0`: give the initial profiles in the records "
-                                 "(their w0 or v0), not beside them")
-            recs = self._training_records(first_column_w0(records, self.excitation))
+        recs = self._records_or_none(records, x0=x0)
+        if recs is not None:
             Ws = [r.W for r in recs]
             x0 = [getattr(r, _X0[self.excitation]) for r in recs]
         else:
@@ -370,31 +374,11 @@ class MDS(PODMethod):
         V0_inv = np.linalg.solve(V0, np.eye(k)) if n_sets == k else np.linalg.pinv(V0)
         # Φ(t_i) = [¹V̂(:,i) … ᴺV̂(:,i)] V̂0⁻¹ for every i at once
         self.Phi_ = np.einsum("jki,jl->ikl", Vh, V0_inv)
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs)
         self.initial_coordinates_ = V0
         self.condition_number_ = cond
-        self.n_modes_ = k
         return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new initial displacement (in) or velocity (in/s), Eqs. 3.28–3.29.
-
-        Parameters
-        ----------
-        record : record, or (m,) array_like
-            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
-            new initial profile itself.
-
-        Returns
-        -------
-        (m, n) ndarray
-            Predicted displacements (in).
-        """
-        self._check_is_fitted()
-        if is_record(record):
-            record = getattr(self._target_record(record), _X0[self.excitation])
-        x = check_profile(record, self.modes_.shape[0], "x0_new")
-        v_new = self.Phi_ @ (self.modes_.T @ x)  # n × k
-        return self.modes_ @ v_new.T
+    def _modal_histories(self, x: np.ndarray) -> np.ndarray:
+        """``Φ(t_i) Uᵀ x̃0`` at every sample (Eqs. 3.28–3.29), ``(k, n)``."""
+        return (self.Phi_ @ (self.modes_.T @ x)).T

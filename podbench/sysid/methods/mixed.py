@@ -50,12 +50,18 @@ training records (:func:`~podbench.methods.mixed_design.design_conditioning`).
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
-from podbench.core.validation import check_choice
 from podbench.errors import DimensionError, IllConditionedError, InputError
 from podbench.sysid.deconvolution import convolution_product, convolve
 from podbench.sysid.methods.base import (
+    ENERGY,
+    MAX_GROWTH,
+    N_MODES,
+    SOLVER_PARAMS,
+    TOL,
     PODMethod,
     as_int_list,
     check_datasets,
@@ -68,7 +74,6 @@ from podbench.sysid.methods.base import (
     check_profile,
     check_profiles,
     check_tol,
-    is_record_input,
     make_method_solver,
     select_basis,
     solve_deconvolution,
@@ -76,6 +81,7 @@ from podbench.sysid.methods.base import (
 from podbench.sysid.methods.forced import MultipleLoad
 from podbench.sysid.methods.free import MDS
 from podbench.sysid.methods.superposition import Superposition
+from podbench.sysid.params import Options
 
 __all__ = ["MixedResponse"]
 
@@ -152,6 +158,9 @@ class MixedResponse(PODMethod):
     abbreviation = "MR"
     excitation_kind = "mixed"
     n_records = (3, 3)
+    _parameter_constraints = {"n_modes": N_MODES, "energy": ENERGY, **SOLVER_PARAMS,
+                              "velocity_scaling": [Options(*_SCALINGS)], "tol": TOL,
+                              "max_growth": MAX_GROWTH}
 
     def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
                  velocity_scaling="finite_difference", tol=1e-6, max_growth=1e8):
@@ -162,14 +171,6 @@ class MixedResponse(PODMethod):
         self.velocity_scaling = velocity_scaling
         self.tol = tol
         self.max_growth = max_growth
-
-    def _validate_params(self) -> None:
-        check_n_modes(self.n_modes)
-        check_energy(self.energy)
-        make_method_solver(self.solver, self.solver_options)
-        check_choice(self.velocity_scaling, "velocity_scaling", _SCALINGS)
-        check_tol(self.tol)
-        check_max_growth(self.max_growth)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "w0", "v0", "dt")
@@ -211,15 +212,12 @@ class MixedResponse(PODMethod):
         self
         """
         self._validate_params()
-        if is_record_input(records):
-            for name, value in (("w0", w0), ("v0", v0), ("F", F), ("dt", dt)):
-                if value is not None:
-                    raise InputError(f"Parameter `{name}`: give it in the records (their "
-                                     f"{name}), not beside them")
-            recs = self._training_records(records)
+        recs = self._records_or_none(records, w0=w0, v0=v0, F=F, dt=dt)
+        if recs is not None:
             Ws = [r.W for r in recs]
-            w0s, v0s, Fs, dt = [r.w0 for r in recs], [r.v0 for r in recs], \
-                [r.F for r in recs], recs[0].dt
+            w0s, v0s, Fs = ([cast(np.ndarray, getattr(r, f)) for r in recs]
+                            for f in ("w0", "v0", "F"))
+            dt = recs[0].dt
         else:
             if v0 is None or F is None:
                 raise InputError("Parameter `v0` and `F`: the initial velocities (in/s) and "
@@ -244,7 +242,7 @@ class MixedResponse(PODMethod):
         energy = check_energy(self.energy)
         solver = make_method_solver(self.solver, self.solver_options)
         tol = check_tol(self.tol)
-        m, n = Ws[0].shape
+        n = Ws[0].shape[1]
         if self.velocity_scaling == "finite_difference" and n < 2:
             raise DimensionError(
                 "Parameter `W`: velocity_scaling='finite_difference' needs at least 2 samples"
@@ -255,54 +253,10 @@ class MixedResponse(PODMethod):
         Q = np.stack([U.T @ Fj for Fj in Fs])  # 3 × k × n
         D0 = U.T @ np.column_stack(w0s)  # k × 3
         V0 = U.T @ np.column_stack(v0s)
-        for name, coords, x in (("w0", D0, w0s[0]), ("v0", V0, v0s[0])):
-            scale = float(np.linalg.norm(x))
-            bad = np.abs(coords[:, 0]) <= tol * scale
-            if np.any(bad):
-                raise IllConditionedError(
-                    f"MR: |u_iᵀ{name}_a| <= tol·‖{name}_a‖ = {tol * scale:.3g} for mode(s) "
-                    f"{as_int_list(bad)} (tol = {tol:g}); the POV ratios of Eqs. 3.58–3.61 "
-                    f"divide by it: case a needs a nonzero {name} with a share in every mode"
-                )
-        r_bd, r_cd = D0[:, 1] / D0[:, 0], D0[:, 2] / D0[:, 0]
-        r_bv, r_cv = V0[:, 1] / V0[:, 0], V0[:, 2] / V0[:, 0]
-        den = r_bv - r_bd
-        bad = np.abs(den) <= tol * np.maximum.reduce([np.ones(k), abs(r_bv), abs(r_bd)])
-        if np.any(bad):
-            i = int(np.flatnonzero(bad)[0])
-            raise IllConditionedError(
-                f"MR: r_bv − r_bd = {den[i]:.3g} (≈ 0) for mode(s) {as_int_list(bad)}: cases a "
-                "and b excite this mode with initial displacement and velocity in the same "
-                "proportion, so the displacement and velocity histories cannot be separated; "
-                "choose case b's initial conditions differently"
-            )
-        R = (r_cv - r_cd) / den
-        kernel = np.zeros((k, k, n))
-        D = np.empty((k, n))
-        V = np.empty((k, n))
-        res2, rhs2 = 0.0, 0.0
-        infos = []
-        for i in range(k):
-            qa, qb, qc = Q[0, i], Q[1, i], Q[2, i]
-            qba = qb - r_bd[i] * qa
-            g = (qc - r_cd[i] * qa) - R[i] * qba
-            fscale = np.linalg.norm(qa) + np.linalg.norm(qb) + np.linalg.norm(qc)
-            if fscale == 0 or np.linalg.norm(g) <= tol * fscale:
-                raise IllConditionedError(
-                    f"MR: mode {i + 1}: the combined modal force q_c − r_cd q_a − R (q_b − r_bd "
-                    f"q_a) is (nearly) zero (norm {np.linalg.norm(g):.3g}, modal forces "
-                    f"{fscale:.3g}); the loads cannot be separated from the initial conditions"
-                )
-            yb = Vh[1, i] - r_bd[i] * Vh[0, i]
-            rhs = (Vh[2, i] - r_cd[i] * Vh[0, i]) - R[i] * yb
-            c, info = solve_deconvolution(solver, [g[None]], rhs, dt,
-                                          check_max_growth(self.max_growth), f"MR mode {i + 1}")
-            infos.append(info)
-            res2 += float(np.sum((convolution_product([g[None]], c, dt) - rhs) ** 2))
-            rhs2 += float(np.sum(rhs**2))
-            kernel[i, i] = c
-            V[i] = (yb - convolve(c, qba, dt)) / den[i]
-            D[i] = Vh[0, i] - V[i] - convolve(c, qa, dt)
+        ratios, den, R = _pov_ratios(D0, V0, w0s[0], v0s[0], tol)
+        parts = _separate(Vh, Q, ratios, den, R, dt, tol, solver,
+                          check_max_growth(self.max_growth))
+        D, V, kernel, infos, res2, rhs2 = parts
         vdot = (V[:, 1] - V[:, 0]) / dt if n >= 2 else np.full(k, np.nan)
         if self.velocity_scaling == "finite_difference":
             bad = np.abs(vdot) <= tol * np.abs(V0[:, 0])
@@ -319,20 +273,16 @@ class MixedResponse(PODMethod):
         self.povs_disp_, self.povs_vel_ = nD, nV
         self.solver_ = solver
         self.solver_info_ = infos
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
+        self._set_basis(U, povs, pocs, dt)
         self.disp_histories_ = D
         self.vel_histories_ = V
         self.kernel_ = kernel
-        self.pov_ratios_ = np.column_stack([r_bd, r_bv, r_cd, r_cv])
+        self.pov_ratios_ = np.column_stack(ratios)
         self.velocity_derivative_ = vdot
         self.initial_displacement_coordinates_ = D0[:, 0]
         self.initial_velocity_coordinates_ = V0[:, 0]
         self.fit_residual_ = float(np.sqrt(res2 / rhs2)) if rhs2 > 0 else float(np.sqrt(res2))
         self.velocity_scaling_ = self.velocity_scaling
-        self.dt_ = dt
-        self.n_modes_ = k
         return self
 
     def predict(self, record=None, *, w0=None, v0=None, F=None) -> np.ndarray:
@@ -385,3 +335,69 @@ class MixedResponse(PODMethod):
             idx = np.arange(k)
             out += convolve(self.kernel_[idx, idx], U.T @ F, self.dt_)
         return U @ out
+
+
+def _pov_ratios(D0, V0, w0a, v0a, tol: float):
+    """The POV ratios ``(r_bd, r_bv, r_cd, r_cv)`` of Eqs. 3.58–3.61, ``r_bv − r_bd`` and
+    ``R = (r_cv − r_cd)/(r_bv − r_bd)``; IllConditionedError where a division is unsafe."""
+    k = D0.shape[0]
+    for name, coords, x in (("w0", D0, w0a), ("v0", V0, v0a)):
+        scale = float(np.linalg.norm(x))
+        bad = np.abs(coords[:, 0]) <= tol * scale
+        if np.any(bad):
+            raise IllConditionedError(
+                f"MR: |u_iᵀ{name}_a| <= tol·‖{name}_a‖ = {tol * scale:.3g} for mode(s) "
+                f"{as_int_list(bad)} (tol = {tol:g}); the POV ratios of Eqs. 3.58–3.61 "
+                f"divide by it: case a needs a nonzero {name} with a share in every mode"
+            )
+    r_bd, r_cd = D0[:, 1] / D0[:, 0], D0[:, 2] / D0[:, 0]
+    r_bv, r_cv = V0[:, 1] / V0[:, 0], V0[:, 2] / V0[:, 0]
+    den = r_bv - r_bd
+    bad = np.abs(den) <= tol * np.maximum.reduce([np.ones(k), abs(r_bv), abs(r_bd)])
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise IllConditionedError(
+            f"MR: r_bv − r_bd = {den[i]:.3g} (≈ 0) for mode(s) {as_int_list(bad)}: cases a "
+            "and b excite this mode with initial displacement and velocity in the same "
+            "proportion, so the displacement and velocity histories cannot be separated; "
+            "choose case b's initial conditions differently"
+        )
+    return (r_bd, r_bv, r_cd, r_cv), den, (r_cv - r_cd) / den
+
+
+def _separate(Vh, Q, ratios, den, R, dt: float, tol: float, solver, max_growth: float):
+    """Per mode, the kernel ``c_ii`` (one scalar deconvolution of the combined force) and
+    case a's displacement and velocity histories ``D``, ``V`` (module docstring).
+
+    Returns ``(D, V, kernel, infos, res2, rhs2)``: ``D``, ``V`` (k, n), the diagonal kernel
+    (k, k, n), the solver's diagnostics per mode and the squared residual and right-hand
+    side of the deconvolutions."""
+    r_bd, _, r_cd, _ = ratios
+    k, n = Vh.shape[1], Vh.shape[2]
+    kernel = np.zeros((k, k, n))
+    D = np.empty((k, n))
+    V = np.empty((k, n))
+    res2, rhs2 = 0.0, 0.0
+    infos = []
+    for i in range(k):
+        qa, qb, qc = Q[0, i], Q[1, i], Q[2, i]
+        qba = qb - r_bd[i] * qa
+        g = (qc - r_cd[i] * qa) - R[i] * qba
+        fscale = np.linalg.norm(qa) + np.linalg.norm(qb) + np.linalg.norm(qc)
+        if fscale == 0 or np.linalg.norm(g) <= tol * fscale:
+            raise IllConditionedError(
+                f"MR: mode {i + 1}: the combined modal force q_c − r_cd q_a − R (q_b − r_bd "
+                f"q_a) is (nearly) zero (norm {np.linalg.norm(g):.3g}, modal forces "
+                f"{fscale:.3g}); the loads cannot be separated from the initial conditions"
+            )
+        yb = Vh[1, i] - r_bd[i] * Vh[0, i]
+        rhs = (Vh[2, i] - r_cd[i] * Vh[0, i]) - R[i] * yb
+        c, info = solve_deconvolution(solver, [g[None]], rhs, dt, max_growth,
+                                      f"MR mode {i + 1}")
+        infos.append(info)
+        res2 += float(np.sum((convolution_product([g[None]], c, dt) - rhs) ** 2))
+        rhs2 += float(np.sum(rhs**2))
+        kernel[i, i] = c
+        V[i] = (yb - convolve(c, qba, dt)) / den[i]
+        D[i] = Vh[0, i] - V[i] - convolve(c, qa, dt)
+    return D, V, kernel, infos, res2, rhs2

@@ -41,6 +41,7 @@ on the loads' shape rather than on how the sets are combined.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -104,8 +105,8 @@ def design_conditioning(records, n_modes=None, *, energy=0.99) -> DesignConditio
         raise InputError(f"Parameter `records`: MR needs exactly three sets, got {len(recs)}")
     U, _, _ = select_basis(recs[0].W, check_n_modes(n_modes), None, energy=energy)
     k = U.shape[1]
-    D0 = U.T @ np.column_stack([r.w0 for r in recs])
-    V0 = U.T @ np.column_stack([r.v0 for r in recs])
+    D0 = U.T @ np.column_stack([cast(np.ndarray, r.w0) for r in recs])
+    V0 = U.T @ np.column_stack([cast(np.ndarray, r.v0) for r in recs])
     qn = np.stack([np.linalg.norm(U.T @ r.F, axis=1) for r in recs])  # 3 × k
     with np.errstate(divide="ignore", invalid="ignore"):
         r_bd, r_cd = D0[:, 1] / D0[:, 0], D0[:, 2] / D0[:, 0]

@@ -15,10 +15,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from podbench.errors import InputError
+from podbench.errors import InputError, InvalidParameterError
 from podbench.sysid.methods.base import PODMethod
+from podbench.sysid.params import InstanceOf
 
 __all__ = ["Superposition"]
+
+_PARTS: list = [InstanceOf((list, tuple), "a non-empty sequence of methods")]
 
 
 class Superposition(PODMethod):
@@ -47,6 +50,7 @@ class Superposition(PODMethod):
 
     abbreviation = "superposition"
     excitation_kind = "mixed"
+    _parameter_constraints = {"parts": _PARTS}
 
     def __init__(self, *, parts=()):
         self.parts = parts
@@ -58,14 +62,16 @@ class Superposition(PODMethod):
         return bool(parts) and all(getattr(p, "coupled", False) for p in parts)
 
     def _validate_params(self) -> None:
-        if not isinstance(self.parts, Sequence) or isinstance(self.parts, str) \
-                or not self.parts:
-            raise InputError(
-                f"Parameter `parts`: expected a non-empty sequence of methods, got {self.parts!r}"
-            )
+        super()._validate_params()
+        if not self.parts:
+            raise InvalidParameterError(
+                f"Parameter `parts`: expected {_PARTS[0].describe()}, got {self.parts!r}",
+                param="parts")
         for j, p in enumerate(self.parts):
             if not (hasattr(p, "fit") and hasattr(p, "predict")):
-                raise InputError(f"Parameter `parts[{j}]`: {p!r} is not a method (no fit/predict)")
+                raise InvalidParameterError(
+                    f"Parameter `parts[{j}]`: {p!r} is not a method (no fit/predict)",
+                    param="parts")
             validate = getattr(p, "_validate_params", None)
             if validate is not None:
                 validate()
@@ -114,4 +120,4 @@ class Superposition(PODMethod):
     def predict(self, record) -> np.ndarray:
         """The sum of the parts' predictions for ``record`` (each reads its own fields)."""
         self._check_is_fitted()
-        return sum(np.asarray(p.predict(record), dtype=float) for p in self.parts_)
+        return np.asarray(sum(np.asarray(p.predict(record), dtype=float) for p in self.parts_))

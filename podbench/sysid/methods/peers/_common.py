@@ -15,12 +15,14 @@ Sampling: column ``j`` is ``t_j = j·Δt``; training and target records start at
 from __future__ import annotations
 
 import importlib
+from typing import cast
 
 import numpy as np
 
 from podbench.errors import InputError, NotFittedError
 from podbench.sysid.methods.base import PODMethod, check_n_modes, select_basis
 from podbench.sysid.methods.forced import MultipleLoad
+from podbench.sysid.params import Interval
 from podbench.sysid.pod import snapshot_svd
 
 __all__ = ["PeerMethod", "require", "simulate", "holdout_split"]
@@ -92,21 +94,10 @@ def relative_error(Y_hat, Y) -> float:
     return float(np.linalg.norm(Y_hat - Y) / ny) if ny > 0 else float(np.linalg.norm(Y_hat))
 
 
-def check_holdout(holdout) -> float:
-    if isinstance(holdout, bool) or not isinstance(holdout, (int, float)) or \
-            not 0.05 <= holdout <= 0.5:
-        raise InputError(f"Parameter `holdout`: must be a fraction in [0.05, 0.5] of each "
-                         f"training record, got {holdout!r}")
-    return float(holdout)
-
-
-def check_int_or_none(value, name: str, *, lo: int = 1):
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise InputError(f"Parameter `{name}`: must be an integer >= {lo} or None, "
-                         f"got {value!r}")
-    return int(value)
+HOLDOUT: list = [Interval("number", 0.05, 0.5, closed="both")]
+"""``holdout``: the fraction of each training record the hold-out rule holds out."""
+INT_OR_NONE: list = [None, Interval("integer", 1)]
+DELAYS: list = [Interval("integer", 1)]
 
 
 class PeerMethod(PODMethod):
@@ -120,6 +111,14 @@ class PeerMethod(PODMethod):
 
     excitation_kind = "forced"
     coupled = False
+    #: ``(module, method, library)`` of the optional library the peer wraps (checked with
+    #: the hyperparameters, so a missing library fails when a scenario is read).
+    _requires: tuple[str, str, str] | None = None
+
+    def _validate_params(self) -> None:
+        super()._validate_params()
+        if self._requires is not None:
+            require(*self._requires)
 
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "dt")
@@ -151,12 +150,31 @@ class PeerMethod(PODMethod):
         Us = np.stack([U.T @ r.F for r in recs])
         return recs, U, povs, pocs, Ys, Us
 
-    def _set_basis(self, U, povs, pocs, dt):
-        self.modes_ = U
-        self.povs_ = povs
-        self.pocs_ = pocs
-        self.n_modes_ = U.shape[1]
-        self.dt_ = dt
+    def _respond_delayed(self, A, B, C, Uin):
+        """Zero-state response of the delay model ``(A, B)`` read out by ``C`` to the basis
+        inputs ``Uin`` (``(k, n)`` or ``(R, k, n)``)."""
+        k = Uin.shape[-2]
+        R = Uin[None] if Uin.ndim == 2 else Uin
+        _, V = delay_coordinates(np.zeros_like(R), R, self.delays)
+        out = simulate(A, B, C, np.zeros((k, B.shape[1])), V)
+        return out[0] if Uin.ndim == 2 else out
+
+    def _fit_by_rule(self, records, basis, value, candidates):
+        """Fit the basis and the model (``_identify``), the rule's hyperparameter ``value``
+        chosen by the hold-out rule among ``candidates`` when None; sets the basis,
+        ``holdout_errors_`` and ``fit_residual_`` and returns ``(model, value)``."""
+        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
+        errors = None
+        if value is None:
+            value, errors = self._select_by_holdout(Ys, Us, candidates(U.shape[1]),
+                                                    self._identify, self._respond,
+                                                    self.holdout)
+        model = self._identify(Ys, Us, value)
+        self._set_basis(U, povs, pocs, recs[0].dt)
+        self.holdout_errors_ = errors
+        Yh = self._respond(model, Us)
+        self.fit_residual_ = float(np.linalg.norm(Yh - Ys) / np.linalg.norm(Ys))
+        return model, value
 
     def _select_by_holdout(self, Ys, Us, candidates, identify, respond, holdout):
         """The hold-out rule: the first (simplest) candidate whose hold-out error is within
@@ -188,11 +206,11 @@ class PeerMethod(PODMethod):
 
     def _new_inputs(self, record) -> np.ndarray:
         self._check_is_fitted()
-        rec = self._target_record(record)
-        if rec.F.shape[0] != self.modes_.shape[0]:
-            raise InputError(f"Parameter `record.F`: {rec.F.shape[0]} rows, the peer was fitted "
+        F = cast(np.ndarray, self._target_record(record).F)  # a field the peer requires
+        if F.shape[0] != self.modes_.shape[0]:
+            raise InputError(f"Parameter `record.F`: {F.shape[0]} rows, the peer was fitted "
                              f"on {self.modes_.shape[0]} sensors")
-        return self.modes_.T @ rec.F
+        return self.modes_.T @ F
 
     def _check_is_fitted(self) -> None:
         if not hasattr(self, "modes_"):

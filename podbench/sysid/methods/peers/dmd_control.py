@@ -20,17 +20,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.errors import InputError
 from podbench.sysid.methods.peers._common import (
+    DELAYS,
+    HOLDOUT,
+    INT_OR_NONE,
     PeerMethod,
-    check_holdout,
-    check_int_or_none,
     delay_coordinates,
     require,
-    simulate,
 )
+from podbench.sysid.params import Interval
 
 __all__ = ["DMDc"]
+
+#: PyDMD's rank: an int >= -1 (0: optimal hard threshold, -1: none) or an energy fraction.
+_PYDMD_RANK: list = [Interval("integer", -1), Interval("number", 0, 1, closed="neither")]
 
 
 class DMDc(PeerMethod):
@@ -67,6 +70,10 @@ class DMDc(PeerMethod):
     """
 
     abbreviation = "DMDc"
+    _requires = ("pydmd", "DMDc", "PyDMD")
+    _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
+                              "svd_rank": [None, *_PYDMD_RANK], "svd_rank_omega": _PYDMD_RANK,
+                              "holdout": HOLDOUT}
 
     def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=-1,
                  holdout=0.25):
@@ -75,22 +82,6 @@ class DMDc(PeerMethod):
         self.svd_rank = svd_rank
         self.svd_rank_omega = svd_rank_omega
         self.holdout = holdout
-
-    def _validate_params(self) -> None:
-        check_int_or_none(self.n_modes, "n_modes")
-        if check_int_or_none(self.delays, "delays") is None:
-            raise InputError("Parameter `delays`: must be an integer >= 1, got None")
-        for name in ("svd_rank", "svd_rank_omega"):
-            value = getattr(self, name)
-            if value is None and name == "svd_rank":
-                continue
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-                    (isinstance(value, float) and not 0 < value < 1) or \
-                    (isinstance(value, int) and value < -1):
-                raise InputError(f"Parameter `{name}`: PyDMD's rank (an int >= -1 or an energy "
-                                 f"fraction in (0, 1)), got {value!r}")
-        check_holdout(self.holdout)
-        require("pydmd", "DMDc", "PyDMD")
 
     def _identify(self, Ys, Us, rank):
         dmdc = require("pydmd.dmdc", "DMDc", "PyDMD")
@@ -107,32 +98,16 @@ class DMDc(PeerMethod):
 
     def _respond(self, model, Uin):
         Atilde, Btilde, Ur = model
-        k = Uin.shape[-2]
-        R = Uin[None] if Uin.ndim == 2 else Uin
-        _, V = delay_coordinates(np.zeros_like(R), R, self.delays)
-        C = Ur[:k]
-        out = simulate(Atilde, Btilde, C, np.zeros((k, Btilde.shape[1])), V)
-        return out[0] if Uin.ndim == 2 else out
+        return self._respond_delayed(Atilde, Btilde, Ur[:Uin.shape[-2]], Uin)
 
     def fit(self, records, *, basis=None) -> DMDc:
         """Fit ``(Ã, B̃)`` on forced records that start at rest (``basis``: replaces the
         POMs of the training records); returns ``self``."""
-        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
-        k = U.shape[1]
-        errors = None
-        rank = self.svd_rank
-        if rank is None:
-            candidates = list(range(1, self.delays * k + 1))
-            rank, errors = self._select_by_holdout(Ys, Us, candidates, self._identify,
-                                                   self._respond, self.holdout)
-        Atilde, Btilde, Ur = self._identify(Ys, Us, rank)
-        self._set_basis(U, povs, pocs, recs[0].dt)
+        (Atilde, Btilde, Ur), _ = self._fit_by_rule(
+            records, basis, self.svd_rank, lambda k: list(range(1, self.delays * k + 1)))
         self.Atilde_, self.Btilde_, self.basis_ = Atilde, Btilde, Ur
         self.rank_ = int(Atilde.shape[0])
         self.eigs_ = np.linalg.eigvals(Atilde)
-        self.holdout_errors_ = errors
-        Yh = self._respond((Atilde, Btilde, Ur), Us)
-        self.fit_residual_ = float(np.linalg.norm(Yh - Ys) / np.linalg.norm(Ys))
         return self
 
     def predict(self, record) -> np.ndarray:

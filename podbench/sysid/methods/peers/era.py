@@ -50,15 +50,15 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.core.records import is_record
-from podbench.core.validation import check_choice
 from podbench.errors import InputError
 from podbench.sysid.methods.free import MDS, first_column_w0
 from podbench.sysid.methods.peers._common import (
+    HOLDOUT,
+    INT_OR_NONE,
     PeerMethod,
-    check_holdout,
-    check_int_or_none,
     simulate,
 )
+from podbench.sysid.params import Interval, Options
 from podbench.sysid.statespace import era_realization, realize
 
 __all__ = ["ERA", "okid_markov", "era_realization", "free_markov"]
@@ -206,6 +206,9 @@ class ERA(PeerMethod):
     """
 
     abbreviation = "ERA"
+    _parameter_constraints = {"n_modes": INT_OR_NONE, "order": INT_OR_NONE,
+                              "max_order": [Interval("integer", 1)], "lags": INT_OR_NONE,
+                              "holdout": HOLDOUT, "excitation": [Options(*_EXCITATIONS)]}
 
     def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
                  excitation="forced"):
@@ -217,7 +220,7 @@ class ERA(PeerMethod):
         self.excitation = excitation
 
     @property
-    def excitation_kind(self) -> str:
+    def excitation_kind(self) -> str:  # type: ignore[override]
         """``"free"`` for the free-decay variant, else ``"forced"``."""
         return "forced" if self.excitation == "forced" else "free"
 
@@ -233,15 +236,6 @@ class ERA(PeerMethod):
             return MDS(excitation=self.excitation, n_modes=self.n_modes)
         return super().coupled_twin()
 
-    def _validate_params(self) -> None:
-        check_int_or_none(self.n_modes, "n_modes")
-        check_int_or_none(self.order, "order")
-        if check_int_or_none(self.max_order, "max_order") is None:
-            raise InputError("Parameter `max_order`: must be an integer >= 1, got None")
-        check_int_or_none(self.lags, "lags")
-        check_holdout(self.holdout)
-        check_choice(self.excitation, "excitation", _EXCITATIONS)
-
     # ------------------------------------------------------------------ identification
     def _lags(self, k: int) -> int:
         if self.lags is not None:
@@ -254,6 +248,18 @@ class ERA(PeerMethod):
         """Hankel block rows = columns: half the record (the Markov parameters a record of
         ``n`` samples holds, ``h_1 … h_{n−1}``)."""
         return max(1, (n - 1) // 2)
+
+    def _order(self, Ys, Us, rank_cap: int, identify, respond, hankel: str):
+        """``(order, hold-out errors)``: ``order`` if given (at most ``rank_cap``, the rows
+        of ``hankel``), else the hold-out rule's choice over ``1 … max_order``."""
+        if self.order is None:
+            candidates = list(range(1, min(self.max_order, rank_cap) + 1))
+            return self._select_by_holdout(Ys, Us, candidates, identify, respond,
+                                           self.holdout)
+        if self.order > rank_cap:
+            raise InputError(f"Parameter `order`: {self.order} exceeds the {rank_cap} rows of "
+                             f"{hankel}")
+        return self.order, None
 
     def _factor(self, Ys, Us, lags, blocks):
         h, residual = okid_markov(Ys, Us, lags, 2 * blocks + 1)
@@ -283,25 +289,20 @@ class ERA(PeerMethod):
         lags = self._lags(k)
         blocks = self._blocks(n)
         rank_cap = blocks * k
-        errors = None
-        if self.order is None:
-            candidates = list(range(1, min(self.max_order, rank_cap) + 1))
-            factors: dict = {}  # the truncated records' factorization, shared by all orders
+        factors: dict = {}  # the truncated records' factorization, shared by all orders
 
-            def identify(Yf, Uf, cand):
-                if not factors:
-                    factors["f"] = self._factor(Yf, Uf, lags, blocks)
-                h, _, (P, sv, Qt, H1) = factors["f"]
-                return realize(P, sv, Qt, H1, h[0], min(cand, int(np.sum(sv > 0))))
+        def identify(Yf, Uf, cand):
+            if not factors:
+                factors["f"] = self._factor(Yf, Uf, lags, blocks)
+            h, _, (P, sv, Qt, H1) = factors["f"]
+            return realize(P, sv, Qt, H1, h[0], min(cand, int(np.sum(sv > 0))))
 
-            order, errors = self._select_by_holdout(
-                Ys, Us, candidates, identify, lambda mdl, Uin: simulate(*mdl, Uin),
-                self.holdout)
-        else:
-            order = self.order
-            if order > rank_cap:
-                raise InputError(f"Parameter `order`: {order} exceeds the {rank_cap} rows of "
-                                 f"the Hankel matrix ({blocks} blocks of {k})")
+        def respond(mdl, Uin):
+            A, B, C, D = mdl
+            return simulate(A, B, C, D, Uin)
+
+        order, errors = self._order(Ys, Us, rank_cap, identify, respond,
+                                    f"the Hankel matrix ({blocks} blocks of {k})")
         h, residual, (P, sv, Qt, H1) = self._factor(Ys, Us, lags, blocks)
         A, B, C, D = realize(P, sv, Qt, H1, h[0], order)
         self._set_basis(U, povs, pocs, recs[0].dt)
@@ -342,27 +343,18 @@ class ERA(PeerMethod):
             A, B, C = mdl
             return simulate_free(A, B, C, Uin[:, :, 0], Uin.shape[2])
 
-        errors = None
         h, (P, sv, Qt, H1) = factor(Ys, X0)
-        rank_cap = P.shape[1]
-        if self.order is None:
-            cache: dict = {}
+        cache: dict = {}
 
-            def identify(Yf, Uf, cand):
-                if not cache:
-                    cache["f"] = factor(Yf, Uf[:, :, 0])
-                _, (Pf, svf, Qtf, H1f) = cache["f"]
-                N = min(cand, int(np.sum(svf > 0)))
-                return realize(Pf, svf, Qtf, H1f, np.zeros((k, k)), N)[:3]
+        def identify(Yf, Uf, cand):
+            if not cache:
+                cache["f"] = factor(Yf, Uf[:, :, 0])
+            _, (Pf, svf, Qtf, H1f) = cache["f"]
+            N = min(cand, int(np.sum(svf > 0)))
+            return realize(Pf, svf, Qtf, H1f, np.zeros((k, k)), N)[:3]
 
-            candidates = list(range(1, min(self.max_order, rank_cap) + 1))
-            order, errors = self._select_by_holdout(Ys, Us, candidates, identify, respond,
-                                                    self.holdout)
-        else:
-            order = self.order
-            if order > rank_cap:
-                raise InputError(f"Parameter `order`: {order} exceeds the {rank_cap} rows of "
-                                 "the free-decay Hankel matrix")
+        order, errors = self._order(Ys, Us, P.shape[1], identify, respond,
+                                    "the free-decay Hankel matrix")
         A, B, C, D = realize(P, sv, Qt, H1, np.zeros((k, k)), order)
         Yhat = simulate_free(A, B, C, X0, n)
         ny = float(np.linalg.norm(Ys))

@@ -20,15 +20,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.errors import InputError
 from podbench.sysid.methods.peers._common import (
+    DELAYS,
+    HOLDOUT,
+    INT_OR_NONE,
     PeerMethod,
-    check_holdout,
-    check_int_or_none,
     delay_coordinates,
     require,
-    simulate,
 )
+from podbench.sysid.params import Interval
 
 __all__ = ["OpInf"]
 
@@ -66,24 +66,15 @@ class OpInf(PeerMethod):
     """
 
     abbreviation = "OpInf"
+    _requires = ("opinf", "OpInf", "opinf")
+    _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
+                              "regularizer": [None, Interval("number", 0)], "holdout": HOLDOUT}
 
     def __init__(self, *, n_modes=None, delays=2, regularizer=None, holdout=0.25):
         self.n_modes = n_modes
         self.delays = delays
         self.regularizer = regularizer
         self.holdout = holdout
-
-    def _validate_params(self) -> None:
-        check_int_or_none(self.n_modes, "n_modes")
-        if check_int_or_none(self.delays, "delays") is None:
-            raise InputError("Parameter `delays`: must be an integer >= 1, got None")
-        rho = self.regularizer
-        if rho is not None and (isinstance(rho, bool) or not isinstance(rho, (int, float))
-                                or not 0 <= rho < np.inf):
-            raise InputError(f"Parameter `regularizer`: must be a number >= 0 or None, "
-                             f"got {rho!r}")
-        check_holdout(self.holdout)
-        require("opinf", "OpInf", "opinf")
 
     def _identify(self, Ys, Us, rho):
         opinf = require("opinf", "OpInf", "opinf")
@@ -105,28 +96,15 @@ class OpInf(PeerMethod):
 
     def _respond(self, model, Uin):
         A, B = model
-        k = Uin.shape[-2]
-        R = Uin[None] if Uin.ndim == 2 else Uin
-        _, V = delay_coordinates(np.zeros_like(R), R, self.delays)
-        C = np.eye(k, A.shape[0])
-        out = simulate(A, B, C, np.zeros((k, B.shape[1])), V)
-        return out[0] if Uin.ndim == 2 else out
+        return self._respond_delayed(A, B, np.eye(Uin.shape[-2], A.shape[0]), Uin)
 
     def fit(self, records, *, basis=None) -> OpInf:
         """Infer ``(Â, B̂)`` from forced records that start at rest (``basis``: replaces the
         POMs of the training records); returns ``self``."""
-        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
-        rho, errors = self.regularizer, None
-        if rho is None:
-            rho, errors = self._select_by_holdout(Ys, Us, list(REG_GRID), self._identify,
-                                                  self._respond, self.holdout)
-        A, B = self._identify(Ys, Us, rho)
-        self._set_basis(U, povs, pocs, recs[0].dt)
+        (A, B), rho = self._fit_by_rule(records, basis, self.regularizer,
+                                        lambda k: list(REG_GRID))
         self.A_, self.B_ = A, B
         self.regularizer_ = float(rho)
-        self.holdout_errors_ = errors
-        Yh = self._respond((A, B), Us)
-        self.fit_residual_ = float(np.linalg.norm(Yh - Ys) / np.linalg.norm(Ys))
         return self
 
     def predict(self, record) -> np.ndarray:
