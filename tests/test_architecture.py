@@ -75,8 +75,6 @@ def _length(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
     return lines
 
 
-@pytest.mark.xfail(reason="the long functions are being split (issue 22); the mark goes then",
-                   strict=False)
 def test_no_function_is_longer_than_80_lines():
     long = [f"{p.relative_to(ROOT)}:{fn.lineno} {fn.name} ({_length(fn)} lines)"
             for p in _modules() for fn in ast.walk(_parse(p))
