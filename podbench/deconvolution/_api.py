@@ -14,7 +14,7 @@ from ..errors import InputError, UnknownNameError
 from ._base import Solver, SolverResult, UnknownOptionError
 from .auto import Auto
 from .block import BlockSubstitution
-from .dense import DenseSolver, LeastSquares, TruncatedTLS
+from .dense import AppendixTLS, BalancedTLS, DenseSolver, LeastSquares, TruncatedTLS
 from .kernel import KernelRegularized
 from .realization import Realization
 from .stls import STLS
@@ -34,6 +34,8 @@ __all__ = [
 _BUILTIN: dict[str, type[Solver]] = {
     "ls": LeastSquares,
     "tls": TruncatedTLS,
+    "tls-appendix": AppendixTLS,
+    "tls-balanced": BalancedTLS,
     "block": BlockSubstitution,
     "fft": FFTTikhonov,
     "cgls": CGLS,
