@@ -445,6 +445,8 @@ def _newton_condensed(model: _Model, j, a, qp, vp, f, K, solver, rtol, max_iter)
         rhs -= model.C @ vp
     y = solver.factorization.solve(rhs)
     d, Z, Zd, eye = solver.dofs, solver.Z, solver.Zd, solver._eye
+    if d.size == 1:
+        return _newton_scalar(model, j, a, qp, vp, y, solver, rtol, max_iter)
     qd0, vd0, yd = qp[d], vp[d], y[d]
     ad = a[d].copy()
     k = d.size
@@ -479,6 +481,53 @@ def _newton_condensed(model: _Model, j, a, qp, vp, f, K, solver, rtol, max_iter)
         f"after {max_iter} iterations: residual {phi_norm:.3e} in/s² on the nonlinear "
         f"elements' DOFs, scale {scale:.3e} in/s², last displacement increment "
         f"{dq_norm:.3e} in (relative tolerance {rtol:g})"
+    )
+
+
+def _newton_scalar(model: _Model, j, a, qp, vp, y, solver, rtol, max_iter):
+    """:func:`_newton_condensed` for elements on one DOF (the rubber band, a tip spring):
+    the same iteration in scalars."""
+    bh2, gh = model.bh2, model.gh
+    dof = int(solver.dofs[0])
+    z = float(solver.Zd[0, 0])
+    qd0, vd0, yd = float(qp[dof]), float(vp[dof]), float(y[dof])
+    ad = float(a[dof])
+    q_norm = None
+    dq = np.inf
+    qbuf, vbuf = np.empty(1), np.empty(1)
+    for it in range(max_iter + 1):
+        qbuf[0] = qd0 + bh2 * ad
+        vbuf[0] = vd0 + gh * ad
+        g = 0.0
+        b = 0.0
+        for el in model.nonlinear:
+            g += float(np.sum(el.force(qbuf, vbuf)))
+            b += (bh2 * float(np.asarray(el.stiffness(qbuf, vbuf)).reshape(-1)[0])
+                  + gh * float(np.asarray(el.damping(qbuf, vbuf)).reshape(-1)[0]))
+        zg = z * g
+        phi = ad - yd + zg
+        scale = abs(ad) + abs(yd) + abs(zg)
+        if phi == 0.0:
+            return y - solver.Z[:, 0] * g, it
+        if abs(phi) <= rtol * scale and dq != np.inf:
+            if q_norm is None:
+                q_norm = float(np.linalg.norm(qp + bh2 * y))
+            if dq <= rtol * q_norm:
+                return y - solver.Z[:, 0] * g, it
+        if it == max_iter:
+            break
+        jac = 1.0 + z * b
+        if jac == 0.0:
+            raise IllConditionedError(
+                "Low-rank update of the effective matrix is singular (1 + z·b = 0)")
+        da = -phi / jac
+        ad = ad + da
+        dq = bh2 * abs(da)
+    raise ConvergenceError(
+        f"Newton iterations did not converge at time step {j} (t = {j * model.h:.6g} s) "
+        f"after {max_iter} iterations: residual {abs(phi):.3e} in/s² on the nonlinear "
+        f"element's DOF, scale {scale:.3e} in/s², last displacement increment "
+        f"{dq:.3e} in (relative tolerance {rtol:g})"
     )
 
 
