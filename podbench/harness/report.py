@@ -171,7 +171,7 @@ def _claims_table(rows, why: bool, linked) -> list[str]:
     return out
 
 
-def _text_first(evaluated, linked, why) -> list[str]:
+def _text_first(evaluated, linked, why, linked_note=()) -> list[str]:
     """The headline and the two tables of a claims file that marks its variants: the text's
     claims counted once each, then the entries judged besides them."""
     texts = _text_claims(evaluated)
@@ -194,6 +194,8 @@ def _text_first(evaluated, linked, why) -> list[str]:
                                                for p in parts)
         rows.append((e, label, v))
     out += _claims_table(rows, why, linked)
+    if linked_note:
+        out += ["\n", *linked_note]
     if variants:
         out.append(f"\n## Also judged: variants and sensitivities (not counted above)\n\n"
                    f"{len(variants)} entries judge the same sentences under another reading, "
@@ -223,13 +225,14 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None,
         out.append(f"**{counts['reproduced']} of {n} claims reproduced, "
                    f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
                    "measured.**\n\n")
+    linked_note = []
     if linked is not None:
         n_dep = sum(1 for e in evaluated if any(k == "depends on an unstated parameter"
                                                 for k, _, _ in linked.get(e["claim"].id, ())))
         n_held = sum(1 for e in evaluated if (r := linked.get(e["claim"].id))
                      and all(k.startswith("holds") for k, _, _ in r))
         n_linked = sum(1 for e in evaluated if e["claim"].id in linked)
-        out.append(f"{n_linked} claims name a structure whose parameter the text does not "
+        linked_note.append(f"{n_linked} claims name a structure whose parameter the text does not "
                    f"state; {linked_from} judges them again at every "
                    "value of it (the same checks), and the last column says how each fares "
                    "over the values the text's words admit (the claims file's `[[bounds]]`; "
@@ -237,9 +240,10 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None,
                    f"{n_held} hold throughout, {n_dep} depend on the parameter and "
                    f"{n_linked - n_held - n_dep} fail throughout.\n\n")
     why = any(e["claim"].finding for e in evaluated)
-    if text_first:
-        out += _text_first(evaluated, linked, why)
+    if text_first:  # the text's claims first, the parameter sweep's note after their table
+        out += _text_first(evaluated, linked, why, linked_note)
     else:
+        out += linked_note
         out += _claims_table([(e, f"[{e['claim'].id}](#{e['claim'].id})", e["verdict"])
                               for e in evaluated], why, linked)
     for e in evaluated:
