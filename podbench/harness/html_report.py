@@ -321,6 +321,20 @@ def _findings(evaluated, remarks, claims_path) -> str:
            f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
            f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
            "measured.</strong></p>"]
+    if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
+           for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
+        from .report import NOT_CHECKABLE, _text_claims
+
+        texts = _text_claims(evaluated)
+        tc = {k: sum(v == k for _, _, v in texts)
+              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE)}
+        out[-1] = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
+                   f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced, "
+                   f"{tc['not measured']} not measured, {tc[NOT_CHECKABLE]} "
+                   f"{NOT_CHECKABLE}.</strong> The table lists every entry, the variants "
+                   f"({sum(1 for e in evaluated if e['claim'].variant)} entries: other "
+                   "readings, solvers, units, targets; "
+                   "see FINDINGS.md) among them.</p>")
     rows = "".join(
         f'<tr><td class="l"><a href="#claim-{_slug(e["claim"].id)}">{_e(e["claim"].id)}</a>'
         f'</td><td class="l">{_e(e["claim"].source)}</td><td class="l">'
