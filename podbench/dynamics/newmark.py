@@ -396,7 +396,11 @@ def newmark(
         if removed.size:
             fj = np.array(fj, dtype=float)
             fj[removed] = 0.0
-        if model.nonlinear:
+        if model.nonlinear and model.vm is None:
+            a, iters[j + 1] = _newton_condensed(
+                model, j + 1, a, qp, vp, fj, K, solver, rtol, max_iter
+            )
+        elif model.nonlinear:
             a, iters[j + 1] = _newton(
                 model, j + 1, a, qp, vp, fj, K, absK, solver, rtol, max_iter
             )
@@ -426,6 +430,112 @@ def _initial_state(model: _Model, q0: np.ndarray, v0: np.ndarray,
     rhs0[removed] = 0.0
     a = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
     return q, v, a
+
+
+def _newton_condensed(model: _Model, j, a, qp, vp, f, K, solver, rtol, max_iter):
+    """Newton iterations on the nonlinear elements' DOFs only (no variable mass).
+
+    With ``S`` the base effective matrix, ``y = S⁻¹ (f − C ṽ − K q̃)`` and ``Z = S⁻¹ E`` (the
+    columns of the elements' DOFs ``d``, factorized once), the step's equation
+    ``S a + E g(q_d, v_d) = f − C ṽ − K q̃`` is ``a = y − Z g`` with, on ``d`` alone,
+    ``φ(a_d) = a_d − y_d + Z_d g(q̃_d + h²/4 a_d, ṽ_d + h/2 a_d) = 0``: a Newton iteration on
+    a few unknowns (one for the rubber band or the cubic tip spring) with the Jacobian
+    ``I + Z_d B`` (``B = h²/4 K_g + h/2 C_g``, the Woodbury matrix of the full iteration),
+    then ``a`` from one product. The same solution as :func:`_newton` (which iterates on the
+    whole system) to its tolerance, without a whole-system residual per iteration.
+    Converged when ``|φ|`` is below ``rtol`` times the size of its terms and the last
+    displacement increment ``h²/4 |Δa_d|`` below ``rtol ‖q‖``; returns ``(a, iterations)``.
+    """
+    bh2, gh = model.bh2, model.gh
+    rhs = f - K @ qp
+    if model.has_damping:
+        rhs -= model.C @ vp
+    y = solver.factorization.solve(rhs)
+    d, Z, Zd, eye = solver.dofs, solver.Z, solver.Zd, solver._eye
+    if d.size == 1:
+        return _newton_scalar(model, j, a, qp, vp, y, solver, rtol, max_iter)
+    qd0, vd0, yd = qp[d], vp[d], y[d]
+    ad = a[d].copy()
+    k = d.size
+    dq_norm = np.inf
+    for it in range(max_iter + 1):
+        qd = qd0 + bh2 * ad
+        vd = vd0 + gh * ad
+        g = np.zeros(k)
+        B = np.zeros((k, k))
+        for el, p in zip(model.nonlinear, model.el_pos, strict=True):
+            g[p] += el.force(qd[p], vd[p])
+            B[np.ix_(p, p)] += (bh2 * np.asarray(el.stiffness(qd[p], vd[p]), dtype=float)
+                                + gh * np.asarray(el.damping(qd[p], vd[p]), dtype=float))
+        Zg = Zd @ g
+        phi = ad - yd + Zg
+        phi_norm = float(np.linalg.norm(phi))
+        scale = float(np.linalg.norm(np.abs(ad) + np.abs(yd) + np.abs(Zg)))
+        if phi_norm == 0.0 or (phi_norm <= rtol * scale
+                               and dq_norm <= rtol * np.linalg.norm(qp + bh2 * y)):
+            return y - Z @ g, it
+        if it == max_iter:
+            break
+        try:
+            da = np.linalg.solve(eye + Zd @ B, -phi)
+        except np.linalg.LinAlgError as exc:
+            raise IllConditionedError(
+                f"Low-rank update of the effective matrix is singular ({exc})") from None
+        ad = ad + da
+        dq_norm = bh2 * np.linalg.norm(da)
+    raise ConvergenceError(
+        f"Newton iterations did not converge at time step {j} (t = {j * model.h:.6g} s) "
+        f"after {max_iter} iterations: residual {phi_norm:.3e} in/s² on the nonlinear "
+        f"elements' DOFs, scale {scale:.3e} in/s², last displacement increment "
+        f"{dq_norm:.3e} in (relative tolerance {rtol:g})"
+    )
+
+
+def _newton_scalar(model: _Model, j, a, qp, vp, y, solver, rtol, max_iter):
+    """:func:`_newton_condensed` for elements on one DOF (the rubber band, a tip spring):
+    the same iteration in scalars."""
+    bh2, gh = model.bh2, model.gh
+    dof = int(solver.dofs[0])
+    z = float(solver.Zd[0, 0])
+    qd0, vd0, yd = float(qp[dof]), float(vp[dof]), float(y[dof])
+    ad = float(a[dof])
+    q_norm = None
+    dq = np.inf
+    qbuf, vbuf = np.empty(1), np.empty(1)
+    for it in range(max_iter + 1):
+        qbuf[0] = qd0 + bh2 * ad
+        vbuf[0] = vd0 + gh * ad
+        g = 0.0
+        b = 0.0
+        for el in model.nonlinear:
+            g += float(np.sum(el.force(qbuf, vbuf)))
+            b += (bh2 * float(np.asarray(el.stiffness(qbuf, vbuf)).reshape(-1)[0])
+                  + gh * float(np.asarray(el.damping(qbuf, vbuf)).reshape(-1)[0]))
+        zg = z * g
+        phi = ad - yd + zg
+        scale = abs(ad) + abs(yd) + abs(zg)
+        if phi == 0.0:
+            return y - solver.Z[:, 0] * g, it
+        if abs(phi) <= rtol * scale and dq != np.inf:
+            if q_norm is None:
+                q_norm = float(np.linalg.norm(qp + bh2 * y))
+            if dq <= rtol * q_norm:
+                return y - solver.Z[:, 0] * g, it
+        if it == max_iter:
+            break
+        jac = 1.0 + z * b
+        if jac == 0.0:
+            raise IllConditionedError(
+                "Low-rank update of the effective matrix is singular (1 + z·b = 0)")
+        da = -phi / jac
+        ad = ad + da
+        dq = bh2 * abs(da)
+    raise ConvergenceError(
+        f"Newton iterations did not converge at time step {j} (t = {j * model.h:.6g} s) "
+        f"after {max_iter} iterations: residual {abs(phi):.3e} in/s² on the nonlinear "
+        f"element's DOF, scale {scale:.3e} in/s², last displacement increment "
+        f"{dq:.3e} in (relative tolerance {rtol:g})"
+    )
 
 
 def _newton(model: _Model, j, a, qp, vp, f, K, absK, solver, rtol, max_iter):

@@ -30,6 +30,7 @@ import scipy
 from podbench.core.version import __version__
 from podbench.harness import metrics
 from podbench.report.figures import percent
+from podbench.study.claims import NOT_CHECKABLE, text_claims
 
 __all__ = ["provenance", "render_report", "text_to_html"]
 
@@ -321,6 +322,18 @@ def _findings(evaluated, remarks, claims_path) -> str:
            f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
            f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
            "measured.</strong></p>"]
+    if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
+           for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
+        texts = text_claims(evaluated)
+        tc = {k: sum(v == k for _, _, v in texts)
+              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE)}
+        out[-1] = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
+                   f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced, "
+                   f"{tc['not measured']} not measured, {tc[NOT_CHECKABLE]} "
+                   f"{NOT_CHECKABLE}.</strong> The table lists every entry, the variants "
+                   f"({sum(1 for e in evaluated if e['claim'].variant)} entries: other "
+                   "readings, solvers, units, targets; "
+                   "see FINDINGS.md) among them.</p>")
     rows = "".join(
         f'<tr><td class="l"><a href="#claim-{_slug(e["claim"].id)}">{_e(e["claim"].id)}</a>'
         f'</td><td class="l">{_e(e["claim"].source)}</td><td class="l">'

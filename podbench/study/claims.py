@@ -14,6 +14,18 @@ Format::
     criterion = "how the words became a threshold"
     note = "optional: what podbench found and why (written after measuring)"
     finding = "optional: the note in one line, shown in FINDINGS.md's table"
+    variant = "optional: what this entry judges besides the text's claim under its best-
+               supported reading (another reading, solver, target, unit scale, scatter);
+               such entries are listed under "also judged" and not counted in the headline"
+    part_of = "optional: the id of the claim this entry completes (the same sentence of
+               the text judged on another structure); counted once with it"
+    checkable = false                      # optional: the literal reading cannot test the
+                                           # claim (it holds or fails by construction); not
+                                           # counted as reproduced or not: see its sensitivity
+
+With any of ``variant``, ``part_of``, ``checkable`` in the file, FINDINGS.md opens with the
+text's claims counted once each (a claim and its ``part_of`` entries together) and lists
+the variants below, under "also judged".
 
     [[remarks]]                            # optional free-text findings that are not claims
     title = "..."
@@ -84,6 +96,13 @@ class Claim:
     scenarios: tuple[str, ...] = ()
     """Every scenario the claim is judged in (``scenario`` given as a list); empty means
     ``(scenario,)``."""
+    variant: str = ""
+    """Non-empty: an "also judged" entry (another reading, solver, unit scale, …), not one
+    of the text's claims counted in the headline."""
+    part_of: str = ""
+    """The id of the text claim this entry completes (counted once with it)."""
+    checkable: bool = True
+    """False: the literal reading cannot test the claim (not counted either way)."""
 
     def all_scenarios(self) -> tuple[str, ...]:
         return self.scenarios or (self.scenario,)
@@ -139,6 +158,8 @@ def load_claims_file(path) -> ClaimsFile:
                 targets=_listify(t, "target"), checks=tuple(t.strings("checks")),
                 criterion=t.string("criterion", ""), note=t.string("note", ""),
                 finding=t.string("finding", ""),
+                variant=t.string("variant", ""), part_of=t.string("part_of", ""),
+                checkable=_boolean(t, "checkable"),
             )
             if c.id in ids:
                 t.fail("id", f'"{c.id}" is used twice')
@@ -150,6 +171,15 @@ def load_claims_file(path) -> ClaimsFile:
                                            "METHOD.metric)")
             t.close()
             claims.append(c)
+        main = {c.id for c in claims if not c.variant and not c.part_of}
+        for i, c in enumerate(claims):
+            if c.part_of and c.part_of not in main:
+                top.tables("claims", [])[i].fail(
+                    "part_of", f'"{c.part_of}" is not the id of a claim of the text (one '
+                               "without `variant` or `part_of`)")
+            if c.variant and c.part_of:
+                top.tables("claims", [])[i].fail(
+                    "part_of", "give `variant` or `part_of`, not both")
         remarks = []
         for t in top.tables("remarks", []):
             remarks.append({"title": t.string("title"), "text": t.string("text")})
@@ -167,6 +197,13 @@ def load_claims_file(path) -> ClaimsFile:
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
     return ClaimsFile(path, claims, remarks, bounds, sensitivity, nonlinearity)
+
+
+def _boolean(t: Table, key: str) -> bool:
+    v = t.raw(key, True)
+    if not isinstance(v, bool):
+        t.fail(key, f"expected true or false, got {v!r}")
+    return v
 
 
 _FACTOR_RE = re.compile(r"^\s*((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\*\s*(.+)$")
@@ -261,4 +298,31 @@ def evaluate_claims(claims, table, *, scenarios=None) -> list[dict]:
             verdicts.extend(mine)
         out.append({"claim": c, "verdict": _verdict(verdicts), "details": details,
                     "by_scenario": by_scenario})
+    return out
+
+
+NOT_CHECKABLE = "not checkable under the literal reading"
+
+
+def text_claims(evaluated) -> list[tuple[dict, list[dict], str]]:
+    """The text's claims, each once: ``(entry, parts, verdict)`` with the entries that are
+    ``part_of`` it and the verdict over all of them (not reproduced if one is, not measured
+    if one is and none fails; :data:`NOT_CHECKABLE` for a claim marked ``checkable =
+    false``)."""
+    out = []
+    for e in evaluated:
+        c = e["claim"]
+        if c.variant or c.part_of:
+            continue
+        parts = [p for p in evaluated if p["claim"].part_of == c.id]
+        verdicts = [x["verdict"] for x in [e, *parts]]
+        if not c.checkable:
+            v = NOT_CHECKABLE
+        elif "not reproduced" in verdicts:
+            v = "not reproduced"
+        elif "not measured" in verdicts:
+            v = "not measured"
+        else:
+            v = "reproduced"
+        out.append((e, parts, v))
     return out

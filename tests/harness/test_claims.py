@@ -150,3 +150,79 @@ checks = ["POVR.total_error < 0.05"]
     assert "*In one line:* MDS is exact here" in text
     plain = findings_markdown(evaluate_claims(claims[1:], TABLE), [], "claims.toml")
     assert "| claim | source | verdict |\n|---|---|---|\n" in plain
+
+
+def test_text_claims_are_counted_once_and_variants_apart(tmp_path):
+    """Issue 24 item 4: a claim and its `part_of` entry count once (not reproduced when a
+    part fails), a `variant` is listed under "also judged" and not counted, a claim with
+    `checkable = false` is "not checkable under the literal reading" whatever its checks."""
+    from podbench.report.study import findings_markdown
+
+    claims, remarks = _claims(tmp_path, """
+[[claims]]
+id = "main-a"
+source = "§x"
+quote = "q"
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["MDS.total_error < 0.05"]
+[[claims]]
+id = "main-a-on-b"
+source = "§x"
+quote = "q"
+part_of = "main-a"
+scenario = "s"
+structure = "b"
+target = "t"
+checks = ["MDS.total_error < 0.05"]
+[[claims]]
+id = "main-c"
+source = "§x"
+quote = "q"
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["POVR.total_error > 0.1"]
+[[claims]]
+id = "main-c-variant"
+source = "§x"
+quote = "q"
+variant = "another reading"
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["POVR.total_error < 0.1"]
+[[claims]]
+id = "literal"
+source = "§x"
+quote = "q"
+checkable = false
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["MDS.total_error < 0.05"]
+""")
+    ev = evaluate_claims(claims, TABLE)
+    text = findings_markdown(ev, remarks, "claims.toml")
+    head = text.split("## Also judged")[0]
+    assert ("**The text's claims: 3, each counted once under its best-supported reading: 1 "
+            "reproduced, 1 not reproduced, 0 not measured, 1 not checkable under the literal "
+            "reading.**") in head
+    assert "[main-a](#main-a) + [main-a-on-b](#main-a-on-b) | §x | not reproduced" in head
+    assert "main-c-variant" not in head
+    also = text.split("## Also judged")[1].split("## Every entry")[0]
+    assert "1 entries judge the same sentences" in also and "main-c-variant" in also
+    assert "— another reading | §x | not reproduced" in also
+    with pytest.raises(ScenarioFileError, match="part_of"):
+        _claims(tmp_path, """
+[[claims]]
+id = "x"
+source = "§x"
+quote = "q"
+part_of = "nope"
+scenario = "s"
+structure = "a"
+target = "t"
+checks = ["MDS.total_error < 0.05"]
+""")

@@ -210,8 +210,9 @@ def test_truncation_keeps_tls_bounded_where_pinv_blows_up():
 
 
 def test_solver_table_and_user_dense_solvers():
-    assert dc.available_solvers() == ("ls", "tls", "block", "fft", "cgls", "kernel", "realization",
-                                     "subspace", "stls", "auto")
+    assert dc.available_solvers() == ("ls", "tls", "tls-appendix", "tls-balanced", "block",
+                                     "fft", "cgls", "kernel", "realization", "subspace",
+                                     "stls", "auto")
     assert dc.get_solver("tls") is dc.TruncatedTLS
     with pytest.raises(UnknownNameError, match="unknown solver 'fft'.*'ls'"):
         dc.solve(np.eye(2), np.ones(2), "fft")

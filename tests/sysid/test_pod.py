@@ -81,6 +81,21 @@ def test_energy_fractions_sigma_is_eq_2_3_and_sigma2_differs():
         energy_fractions([0.0, 0.0])
 
 
+def test_energy_of_a_pod_is_eq_2_3_by_hand():
+    """Eq. 2.3 on a record with known POVs: W = U diag(4, 3, 1) Vᵀ (rotated), so the POVs are
+    4, 3, 1 and ε = (4, 3, 1)/8 = 0.5, 0.375, 0.125 (two POMs: 87.5 %); the squared variant
+    (16, 9, 1)/26 gives 96.2 % for two."""
+    rng = np.random.default_rng(7)
+    U, _ = np.linalg.qr(rng.standard_normal((6, 3)))
+    V, _ = np.linalg.qr(rng.standard_normal((50, 3)))
+    W = U @ np.diag([4.0, 3.0, 1.0]) @ V.T
+    s = np.linalg.svd(W, compute_uv=False)[:3]
+    np.testing.assert_allclose(energy_fractions(s), [0.5, 0.375, 0.125], rtol=1e-12)
+    np.testing.assert_allclose(np.cumsum(energy_fractions(s))[1], 0.875, rtol=1e-12)
+    np.testing.assert_allclose(energy_fractions(s, kind="sigma2"),
+                               [16 / 26, 9 / 26, 1 / 26], rtol=1e-12)
+
+
 def test_n_modes_for_energy_thresholds():
     s = np.array([6.0, 3.0, 1.0])  # sigma fractions 0.6 0.3 0.1
     assert n_modes_for_energy(s, 0.6) == 1

@@ -289,7 +289,7 @@ def test_make_solver_builds_and_rejects():
     assert isinstance(dc.make_solver(dc.FFTTikhonov, {"pad": 4}), dc.FFTTikhonov)
     with pytest.raises(UnknownNameError,
                        match="Parameter `solver`: unknown solver 'nope'; built-in: 'ls', 'tls', "
-                             "'block', 'fft', 'cgls'"):
+                             "'tls-appendix', 'tls-balanced', 'block', 'fft', 'cgls'"):
         dc.make_solver("nope")
     with pytest.raises(InputError, match=r"Parameter `solver_options`: unknown option 'regg' "
                                          r"for solver 'cgls' \(its options: reg, tol, max_iter\)"):

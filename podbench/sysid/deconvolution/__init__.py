@@ -30,7 +30,13 @@ Dense (form ``A``; the reference, ``O((kn)³)`` time and ``O((kn)²)`` memory):
             ``X = A⁺ B`` (Eq. 3.76) by an SVD-based LAPACK driver.
 ``"tls"``   :class:`TruncatedTLS` (:func:`truncated_tls`), truncated total least squares
             (Eqs. 3.78–3.80, several right-hand sides), rank by :func:`tls_rank`; refused
-            above :data:`TLS_MAX_COLUMNS` columns.
+            above :data:`TLS_MAX_COLUMNS` columns. podbench's form: ``A`` keeps Δt.
+``"tls-appendix"`` :class:`AppendixTLS` (:func:`appendix_tls`), the dissertation's TLS: the
+            appendix's ``tlsdeconv`` on the raw force samples (no Δt), ``σ_1/σ_i <= 1000``,
+            one right-hand side at a time — Chapter 5's solver.
+``"tls-balanced"`` :class:`BalancedTLS`, the same with each force block and each right-hand
+            side divided by its norm first: the answer does not depend on units (the
+            recommended TLS for noisy data).
 
 Structured (never form ``A``):
 
@@ -80,11 +86,15 @@ from podbench.sysid.deconvolution.convolution import (
     convolve_kernel,
 )
 from podbench.sysid.deconvolution.dense import (
+    DEFAULT_APPENDIX_TOL,
     DEFAULT_TLS_RCOND,
     TLS_MAX_COLUMNS,
+    AppendixTLS,
+    BalancedTLS,
     DenseSolver,
     LeastSquares,
     TruncatedTLS,
+    appendix_tls,
     least_squares,
     tls_rank,
     truncated_tls,
@@ -133,6 +143,8 @@ __all__ = [
     # solver objects
     "LeastSquares",
     "TruncatedTLS",
+    "AppendixTLS",
+    "BalancedTLS",
     "BlockSubstitution",
     "FFTTikhonov",
     "CGLS",
@@ -150,6 +162,7 @@ __all__ = [
     # function forms
     "least_squares",
     "truncated_tls",
+    "appendix_tls",
     "tls_rank",
     "solve",
     "deconvolve",
@@ -162,6 +175,7 @@ __all__ = [
     "structured_solvers",
     # constants
     "DEFAULT_TLS_RCOND",
+    "DEFAULT_APPENDIX_TOL",
     "DEFAULT_TIKHONOV_REG",
     "GCV_BOUNDS",
     "TRIAL_ITER",

@@ -15,7 +15,13 @@ from podbench.errors import InputError, UnknownNameError
 from podbench.sysid.deconvolution._base import Solver, SolverResult, UnknownOptionError
 from podbench.sysid.deconvolution.auto import Auto
 from podbench.sysid.deconvolution.block import BlockSubstitution
-from podbench.sysid.deconvolution.dense import DenseSolver, LeastSquares, TruncatedTLS
+from podbench.sysid.deconvolution.dense import (
+    AppendixTLS,
+    BalancedTLS,
+    DenseSolver,
+    LeastSquares,
+    TruncatedTLS,
+)
 from podbench.sysid.deconvolution.kernel import KernelRegularized
 from podbench.sysid.deconvolution.realization import Realization
 from podbench.sysid.deconvolution.stls import STLS
@@ -36,6 +42,8 @@ __all__ = [
 _BUILTIN: dict[str, type[Solver]] = {
     "ls": LeastSquares,
     "tls": TruncatedTLS,
+    "tls-appendix": AppendixTLS,
+    "tls-balanced": BalancedTLS,
     "block": BlockSubstitution,
     "fft": FFTTikhonov,
     "cgls": CGLS,

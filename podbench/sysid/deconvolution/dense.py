@@ -4,7 +4,11 @@
             ``X = A⁺ B`` (Eq. 3.76) by an SVD-based LAPACK driver.
 ``"tls"``   :class:`TruncatedTLS` / :func:`truncated_tls`, truncated total least squares
             (Eqs. 3.78–3.80, several right-hand sides), rank by :func:`tls_rank`; refused
-            above :data:`TLS_MAX_COLUMNS` columns.
+            above :data:`TLS_MAX_COLUMNS` columns. podbench's form: the matrix keeps Δt
+            (``Δt·toeplitz(q)``), so its cut differs from the appendix's.
+``"tls-appendix"`` :class:`AppendixTLS` / :func:`appendix_tls`, the dissertation's TLS: the
+            appendix's ``tlsdeconv`` (raw force samples, no Δt, ``σ_1/σ_i <= 1000``, one
+            right-hand side at a time); ``balance=True`` is its unit-independent form.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import warnings
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse.linalg
 
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, InputError, PodbenchWarning
@@ -35,6 +40,10 @@ __all__ = [
     "tls_rank",
     "TLS_MAX_COLUMNS",
     "DEFAULT_TLS_RCOND",
+    "AppendixTLS",
+    "BalancedTLS",
+    "appendix_tls",
+    "DEFAULT_APPENDIX_TOL",
 ]
 
 TLS_MAX_COLUMNS = 4096
@@ -409,3 +418,206 @@ class TruncatedTLS(DenseSolver):
     def _solve_matrix(self, A, B):
         _check_tls_size(A.shape[0], A.shape[1], B.shape[1], _tls_limit(self.max_columns))
         return _tls(A, B, self.rcond, self.noise_level, self.rank, bool(self.scale))
+
+
+# ------------------------------------------------------------- the dissertation's TLS
+DEFAULT_APPENDIX_TOL = 1000.0
+"""``tol`` of the appendix's ``tlsdeconv``: keep the directions with ``σ_1/σ_i <= tol``
+("tol = 1000; %based on SNR of data")."""
+
+
+def _appendix_discarded(C: np.ndarray, tol: float):
+    """The right singular vectors of ``C`` that ``tlsdeconv`` does *not* keep, and the count
+    ``r`` it keeps: ``(V_d, r)``.
+
+    ``tlsdeconv`` keeps ``σ_i`` with ``σ_1/σ_i <= tol`` (``i <= nrow``); ``Σ_{kept}`` of the
+    last row of ``V`` and its products equal ``1 −`` / minus those over the discarded
+    vectors (``V`` is orthogonal), and on the Chapter 5 systems the discarded are few (about
+    1 % of ``M + 1``). They are the eigenvectors of ``CᵀC`` with eigenvalue
+    ``< σ_1²/tol²`` (``σ_1²`` by Lanczos, then one LAPACK ``syevr`` on that interval): one
+    tridiagonalization instead of a full SVD (4–5 times faster at 2049 columns). The
+    subspace is the SVD's to about ``ε σ_1²/gap`` (relative ``1e-9`` on the kernels of
+    Chapter 5; ``tests/methods/test_appendix_tls.py`` compares with the full SVD).
+    """
+    n1 = C.shape[1]
+    G = C.T @ C
+    if n1 <= 64:  # small: all eigenvalues directly
+        lam1 = float(scipy.linalg.eigvalsh(G)[-1])
+    else:
+        lam1 = float(scipy.sparse.linalg.eigsh(G, k=1, which="LA", v0=np.ones(n1),
+                                               tol=0.0, return_eigenvectors=False)[0])
+    if not lam1 > 0:
+        return np.eye(n1), 0
+    thr = lam1 / (tol * tol)
+    _, Vd = scipy.linalg.eigh(G, subset_by_value=(-np.inf, thr), driver="evr")
+    r = min(n1 - Vd.shape[1], C.shape[0])
+    return Vd, r
+
+
+def appendix_tls(X, y, *, tol: float = DEFAULT_APPENDIX_TOL) -> np.ndarray:
+    """The appendix's ``tlsdeconv(y, X)`` (Eqs. 3.78–3.80 as the MATLAB computes them).
+
+    ``C = [X y]``, ``[U,S,V] = svd(C)``, ``r`` = the number of ``i <= nrow`` with
+    ``S(1,1)/S(i,i) <= tol``, then with ``n = length(V) − 1``::
+
+        h = Σ_{i<=r} V(n+1,i) V(1:n,i) / (1 − Σ_{i<=r} V(n+1,i)²)
+
+    ``X`` is used as given: the appendix passes ``form_conv_mat(q)``, the convolution matrix
+    of the raw modal-force samples (no Δt). One right-hand side (``y`` a vector, as
+    ``n = length(V) − 1`` requires); :class:`AppendixTLS` applies it column by column.
+
+    Parameters
+    ----------
+    X : (N, M) array_like
+    y : (N,) array_like
+    tol : float
+        Largest ``σ_1/σ_i`` kept (default 1000, the appendix's), > 1.
+
+    Returns
+    -------
+    (M,) ndarray
+        All zeros (with a :class:`PodbenchWarning`) if no direction is kept or ``den = 0``.
+    """
+    X, B, vector = _as_system(X, y)
+    if not vector:
+        raise DimensionError(f"Parameter `y`: expected a vector, got shape {B.shape}")
+    tol = _check_tol(tol)
+    return _appendix_solve(X, B[:, 0], tol)[0]
+
+
+def _check_tol(tol) -> float:
+    tol = check_positive(tol, "tol")
+    if tol <= 1:
+        raise InputError(f"Parameter `tol`: must be above 1 (a ratio σ_1/σ_i), got {tol!r}")
+    return float(tol)
+
+
+def _appendix_solve(X: np.ndarray, y: np.ndarray, tol: float):
+    M = X.shape[1]
+    C = np.hstack([X, y[:, None]])
+    Vd, r = _appendix_discarded(C, tol)
+    # kept: num = Σ V(n+1,i) V(1:n,i) = −Σ_disc …, den = 1 − Σ V(n+1,i)² = Σ_disc V(n+1,i)²
+    num = -(Vd[:M] @ Vd[M])
+    den = float(Vd[M] @ Vd[M])
+    info = {"rank": r, "tls_den": den}
+    if r == 0 or den == 0.0:
+        warnings.warn("appendix TLS: no direction kept (or 1 − ΣV² = 0); returning h = 0",
+                      PodbenchWarning, stacklevel=4)
+        return np.zeros(M), info
+    return num / den, info
+
+
+def _block_weights(A: np.ndarray, n_blocks: int) -> np.ndarray:
+    """One weight per column of ``A``: ``1/‖A_b‖_F`` of its block of ``M/n_blocks``
+    consecutive columns (1 for a zero block)."""
+    M = A.shape[1]
+    w = np.ones(M)
+    size = M // n_blocks
+    for b in range(n_blocks):
+        nb = float(np.linalg.norm(A[:, b * size:(b + 1) * size]))
+        w[b * size:(b + 1) * size] = 1.0 / nb if nb > 0 else 1.0
+    return w
+
+
+class AppendixTLS(DenseSolver):
+    """The dissertation's TLS: the appendix's ``tlsdeconv`` (Eqs. 3.78–3.80), ``"tls-appendix"``.
+
+    Chapter 5's solver (§5: "the total least squares method is applied to perform the
+    deconvolution of the data"). Per right-hand side ``y`` (a POC history; ML's columns one
+    at a time, as ``tlsdeconv(y, X)`` takes one vector: ``n = length(V) − 1``), the SVD of
+    ``C = [X y]`` with ``X`` the convolution matrix of the **raw** modal-force samples
+    (``form_conv_mat(q)``, no Δt; block matrix of Eq. 3.48 for ML), the directions with
+    ``σ_1/σ_i <= tol`` kept and ``h`` from the last row of ``V``
+    (:func:`appendix_tls`). The MATLAB's kernel is Δt times podbench's (Eq. 3.39 keeps Δt),
+    so the solution is returned divided by Δt; predictions are the MATLAB's.
+
+    The cut depends on units: ``σ_1/σ_i`` of ``[X y]`` changes when the forces or the
+    responses change units (lbf → N, in → mm). ``column_scale=ρ`` forms ``[ρ X | y]``
+    (and returns ``ρ h``): the same data in other units (ρ = force factor / response
+    factor, e.g. ρ = 4.448/0.0254 = 175.1 for newton and metre against lbf and inch).
+    ``balance=True`` removes the units: every modal force's block of columns and ``y`` are
+    divided by their Frobenius norms before the SVD (the diagonal column weighting ``T`` the
+    text names in §3.5, "‖D[E | r]T‖_F"), undone after; the answer is then the same in any
+    units and at any Δt (podbench's recommended noisy-data TLS, ``"tls-balanced"``).
+
+    Parameters
+    ----------
+    tol : float
+        Largest ``σ_1/σ_i`` kept (default 1000, the appendix's ``tol``).
+    column_scale : float
+        ``ρ`` above (default 1: the data's own units); ignored with ``balance``.
+    balance : bool
+        Equilibrate the force blocks and ``y`` (default False: the appendix).
+    max_columns, max_dense_bytes
+        Size limits as :class:`TruncatedTLS`.
+
+    Diagnostics: ``rank`` (directions kept; the smallest over ML's columns) and
+    ``rank_max``, ``rcond`` (``1/tol``), ``tls_den`` (the smallest ``1 − ΣV²``).
+    """
+
+    name = "tls-appendix"
+    _parameter_constraints = {"tol": [Interval("number", 1, None, closed="neither")],
+                              "column_scale": [POSITIVE], "balance": [Boolean()],
+                              "max_columns": [None, COUNT], "max_dense_bytes": [POSITIVE]}
+
+    def __init__(self, *, tol: float = DEFAULT_APPENDIX_TOL, column_scale: float = 1.0,
+                 balance: bool = False, max_columns: int | None = None,
+                 max_dense_bytes: float = DENSE_MAX_BYTES):
+        self.tol = tol
+        self.column_scale = column_scale
+        self.balance = balance
+        self.max_columns = max_columns
+        self.max_dense_bytes = max_dense_bytes
+
+    def _solve(self, system: ConvolutionSystem):
+        N, M = system.shape
+        _check_tls_size(N, M, 1, _tls_limit(self.max_columns))  # before forming A
+        A = system.dense(self.max_dense_bytes, solver=self.name) / system.dt  # raw samples
+        X, info = self._solve_raw(A, system._B2, system.k)
+        X = X / system.dt  # the MATLAB's kernel is Δt times podbench's
+        return (X[:, 0] if system.vector else X), info
+
+    def _solve_matrix(self, A, B):
+        _check_tls_size(A.shape[0], A.shape[1], 1, _tls_limit(self.max_columns))
+        return self._solve_raw(A, B, 1)
+
+    def _solve_raw(self, A: np.ndarray, B: np.ndarray, n_blocks: int):
+        tol = _check_tol(self.tol)
+        if self.balance:
+            wa = _block_weights(A, n_blocks)
+            A = A * wa
+        else:
+            wa = np.full(A.shape[1], float(self.column_scale))
+            A = A * wa if self.column_scale != 1.0 else A
+        X = np.zeros((A.shape[1], B.shape[1]))
+        infos = []
+        for col in range(B.shape[1]):
+            y = B[:, col]
+            wy = 1.0
+            if self.balance:
+                ny = float(np.linalg.norm(y))
+                wy = 1.0 / ny if ny > 0 else 1.0
+            h, inf = _appendix_solve(A, y * wy, tol)
+            X[:, col] = h * wa / wy
+            infos.append(inf)
+        ranks = [i["rank"] for i in infos]
+        return X, {"rank": min(ranks), "rank_max": max(ranks), "rcond": 1.0 / tol,
+                   "tls_den": min(i["tls_den"] for i in infos),
+                   "balanced": bool(self.balance),
+                   "column_scale": None if self.balance else float(self.column_scale)}
+
+
+class BalancedTLS(AppendixTLS):
+    """The dissertation's TLS made unit-independent (``"tls-balanced"``): :class:`AppendixTLS`
+    with ``balance=True`` — each modal force's block of columns of ``X`` and each ``y``
+    divided by its Frobenius norm before the SVD, undone after — so that the same records in
+    any units (or at any Δt) give the same prediction. podbench's recommended TLS for noisy
+    data. Parameters as :class:`AppendixTLS` (``balance`` defaults to True)."""
+
+    name = "tls-balanced"
+
+    def __init__(self, *, tol: float = DEFAULT_APPENDIX_TOL, column_scale: float = 1.0,
+                 balance: bool = True, max_columns: int | None = None,
+                 max_dense_bytes: float = DENSE_MAX_BYTES):
+        super().__init__(tol=tol, column_scale=column_scale, balance=balance,
+                         max_columns=max_columns, max_dense_bytes=max_dense_bytes)

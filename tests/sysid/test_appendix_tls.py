@@ -1,0 +1,198 @@
+"""The dissertation's TLS (the appendix's ``tlsdeconv``) and its unit-independent form.
+
+* :class:`~podbench.deconvolution.AppendixTLS` against a line-by-line transcription of the
+  MATLAB (``C = [X y]``, ``[U,S,V] = svd(C)``, the ``cn(i) <= tol`` loop, the ``num/den``
+  loop) on small systems, for SL's scalar and ML's block convolution matrices;
+* :class:`~podbench.deconvolution.BalancedTLS`: the same records in SI units give the same
+  prediction, converted back, to 1e-8 (and the appendix's form does not: its cut moves).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+import sklearn.base
+from podbench.methods import MultipleLoad, SingleLoad
+
+import podbench as pb
+from podbench import deconvolution as dc
+from podbench.errors import InputError
+
+DATA = (Path(__file__).resolve().parents[2] / "scenarios" / "chapter5" / "data"
+        / "linear_beam" / "noise_2pct")
+LBF_TO_N = 4.4482216152605
+IN_TO_M = 0.0254
+
+
+def form_conv_mat(a):
+    """The appendix's ``form_conv_mat``: ``A(i,1:i) = fliplr(a(1:i))``."""
+    n = len(a)
+    A = np.zeros((n, n))
+    for i in range(1, n + 1):
+        A[i - 1, :i] = a[:i][::-1]
+    return A
+
+
+def tlsdeconv(y, X):
+    """The appendix's ``tlsdeconv``, line by line (0-based indices)."""
+    C = np.hstack([X, y[:, None]])
+    U, S, Vt = np.linalg.svd(C)  # [U,S,V] = svd(C): full
+    V = Vt.T
+    nrow = C.shape[0]
+    r = 0
+    tol = 1000
+    cn = np.zeros(nrow)
+    for i in range(nrow):
+        cn[i] = S[0] / S[i]
+        if cn[i] <= tol:
+            r = r + 1
+    n = max(V.shape) - 1  # n = length(V) - 1
+    num = np.zeros(n)
+    sum1 = 0.0
+    for i in range(r):
+        num = num + V[n, i] * V[:n, i]
+        sum1 = sum1 + V[n, i] ** 2
+    den = 1 - sum1
+    return num / den, r
+
+
+def _noisy_pulse_system(n, seed, noise=0.02):
+    """A lightly damped two-mode response to a pulse (first sample zero, as podbench's), both
+    the force and the response with noise: a system whose cut discards some directions."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 1e-3
+    q = np.zeros(n)
+    q[1:4] = [1.0, 1.6, 0.8]
+    h = np.exp(-3 * t) * (np.sin(40 * t) + 0.3 * np.sin(130 * t))
+    y = form_conv_mat(q) @ h
+    q_noisy = q + noise * rng.standard_normal(n)
+    y_noisy = y + noise * np.abs(y).max() * rng.standard_normal(n)
+    return q_noisy, y_noisy
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_appendix_tls_equals_the_transcription_of_tlsdeconv(seed):
+    q, y = _noisy_pulse_system(80, seed)
+    X = form_conv_mat(q)
+    h_ref, r_ref = tlsdeconv(y, X)
+    assert 0 < r_ref < 80  # the cut discards something: not plain LS, not empty
+    h = dc.appendix_tls(X, y)
+    assert np.linalg.norm(h - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
+    # the solver object on the convolution system (Δt kept): podbench's kernel is h/Δt
+    dt = 1e-3
+    res = dc.AppendixTLS().solve(dc.ConvolutionSystem(q[None, :], y, dt))
+    assert res.info["rank"] == r_ref
+    assert np.linalg.norm(res.X * dt - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
+    # and it is not podbench's Δt form: TruncatedTLS on Δt·toeplitz(q) cuts elsewhere
+    old = dc.TruncatedTLS().solve(dc.ConvolutionSystem(q[None, :], y, dt))
+    assert old.info["rank"] != r_ref
+
+
+def test_appendix_tls_on_ml_block_matrix_is_tlsdeconv_per_column():
+    """ML: the block matrix of Eq. 3.48 as the MATLAB's ``Qbar`` (form_conv_mat blocks) and
+    every column of the POC-history matrix solved by tlsdeconv on its own."""
+    n, k = 40, 2
+    rng = np.random.default_rng(3)
+    Qs = []
+    for j in range(k):
+        Q = np.zeros((k, n))
+        Q[:, 1:] = 0.3 * rng.standard_normal((k, n - 1)) * 0.6 ** np.arange(n - 1)
+        Q[j, 1] += 2.0
+        Qs.append(Q)
+    dt = 1e-3
+    Xtrue = rng.standard_normal((k * n, k)) * np.exp(-0.05 * np.tile(np.arange(n), k))[:, None]
+    B = dc.convolution_product(Qs, Xtrue, dt)
+    B = B + 0.01 * np.abs(B).max() * rng.standard_normal(B.shape)
+    Qbar = np.zeros((k * n, k * n))
+    for i in range(k):  # MATLAB: Qbar(i-block, j-block) = form_conv_mat(q_i(j, :))
+        for j in range(k):
+            Qbar[i * n:(i + 1) * n, j * n:(j + 1) * n] = form_conv_mat(Qs[i][j])
+    np.testing.assert_allclose(Qbar * dt, dc.block_convolution_matrix(Qs, dt), rtol=0,
+                               atol=1e-15)
+    refs = [tlsdeconv(B[:, col], Qbar) for col in range(k)]
+    assert all(0 < r < k * n for _, r in refs)
+    res = dc.AppendixTLS().solve(dc.ConvolutionSystem(Qs, B, dt))
+    for col, (h_ref, _) in enumerate(refs):
+        got = res.X[:, col] * dt
+        assert np.linalg.norm(got - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
+    assert res.info["rank"] == min(r for _, r in refs)
+    assert res.info["rank_max"] == max(r for _, r in refs)
+
+
+def test_column_scale_is_the_same_data_in_other_units():
+    """``column_scale=ρ`` is [ρX | y]: equal to the appendix's TLS on forces multiplied by ρ,
+    with the kernel multiplied back."""
+    q, y = _noisy_pulse_system(60, 2)
+    X = form_conv_mat(q)
+    rho = LBF_TO_N / IN_TO_M
+    h_ref = tlsdeconv(y, rho * X)[0] * rho
+    h = dc.AppendixTLS(column_scale=rho).solve_matrix(X, y).X
+    assert np.linalg.norm(h - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
+
+
+def _records(n=400):
+    recs = {}
+    for case in ("load4", "load8", "load12"):
+        d = np.load(DATA / f"{case}.npz")
+        recs[case] = (d["W"][:, :n], d["F"][:, :n], float(d["dt"]))
+    return recs
+
+
+def _predict(method, recs, scale_w, scale_f, train):
+    fitted = method.fit([pb.Record(W=scale_w * recs[c][0], F=scale_f * recs[c][1],
+                                   dt=recs[c][2]) for c in train])
+    W4, F4, dt = recs["load4"]
+    return fitted.predict(pb.Record(W=scale_w * W4, F=scale_f * F4, dt=dt)) / scale_w
+
+
+@pytest.mark.parametrize("cls, train", [(SingleLoad, ["load8"]),
+                                        (MultipleLoad, ["load8", "load12"])])
+def test_balanced_tls_gives_the_same_prediction_in_si_and_inch_lbf(cls, train):
+    recs = _records()
+    inch = _predict(cls(n_modes=2, solver="tls-balanced"), recs, 1.0, 1.0, train)
+    si = _predict(cls(n_modes=2, solver="tls-balanced"), recs, IN_TO_M, LBF_TO_N, train)
+    assert np.linalg.norm(si - inch) <= 1e-8 * np.linalg.norm(inch)
+    # millimetre and newton, and a sampling step written in ms-scaled units do not matter
+    mm = _predict(cls(n_modes=2, solver="tls-balanced"), recs, 25.4, LBF_TO_N, train)
+    assert np.linalg.norm(mm - inch) <= 1e-8 * np.linalg.norm(inch)
+
+
+def test_appendix_tls_cut_depends_on_units():
+    """The appendix's form on the same records in millimetres keeps other directions (the
+    reason for the balanced form): the 2 %-noise 8-in record."""
+    recs = _records()
+    inch = _predict(SingleLoad(n_modes=2, solver="tls-appendix"), recs, 1.0, 1.0, ["load8"])
+    si_fit = SingleLoad(n_modes=2, solver="tls-appendix")
+    si = _predict(si_fit, recs, 25.4, 1.0, ["load8"])
+    ranks_si = [i["rank"] for i in si_fit.solver_info_]
+    inch_fit = SingleLoad(n_modes=2, solver="tls-appendix")
+    _predict(inch_fit, recs, 1.0, 1.0, ["load8"])
+    ranks_in = [i["rank"] for i in inch_fit.solver_info_]
+    assert ranks_si != ranks_in
+    assert np.linalg.norm(si - inch) > 1e-6 * np.linalg.norm(inch)
+
+
+def test_parameters_are_checked_and_clonable():
+    for bad, name in [({"tol": 1.0}, "tol"), ({"tol": -5}, "tol"),
+                      ({"column_scale": 0.0}, "column_scale"), ({"balance": "yes"}, "balance")]:
+        with pytest.raises(InputError, match=f"`{name}`"):
+            dc.AppendixTLS(**bad).solve_matrix(np.eye(3), np.ones(3))
+    s = dc.AppendixTLS(tol=100.0, column_scale=2.0)
+    twin = sklearn.base.clone(s)
+    assert twin.get_params() == s.get_params()
+    assert dc.get_solver("tls-appendix") is dc.AppendixTLS
+    assert dc.get_solver("tls-balanced") is dc.BalancedTLS
+    assert dc.BalancedTLS().balance is True and dc.AppendixTLS().balance is False
+
+
+def test_fast_discarded_subspace_equals_full_svd_on_a_chapter5_sized_system():
+    """The eigen-path (CᵀC, discarded vectors only) against the full SVD at n = 300."""
+    q, y = _noisy_pulse_system(300, 4, noise=0.05)
+    X = scipy.linalg.toeplitz(q, np.zeros_like(q))
+    h_ref, r_ref = tlsdeconv(y, X)
+    h, info = dc.dense._appendix_solve(X, y, 1000.0)
+    assert info["rank"] == r_ref
+    assert np.linalg.norm(h - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
