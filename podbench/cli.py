@@ -1,4 +1,4 @@
-"""Command line: ``podbench run | regress | sweep | list``.
+"""Command line: ``podbench run | regress | sweep | list | experiment | predict``.
 
 Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
 missing path, a malformed scenario/structure/claims file, an unknown name, a bad option, an
@@ -242,6 +242,46 @@ Examples:
     x.add_argument("--debug", action="store_true",
                    help="show the Python traceback of an internal error (exit code 3)")
 
+    pr = sub.add_parser(
+        "predict", help="fit a method on training records, predict target records",
+        description=textwrap.fill(
+            "Fit METHOD on the --train record files and predict every --target file: "
+            "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
+            "holds outputs, units) and OUT/<target stem>.npz with the prediction W_hat "
+            "(n_out × n). Records: input/output files (inputs, outputs, dt, "
+            "input_channels, output_channels, input_units, output_units) or W/F files. "
+            "Every file is checked before any fitting; OUT is written whole or not at all.",
+            width=88),
+        epilog="""
+Examples:
+  podbench predict --method ML --train a.npz b.npz c.npz --target x.npz --out pred/
+  podbench predict --method FIR-LS --train ev*.npz --target new.npz --out pred/ \
+      --input-units m/s^2 --output-units m/s^2     # files without unit variables
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    pr.add_argument("--method", required=True,
+                    help="ML, FIR-LS, ERA, DMDc, OpInf (SL, MR: refused where they do not "
+                         "apply, with the reason)")
+    pr.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
+    pr.add_argument("--out", required=True, metavar="DIR",
+                    help="output folder (new, empty, or a previous predict output)")
+    pr.add_argument("--solver", default="auto",
+                    help="ML's kernel: auto (TC prior with >= 3 training records), ls, tc "
+                         "(truncated kernel, lags by leave-one-record-out), or a "
+                         "deconvolution solver name (block, cgls, ...) for the kernel over "
+                         "the whole record (records of one length)")
+    pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
+    pr.add_argument("--coverage", type=float, default=None, metavar="P",
+                    help="prediction band coverage (not available yet: refused)")
+    pr.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
+                    help="convert every record to this unit system when it is read")
+    pr.add_argument("--input-units", default=None, metavar="UNIT",
+                    help="units of the inputs for files that carry none (e.g. m/s^2)")
+    pr.add_argument("--output-units", default=None, metavar="UNIT",
+                    help="units of the outputs for files that carry none")
+    pr.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
+
     ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
                         description="List the structures and scenarios bundled with podbench "
                                     "and those of the current folder (./structures, "
@@ -391,8 +431,43 @@ def _run(args, files, *, figures: bool, progress=None):
     return results, time.perf_counter() - t0
 
 
+def cmd_predict(args) -> int:
+    from .predict import predict_files
+
+    out = _output_folder(args.out, "--out", "errors.csv")
+    rows = predict_files(args.method, args.train, args.target, out, solver=args.solver,
+                         n_modes=args.n_modes, coverage=args.coverage,
+                         input_units=args.input_units, output_units=args.output_units,
+                         units=args.units)
+    for r in rows:
+        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}")
+    print(f"{_plural(len(rows), 'prediction')} -> {out}/")
+    return 0
+
+
+def cmd_painter_street(args) -> int:
+    """``podbench run painter_street``: the measured-bridge study (podbench.painter_street)."""
+    from .painter_street import run_study, write_study
+
+    out = Path(args.out) if args.out else DEFAULT_RESULTS / "painter_street"
+    _output_folder(out, "--out", "summary.csv")
+    t0 = time.perf_counter()
+    say = None if args.quiet else (lambda m: print(f"painter_street: {m}", file=sys.stderr))
+    res = run_study(progress=say)
+    if args.no_figures:
+        res["no_figures"] = True
+    write_study(res, out)
+    print(f"{_plural(len(res['rows']), 'row')} from {len(res['records']['three'])} events in "
+          f"{time.perf_counter() - t0:.1f} s -> {out}/summary.csv, {out}/FINDINGS.md")
+    return 0
+
+
 def cmd_run(args) -> int:
     from ._resources import display_path
+
+    if [str(p).rstrip("/") for p in args.paths] == ["painter_street"] \
+            and not Path("painter_street").exists():
+        return cmd_painter_street(args)
     from .harness.report import write_study
     from .harness.runner import response_counts
 
@@ -707,7 +782,8 @@ def main(argv=None) -> int:
     one_line_warnings(prog)
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
-                "list": cmd_list, "experiment": cmd_experiment}[args.command](args)
+                "list": cmd_list, "experiment": cmd_experiment,
+                "predict": cmd_predict}[args.command](args)
     except (_Usage, PodbenchError) as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
