@@ -54,6 +54,10 @@ LAG_GRID = (0.25, 0.5, 1.0, 1.5, 2.0)
 TC_GRID = tuple((tau, g) for tau in (0.1, 0.2, 0.4) for g in (1e-3, 1e-2, 1e-1))
 """(decay time τ in s, relative weight γ) of the TC prior that ``prior="tc"`` chooses from."""
 
+CV_FLOOR = 1e-9
+"""Leave-one-record-out errors that differ by less than this (relative to the best, or
+absolutely) are round-off: the simplest candidate (fewest lags, first in the grid) wins."""
+
 _GRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -112,6 +116,12 @@ def _cv_error(grams, rows, solve=_chol_solve, ridge: float = 0.0) -> float:
         e2 = float(np.sum(cj) - 2 * np.sum(th * Bj) + np.sum(th * (Aj @ th)))
         errs.append(np.sqrt(max(e2, 0.0) / float(np.sum(cj))))
     return float(np.mean(errs))
+
+
+def _simplest(scored):
+    """The first candidate whose error is within :data:`CV_FLOOR` of the smallest."""
+    best = min(e for _, e in scored)
+    return next(c for c, e in scored if e <= best + CV_FLOOR * max(1.0, best))
 
 
 def _tc_factor(n_lags: int, n_in: int, dt: float, tau: float) -> np.ndarray:
@@ -189,7 +199,7 @@ class _IOMethod(PODMethod):
                                  "and needs at least 2 training records; give an integer")
             for L in Ls:
                 cv[("lags", L)] = _cv_error(grams, L * n_in)
-            L = min(Ls, key=lambda x: (cv[("lags", x)], x))
+            L = _simplest([(x, cv[("lags", x)]) for x in Ls])
         else:
             L = Ls[0]
         rows = L * n_in
@@ -214,7 +224,7 @@ class _IOMethod(PODMethod):
                         continue
                     e = _cv_error(white, rows, ridge=g)
                     cv[("tc", tau, g)] = e
-                    if best is None or e < best[0]:
+                    if best is None or e < best[0] - CV_FLOOR * max(1.0, best[0]):
                         best = (e, tau, g, R, white)
             _, tau, g, R, white = best
             M = sum(w[0] for w in white)
