@@ -108,9 +108,11 @@ def _configs():
         Config("three", "mdof-SRIM", lambda: MdofIO(method="srim"),
                "mdof SRIM, order 20, horizon 0.5 s; A, C by mdof, B, D with the records' zero "
                "initial state (workaround of mdof 0.0.23's zero model)"),
-        Config("three", "mdof-OKID-ERA", lambda: MdofIO(method="okid-era"),
-               "mdof OKID-ERA, order 20, 2 s of Markov parameters, Hankel 0.5 s; the OKID "
-               "recursion's missing term restored (mdof 0.0.23 drops it)"),
+        Config("three", "mdof-OKID-ERA",
+               lambda: MdofIO(method="okid-era", horizon=0.3, markov=0.6),
+               "mdof OKID-ERA, order 20, 0.6 s of Markov parameters, Hankel 0.3 s (mdof's "
+               "pseudo-inverse of the whole joined record: longer costs minutes per fold); "
+               "the OKID recursion's missing term restored (mdof 0.0.23 drops it)"),
         Config("ground", "FIR-LS", lambda: FIRLeastSquares(),
                "FIR least squares, every ground-level channel as input"),
         Config("ground", "ML-TC", lambda: MultipleLoadIO(prior="tc"),
