@@ -23,6 +23,7 @@ import csv
 import os
 import shlex
 import shutil
+import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -39,8 +40,10 @@ from podbench.core.resources import (
     resolve_bundled,
 )
 from podbench.errors import InputError, UnknownNameError
+from podbench.harness import painter_street
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import run_checks
+from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
 from podbench.harness.runner import plan, response_counts, run_study
@@ -55,7 +58,7 @@ from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.sysid.deconvolution import available_solvers
 
-__all__ = ["run", "StudyResult", "regress", "sweep", "experiment", "resolve_study",
+__all__ = ["run", "StudyResult", "predict", "regress", "sweep", "experiment", "resolve_study",
            "DEFAULT_CACHE", "DEFAULT_RESULTS", "DEFAULT_BASELINE", "REGRESS_STUDIES"]
 
 DEFAULT_CACHE = Path(".podbench_cache")
@@ -303,6 +306,9 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     command : str, optional
         The command line shown in ``report.html`` (default: ``podbench.run(...)``).
     """
+    if [str(s).rstrip("/") for s in _as_list(study)] == [painter_street.STUDY] \
+            and not Path(painter_street.STUDY).exists():  # measured records, its own runner
+        return _run_painter_street(out, figures, quiet)
     paths, files = resolve_study(study)
     out = Path(out) if out is not None else default_out(paths)
     output_folder(out, "--out", "summary.csv")
@@ -357,6 +363,37 @@ def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) ->
             parts.append("the §5.2 nonlinearity checks")
     parts.append("figures and report.html" if figures else "report.html")
     return "podbench: running " + "; then ".join(parts)
+
+
+def _run_painter_street(out, figures: bool, quiet: bool) -> StudyResult:
+    """The Painter Street Overpass study (:mod:`podbench.harness.painter_street`):
+    leave-one-event-out over the bundled earthquake records, same output folder rules."""
+    out = Path(out) if out is not None else DEFAULT_RESULTS / painter_street.STUDY
+    output_folder(out, "--out", "summary.csv")
+    t0 = time.perf_counter()
+    res = painter_street.run_study(
+        progress=None if quiet else (lambda m: print(f"painter_street: {m}", file=sys.stderr)))
+    if not figures:
+        res["no_figures"] = True
+    painter_street.write_study(res, out)
+    summary = pd.read_csv(out / "summary.csv")
+    return StudyResult(out=out, summary=summary, fits=pd.read_csv(out / "fits.csv"),
+                       claims=None, figures=sorted((out / "figures").glob("*.png")),
+                       scenarios={painter_street.STUDY: "leave-one-event-out"},
+                       seconds=time.perf_counter() - t0, simulated=0, cached=0)
+
+
+# ----------------------------------------------------------------------------- predict
+def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=None,
+            coverage=None, input_units=None, output_units=None, units=None) -> list[dict]:
+    """Fit ``method`` on the ``train`` record files and predict every ``target`` file, as
+    ``podbench predict``: ``out/errors.csv`` (target, method, total_error) and
+    ``out/<target stem>.npz`` with ``W_hat``. Every file is checked before any fitting;
+    ``out`` is written whole or not at all. Returns the rows of errors.csv."""
+    out = output_folder(out, "--out", "errors.csv")
+    return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
+                         n_modes=n_modes, coverage=coverage, input_units=input_units,
+                         output_units=output_units, units=units)
 
 
 # ---------------------------------------------------------------------------- regress

@@ -1,4 +1,4 @@
-"""Command line: ``podbench run | regress | sweep | list``.
+"""Command line: ``podbench run | regress | sweep | list | experiment | predict``.
 
 Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
 missing path, a malformed scenario/structure/claims file, an unknown name, a bad option, an
@@ -18,12 +18,7 @@ from pathlib import Path
 
 from podbench import api
 from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
-from podbench.core.resources import (
-    SWEEPS_STUDY,
-    bundled_structures,
-    bundled_studies,
-    display_path,
-)
+from podbench.core.resources import SWEEPS_STUDY, bundled_structures, bundled_studies, display_path
 from podbench.core.version import __version__
 from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError
@@ -87,7 +82,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_run, _add_regress, _add_sweep, _add_experiment, _add_list):
+    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list):
         add(sub)
     return p
 
@@ -271,6 +266,49 @@ Examples:
     _add_debug(x)
 
 
+def _add_predict(sub) -> None:
+    """``podbench predict``."""
+    pr = sub.add_parser(
+        "predict", help="fit a method on training records, predict target records",
+        description=textwrap.fill(
+            "Fit METHOD on the --train record files and predict every --target file: "
+            "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
+            "holds outputs, units) and OUT/<target stem>.npz with the prediction W_hat "
+            "(n_out × n). Records: input/output files (inputs, outputs, dt, "
+            "input_channels, output_channels, input_units, output_units) or W/F files. "
+            "Every file is checked before any fitting; OUT is written whole or not at all.",
+            width=88),
+        epilog="""
+Examples:
+  podbench predict --method ML --train a.npz b.npz c.npz --target x.npz --out pred/
+  podbench predict --method FIR-LS --train ev*.npz --target new.npz --out pred/ \
+      --input-units m/s^2 --output-units m/s^2     # files without unit variables
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    pr.add_argument("--method", required=True,
+                    help="ML, FIR-LS, ERA, DMDc, OpInf (SL, MR: refused where they do not "
+                         "apply, with the reason)")
+    pr.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
+    pr.add_argument("--out", required=True, metavar="DIR",
+                    help="output folder (new, empty, or a previous predict output)")
+    pr.add_argument("--solver", default="auto",
+                    help="ML's kernel: auto (TC prior with >= 3 training records), ls, tc "
+                         "(truncated kernel, lags by leave-one-record-out), or a "
+                         "deconvolution solver name (block, cgls, ...) for the kernel over "
+                         "the whole record (records of one length)")
+    pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
+    pr.add_argument("--coverage", type=float, default=None, metavar="P",
+                    help="prediction band coverage (not available yet: refused)")
+    pr.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
+                    help="convert every record to this unit system when it is read")
+    pr.add_argument("--input-units", default=None, metavar="UNIT",
+                    help="units of the inputs for files that carry none (e.g. m/s^2)")
+    pr.add_argument("--output-units", default=None, metavar="UNIT",
+                    help="units of the outputs for files that carry none")
+    pr.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
+
+
 def _add_list(sub) -> None:
     """``podbench list``."""
     ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
@@ -289,6 +327,17 @@ def _plural(n: int, word: str, plural: str | None = None) -> str:
 
 def _cache(args):
     return None if args.no_cache else args.cache
+
+
+def cmd_predict(args) -> int:
+    rows = api.predict(args.method, args.train, args.target, args.out, solver=args.solver,
+                       n_modes=args.n_modes, coverage=args.coverage,
+                       input_units=args.input_units, output_units=args.output_units,
+                       units=args.units)
+    for r in rows:
+        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}")
+    print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")
+    return 0
 
 
 def cmd_run(args) -> int:
@@ -512,7 +561,8 @@ def main(argv=None) -> int:
     one_line_warnings(prog)
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
-                "list": cmd_list, "experiment": cmd_experiment}[args.command](args)
+                "list": cmd_list, "experiment": cmd_experiment,
+                "predict": cmd_predict}[args.command](args)
     except PodbenchError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2

@@ -1,0 +1,145 @@
+"""``podbench predict``: fit a method on training record files, predict every target file.
+
+Writes ``OUT/errors.csv`` (one row per target: ``target`` = file stem, ``method``,
+``total_error`` = ‖ŷ − y‖_F/‖y‖_F where the target holds outputs, empty otherwise, and the
+unit system) and ``OUT/<target stem>.npz`` holding the prediction ``W_hat`` (n_out × n) with
+its ``units``, ``output_channels`` and ``dt``. ``OUT`` is built beside its place and swapped
+in whole: nothing half-written is left.
+
+Records: input/output files (``inputs``, ``outputs``, ``dt``, channels, units:
+:mod:`podbench.core.iorecords`) or today's displacement/force files (``W``, ``F``:
+:mod:`podbench.measured`, in and lbf). Every file is read and checked against the first
+training file (``dt``, channels, quantities, units, NaN/Inf, length) before any fitting;
+the first problem is one line naming the file and the field.
+
+Prediction bands (``coverage``) are the error-estimate work's: the hook is the methods'
+``predict(record, coverage=…)``; until it lands ``coverage`` is refused with that message.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+
+from podbench.core.atomic import replace_dir
+from podbench.core.iorecords import IORecord, check_records, convert, from_record, read_io_record
+from podbench.core.threads import single_blas_thread
+from podbench.errors import InputError
+from podbench.sysid.measured import read_record
+from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, SingleLoadIO
+from podbench.sysid.methods.peers_io import ERAIO, DMDcIO, OpInfIO
+
+__all__ = ["METHODS", "make_method", "read_any", "predict_files"]
+
+METHODS = ("ML", "FIR-LS", "SL", "MR", "ERA", "DMDc", "OpInf")
+"""The method names ``podbench predict --method`` takes (SL, MR: refused with the reason
+on records whose inputs are not forces at the outputs / that carry no initial condition)."""
+SOLVERS_FIR = ("auto", "ls", "tc")
+"""``--solver`` for the truncated kernel: ``auto`` (TC prior with three or more training
+records, else plain), ``ls`` (plain least squares), ``tc`` (TC prior). Any other name (e.g.
+``block``, ``cgls``) is a deconvolution solver on the kernel over the whole record."""
+
+
+def read_any(path, *, input_units=None, output_units=None, system=None) -> IORecord:
+    """An input/output record from a file (input/output layout or W/F layout)."""
+    path = Path(path)
+    if path.suffix.lower() in (".npz", ".mat") and _has(path, "inputs"):
+        return read_io_record(path, input_units=input_units, output_units=output_units,
+                              require_outputs=False, system=system)
+
+    rec = from_record(read_record(path), name=path.name)
+    return convert(rec, system) if system else rec
+
+
+def _has(path: Path, key: str) -> bool:
+    if path.suffix.lower() == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return key in z.files
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{path.name}: not a readable .npz file ({exc})") from None
+    import scipy.io
+
+    try:
+        return key in scipy.io.whosmat(path) or any(v[0] == key for v in scipy.io.whosmat(path))
+    except (ValueError, NotImplementedError, OSError) as exc:
+        raise InputError(f"{path.name}: not a readable MATLAB file ({exc})") from None
+
+
+def make_method(name: str, *, solver: str = "auto", n_modes=None, n_train: int = 1):
+    """The estimator ``--method``/``--solver``/``--n-modes`` name."""
+
+    if name == "ML":
+        if solver in SOLVERS_FIR:
+            prior = "tc" if solver == "tc" or (solver == "auto" and n_train >= 3) else None
+            return MultipleLoadIO(n_modes=n_modes, prior=prior)
+        return MultipleLoadIO(n_modes=n_modes, n_lags=None, solver=solver)
+    if name == "FIR-LS":
+        return FIRLeastSquares()
+    if name == "SL":
+        return SingleLoadIO()
+    if name == "ERA":
+        return ERAIO()
+    if name == "DMDc":
+        return DMDcIO()
+    if name == "OpInf":
+        return OpInfIO()
+    if name == "MR":
+        raise InputError("--method MR: the mixed-response method identifies Φ11, Φ12 from "
+                         "free responses (initial conditions) beside forced ones; records "
+                         "driven from rest by measured inputs carry none. Use ML")
+    raise InputError(f"--method {name!r}: expected one of {', '.join(METHODS)}")
+
+
+def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_modes=None,
+                  coverage=None, input_units=None, output_units=None, units=None) -> list:
+    """Fit ``method`` on the ``train`` files, predict the ``targets``, write ``out``.
+
+    Returns the rows of errors.csv. Raises InputError (one line naming the file and the
+    field) before anything is written."""
+
+    if coverage is not None:
+        raise InputError("--coverage: prediction bands are not available yet (they come with "
+                         "the error-estimate work); run without --coverage")
+    if not train:
+        raise InputError("--train: no training file given")
+    if not targets:
+        raise InputError("--target: no target file given")
+    stems = [Path(t).stem for t in targets]
+    dup = sorted({s for s in stems if stems.count(s) > 1})
+    if dup:
+        raise InputError(f"--target: two targets share the file stem {dup[0]!r} (the "
+                         "predictions are named after it)")
+    kw = dict(input_units=input_units, output_units=output_units, system=units)
+    tr = [read_any(p, **kw) for p in train]
+    tg = [read_any(p, **kw) for p in targets]
+    est = make_method(method, solver=solver, n_modes=n_modes, n_train=len(tr))
+    min_samples = 2
+    if getattr(est, "n_lags", None) == "auto":
+        min_samples = int(round(min(est.lag_grid) / tr[0].dt)) + 1
+    check_records(tr, tg, min_samples=min_samples)
+    with single_blas_thread():
+        est.fit(tr)
+        preds = [est.predict(r) for r in tg]
+    rows = []
+    for stem, rec, yh in zip(stems, tg, preds, strict=True):
+        err = ("" if rec.y is None else
+               f"{float(np.linalg.norm(yh - rec.y) / np.linalg.norm(rec.y)):.6g}")
+        rows.append({"target": stem, "method": method, "total_error": err,
+                     "units": rec.output_units})
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=["target", "method", "total_error", "units"],
+                       lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    with replace_dir(out) as tmp:
+        for stem, rec, yh in zip(stems, tg, preds, strict=True):
+            np.savez_compressed(tmp / f"{stem}.npz", W_hat=yh, dt=np.float64(rec.dt),
+                                units=np.array(tr[0].output_units),
+                                quantity=np.array(tr[0].output_quantity),
+                                output_channels=np.array(tr[0].output_channels))
+        (tmp / "errors.csv").write_text(buf.getvalue())
+    return rows

@@ -1,0 +1,164 @@
+"""ML, FIR-LS, SL/MR refusals and the peers on input/output records."""
+
+import numpy as np
+import pytest
+
+from podbench.core.iorecords import IORecord, convert
+from podbench.errors import InputError
+from podbench.harness.predict import make_method
+from podbench.sysid.deconvolution.lagged import lag_response, record_grams
+from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, SingleLoadIO
+
+
+def _lti(n_in=2, n_out=3, order=6, seed=1, radius=0.97):
+    """A stable discrete system with direct feedthrough (D ≠ 0)."""
+    rng = np.random.default_rng(seed)
+    poles = radius * np.exp(1j * rng.uniform(0.2, 1.2, order // 2))
+    A = np.zeros((order, order))
+    for i, p in enumerate(poles):
+        A[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[p.real, -p.imag], [p.imag, p.real]]
+    return A, rng.normal(size=(order, n_in)), rng.normal(size=(n_out, order)), \
+        rng.normal(size=(n_out, n_in))
+
+
+def _respond(sys, u):
+    A, B, C, D = sys
+    x = np.zeros(A.shape[0])
+    y = np.empty((C.shape[0], u.shape[1]))
+    for j in range(u.shape[1]):
+        y[:, j] = C @ x + D @ u[:, j]
+        x = A @ x + B @ u[:, j]
+    return y
+
+
+def _records(sys, lengths, seed=2, units="m/s^2"):
+    rng = np.random.default_rng(seed)
+    out = []
+    for j, n in enumerate(lengths):
+        u = rng.normal(size=(sys[1].shape[1], n))
+        out.append(IORecord(u=u, y=_respond(sys, u), dt=0.01, input_units=units,
+                            output_units=units, name=f"r{j}.npz"))
+    return out
+
+
+@pytest.mark.parametrize("first", [0, 1])
+def test_grams_equal_the_explicit_lagged_design(first):
+    rng = np.random.default_rng(0)
+    u, z = rng.normal(size=(3, 200)), rng.normal(size=(2, 200))
+    L = 17
+    X = np.zeros((200, 3 * L))
+    for k in range(L):
+        lag = first + k
+        X[lag:, 3 * k : 3 * k + 3] = u[:, : 200 - lag].T
+    A, B, c = record_grams(u, z, L, first)
+    np.testing.assert_allclose(A, X.T @ X, rtol=1e-12, atol=1e-10)
+    np.testing.assert_allclose(B, X.T @ z.T, rtol=1e-12, atol=1e-10)
+    np.testing.assert_allclose(c, np.sum(z**2, axis=1), rtol=1e-14)
+    th = rng.normal(size=(3 * L, 2))
+    np.testing.assert_allclose(lag_response(th, u, 3, first), (X @ th).T, atol=1e-12)
+
+
+def test_ml_predicts_a_held_out_lti_response_with_feedthrough():
+    """Records of different lengths; the true kernel is C A^(p−1) B, D at lag 0: with
+    enough lags (the tail below 1e-12) ML reproduces a held-out response to round-off."""
+    sys = _lti(radius=0.9)  # 0.9^350 < 1e-15: 350 lags hold the whole kernel
+    tr = _records(sys, [900, 1200, 700])
+    target = _records(sys, [1500], seed=9)[0]
+    ml = MultipleLoadIO(n_lags=350).fit(tr)
+    assert ml.first_lag_ == 0
+    err = np.linalg.norm(ml.predict(target) - target.y) / np.linalg.norm(target.y)
+    assert err < 1e-9
+    # the identified lag-0 kernel is D (through the POD basis), × 1/Δt (Eq. 3.39's Δt)
+    np.testing.assert_allclose(ml.modes_ @ ml.kernel_[:, :, 0] * 0.01, sys[3], atol=1e-9)
+
+
+def test_ml_full_length_kernel_by_block_deconvolution():
+    """n_lags=None: the dissertation's kernel over the whole record, one record per input
+    (square block system), solved exactly by 'block'."""
+    sys = _lti(n_in=1, n_out=3)
+    pulse = 0.6 ** np.arange(400)[None, :]  # minimum phase: the substitution is stable
+    tr = [IORecord(u=pulse, y=_respond(sys, pulse), dt=0.01, input_units="m/s^2",
+                   output_units="m/s^2", name="pulse.npz")]
+    target = _records(sys, [400], seed=5)[0]
+    ml = MultipleLoadIO(n_lags=None, solver="block").fit(tr)
+    err = np.linalg.norm(ml.predict(target) - target.y) / np.linalg.norm(target.y)
+    assert err < 1e-10
+
+
+def test_ml_with_as_many_modes_as_outputs_is_the_fir_baseline():
+    sys = _lti()
+    rng = np.random.default_rng(3)
+    tr = _records(sys, [300, 350, 420])
+    tr = [IORecord(u=r.u, y=r.y + 0.3 * rng.normal(size=r.y.shape), dt=r.dt,
+                   input_units="m/s^2", output_units="m/s^2", name=r.name) for r in tr]
+    target = _records(sys, [500], seed=4)[0]
+    a = MultipleLoadIO(n_lags=25).fit(tr).predict(target)
+    b = FIRLeastSquares(n_lags=25).fit(tr).predict(target)
+    np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max())
+    # the lag rule: the same choice for both, by leave-one-record-out on training records
+    fa = MultipleLoadIO(lag_grid=(0.05, 0.25, 0.5)).fit(tr)
+    fb = FIRLeastSquares(lag_grid=(0.05, 0.25, 0.5)).fit(tr)
+    assert fa.info_["n_lags"] == fb.info_["n_lags"]
+
+
+def test_tc_prior_helps_on_noisy_short_records_and_chooses_on_training_only():
+    sys = _lti(seed=4)
+    rng = np.random.default_rng(6)
+    tr = _records(sys, [250, 300, 280, 260], seed=7)
+    tr = [IORecord(u=r.u, y=r.y + 0.5 * np.std(r.y) * rng.normal(size=r.y.shape), dt=r.dt,
+                   input_units="m/s^2", output_units="m/s^2", name=r.name) for r in tr]
+    target = _records(sys, [400], seed=8)[0]
+    from podbench.core.threads import single_blas_thread
+
+    with single_blas_thread():
+        ls = MultipleLoadIO(n_lags=100).fit(tr)
+        tc = MultipleLoadIO(n_lags=100, prior="tc").fit(tr)
+    e = [np.linalg.norm(m.predict(target) - target.y) / np.linalg.norm(target.y)
+         for m in (ls, tc)]
+    assert e[1] < 0.9 * e[0]
+    assert ("tc", tc.info_["tc_tau"], tc.info_["tc_gamma"]) in tc.cv_errors_
+
+
+def test_si_and_inch_lbf_give_the_same_prediction_converted():
+    sys = _lti()
+    tr = _records(sys, [300, 340, 360])
+    target = _records(sys, [400], seed=3)[0]
+    si = MultipleLoadIO(n_lags=60, prior="tc").fit(tr).predict(target)
+    ip = MultipleLoadIO(n_lags=60, prior="tc").fit([convert(r, "inch-lbf") for r in tr]) \
+        .predict(convert(target, "inch-lbf"))
+    np.testing.assert_allclose(ip * 0.0254, si, rtol=1e-9, atol=1e-12 * np.abs(si).max())
+
+
+def test_strain_or_displacement_outputs_start_at_lag_one():
+    sys = _lti()
+    r = _records(sys, [200, 220])
+    r = [IORecord(u=x.u, y=x.y, dt=x.dt, input_units="m/s^2", output_units="strain",
+                  name=x.name) for x in r]
+    assert MultipleLoadIO(n_lags=10).fit(r).first_lag_ == 1
+
+
+def test_sl_and_mr_are_refused_with_the_reason():
+    sys = _lti()
+    tr = _records(sys, [200, 220])
+    with pytest.raises(InputError, match="not forces at the output channels"):
+        SingleLoadIO(n_lags=10).fit(tr)
+    with pytest.raises(InputError, match="free responses"):
+        make_method("MR")
+
+
+def test_a_training_record_too_short_is_named():
+    sys = _lti()
+    tr = _records(sys, [200, 40])
+    with pytest.raises(InputError, match="r1.npz: field `inputs`: 40 samples"):
+        MultipleLoadIO(n_lags=50).fit(tr)
+
+
+def test_the_peers_take_the_same_records():
+    from podbench.sysid.methods.peers_io import ERAIO
+
+    sys = _lti(n_in=3, n_out=3, order=6)
+    tr = _records(sys, [600, 600, 600])  # one length: no zero padding
+    target = _records(sys, [600], seed=11)[0]
+    era = ERAIO(max_order=10, blocks=0.3).fit(tr)
+    err = np.linalg.norm(era.predict(target) - target.y) / np.linalg.norm(target.y)
+    assert era.info_["order"] == 6 and err < 1e-6
