@@ -71,8 +71,8 @@ def io_records(records, name: str = "records") -> list[IORecord]:
         raise InputError(f"Parameter `{name}`: expected IORecords") from None
     for j, r in enumerate(recs):
         if not isinstance(r, IORecord):
-            raise InputError(f"Parameter `{name}[{j}]`: expected a podbench.core.iorecords.IORecord, "
-                             f"got {type(r).__name__}")
+            raise InputError(f"Parameter `{name}[{j}]`: expected a "
+                             f"podbench.core.iorecords.IORecord, got {type(r).__name__}")
     if not recs:
         raise InputError(f"Parameter `{name}`: no record given")
     return recs
