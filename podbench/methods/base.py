@@ -16,6 +16,7 @@ how the data were produced.
 
 from __future__ import annotations
 
+import functools
 import inspect
 from collections.abc import Sequence
 
@@ -69,6 +70,35 @@ class PODMethod:
     n_records: tuple[int, int | None] = (1, None)
     #: True when ``k`` may not exceed the number of training records (MDS, ML).
     records_per_mode = False
+
+    def __init_subclass__(cls, **kwargs):
+        # every method's fit remembers its training records and every predict takes
+        # ``coverage=`` (a band and an error estimate: podbench.methods.bands)
+        super().__init_subclass__(**kwargs)
+        if "fit" in cls.__dict__:
+            cls.fit = _remembering_fit(cls.__dict__["fit"])
+        if "predict" in cls.__dict__:
+            cls.predict = _banded_predict(cls.__dict__["predict"])
+
+    def calibrate_band(self, *, noise_std=None, n_draws: int = 2, seed: int = 0,
+                       cross_validate: bool = True):
+        """Calibrate the prediction band on the training records (done on first use of
+        ``predict(..., coverage=c)`` with the defaults; call it to set the noise level
+        ``noise_std`` (per channel, in the units of ``W``), the number of noise refits
+        ``n_draws``, or ``cross_validate=False`` for the noise part alone). Returns the
+        :class:`~podbench.methods.bands.BandCalibration`."""
+        from .bands import calibrate
+
+        self._check_is_fitted()
+        recs = getattr(self, "training_records_", None)
+        if not recs:
+            raise InputError(
+                f"{type(self).__name__}: a prediction band needs the record form of fit "
+                "(fit(records)); this model was fitted from arrays"
+            )
+        self.band_calibration_ = calibrate(self, recs, noise_std=noise_std, n_draws=n_draws,
+                                           seed=seed, cross_validate=cross_validate)
+        return self.band_calibration_
 
     # ------------------------------------------------------------------ parameters
     @classmethod
@@ -250,6 +280,42 @@ class PODMethod:
                 f"{dt_fit:g} s (the identified kernel is sampled at the training interval)"
             )
         return rec
+
+
+def _remembering_fit(fit):
+    @functools.wraps(fit)
+    def wrapper(self, records, *args, **kwargs):
+        out = fit(self, records, *args, **kwargs)
+        if is_record_input(records) and not args and kwargs.keys() <= {"basis"}:
+            recs = [records] if is_record(records) else list(records)
+            self.training_records_ = recs
+        else:
+            self.training_records_ = None
+        self.__dict__.pop("band_calibration_", None)
+        return out
+
+    return wrapper
+
+
+def _banded_predict(predict):
+    @functools.wraps(predict)
+    def wrapper(self, *args, coverage=None, **kwargs):
+        mean = predict(self, *args, **kwargs)
+        if coverage is None:
+            return mean
+        from .bands import check_coverage, predict_band
+
+        c = check_coverage(coverage)
+        record = args[0] if args else kwargs.get("record")
+        if not is_record(record):
+            raise InputError(f"{type(self).__name__}.predict: a band (`coverage`) needs the "
+                             "target as a record (an object with W, F, w0, v0, dt)")
+        cal = getattr(self, "band_calibration_", None)
+        if cal is None:
+            cal = self.calibrate_band()
+        return predict_band(self, record, c, cal, mean)
+
+    return wrapper
 
 
 _FIELD_WORDS = {
