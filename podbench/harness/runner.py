@@ -31,6 +31,7 @@ from ..fem.files import _display
 from ..measured import read_record
 from ..noise import NoiseSpec, noise_generator, noisy
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
+from .bands import BAND_COLUMNS, band_prediction, band_row
 from .cache import TruthCache, structure_fingerprint
 from .estimators import all_cases, build_estimator, is_user_method, training_records
 from .executor import execute
@@ -41,7 +42,7 @@ __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "response_counts", 
            "noisy", "check_cases", "noise_generator"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
-           *NORM_COLUMNS, "status")
+           *NORM_COLUMNS, *BAND_COLUMNS, "status")
 SWEEP_DIAGNOSTICS = ("solver_reg", "solver_iterations", "solver_amplification")
 """Fit diagnostics (:attr:`podbench.methods.PODMethod.diagnostics_`) a sweep row carries:
 the Tikhonov parameter the solver chose, its iterations and the deconvolution's
@@ -59,6 +60,7 @@ class UnitResult:
     fits: list = field(default_factory=list)  # one dict per reported method: its diagnostics_
     series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
     events: list = field(default_factory=list)  # (time in s, description) of Structure.events
+    bands: dict = field(default_factory=dict)  # (method label, target) -> bands.Prediction
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
@@ -355,7 +357,8 @@ def _failure(exc: BaseException) -> str:
 
 def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | None = None,
              keep_series: bool = True, *, overrides: dict | None = None,
-             noise: NoiseSpec | None = None, conditioning=_SCENARIO) -> UnitResult:
+             noise: NoiseSpec | None = None, conditioning=_SCENARIO,
+             bands: bool | None = None) -> UnitResult:
     """Run every method of a scenario on one structure.
 
     Truth for every case the methods and targets need is simulated (or read from the cache in
@@ -373,7 +376,13 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
     ``conditioning`` (:class:`podbench.conditioning.Conditioning` or None) replaces the
     scenario's ``[conditioning]`` table; by default the scenario's applies.
+
+    ``bands`` (default: on for a plain run, off for a sweep point) adds every prediction's
+    90 % band and error estimate (:mod:`podbench.harness.bands`: columns ``error_estimate``
+    and ``coverage``; its calibration refits the method, so it costs a few fits).
     """
+    if bands is None:
+        bands = overrides is None and noise is None
     t_start = time.perf_counter()
     scenario = load_scenario(scenario_path)
     if overrides is not None:
@@ -421,7 +430,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
                 res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
                                  **({k: float("nan") for k in SWEEP_DIAGNOSTICS}
                                     if overrides is not None else {}),
-                                 **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
+                                 **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS + BAND_COLUMNS,
+                                                 float("nan"))})
             continue
         diag = getattr(est, "diagnostics_", None)
         diag = diag if isinstance(diag, dict) else {}
@@ -471,6 +481,11 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
                 W_own_lin=None if W_own_lin is None else W_own_lin[t],
             ))
             row.update(norm_summaries(W, Wh))
+            if bands:
+                band = band_prediction(est, truth.get(t))
+                row.update(band_row(band, W))
+                if keep_series and band is not None:
+                    res.bands[(spec.label, t)] = band
             row["status"] = status
             res.rows.append(row)
             if keep_series:

@@ -1,0 +1,39 @@
+"""Band columns of the study tables (issue 21): every prediction's ``error_estimate`` and the
+``coverage`` of its 90 % band (:mod:`podbench.methods.bands`), scored against the truth.
+
+``coverage`` is the fraction of the truth's samples (every sensor and time) inside the band;
+``error_estimate`` the predicted ``total_error``. A method without bands (a user's method
+without ``coverage=``, a windowed fit) or a band that fails gets NaN in both and the reason in
+``band_status`` of :func:`band_row` (the table keeps ``status`` for the prediction itself).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import PodbenchError
+
+__all__ = ["BAND_COLUMNS", "BAND_COVERAGE", "band_row", "band_prediction"]
+
+BAND_COVERAGE = 0.9
+"""The nominal coverage of the band every study table scores."""
+BAND_COLUMNS = ("error_estimate", "coverage")
+
+
+def band_prediction(est, record, coverage: float = BAND_COVERAGE):
+    """``est.predict(record, coverage=coverage)`` or None when the method has no band (a
+    method without the ``coverage`` keyword, or one whose band fails)."""
+    try:
+        return est.predict(record, coverage=coverage)
+    except TypeError:
+        return None  # a user's method or a wrapped (windowed) fit without coverage=
+    except (PodbenchError, np.linalg.LinAlgError, ValueError):
+        return None
+
+
+def band_row(prediction, W) -> dict:
+    """The band columns of one table row (NaN without a band)."""
+    if prediction is None or not hasattr(prediction, "lower"):
+        return dict.fromkeys(BAND_COLUMNS, float("nan"))
+    return {"error_estimate": float(prediction.error_estimate),
+            "coverage": float(prediction.covers(W))}
