@@ -246,6 +246,10 @@ class Scenario:
     """The scenario file this one inherits from (``scenario.base``), or None."""
     conditioning: object = None
     """The ``[conditioning]`` table (:class:`podbench.conditioning.Conditioning`) or None."""
+    training_noise: float = 0.0
+    """``scenario.training_noise``: per-channel measurement noise (relative std, 0.01 = 1 %
+    of each channel's RMS, seed 0, on W and F; :class:`podbench.noise.NoiseSpec`) added to
+    every training record of ``podbench run`` (targets stay noise-free)."""
 
     @property
     def folder(self) -> Path:
@@ -354,6 +358,8 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
     targets = sc.strings("targets", MISSING if base is None else list(base.targets))
     if not targets:
         sc.fail("targets", "expected at least one target case")
+    training_noise = sc.number("training_noise", 0.0 if base is None else base.training_noise,
+                               nonnegative=True)
     sc.close()
     variants = {**(base.variants if base is not None else {}), **_parse_variants(top, structures)}
     if base is not None:
@@ -463,6 +469,7 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
         targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
         digest=digest, sweep=sweep, variants=variants,
         base=None if base is None else base.path, conditioning=conditioning,
+        training_noise=training_noise,
     )
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import PodbenchError
 
-__all__ = ["BAND_COLUMNS", "BAND_COVERAGE", "band_row", "band_prediction"]
+__all__ = ["BAND_COLUMNS", "BAND_COVERAGE", "band_row", "band_prediction", "band_stats"]
 
 BAND_COVERAGE = 0.9
 """The nominal coverage of the band every study table scores."""
@@ -37,3 +37,28 @@ def band_row(prediction, W) -> dict:
         return dict.fromkeys(BAND_COLUMNS, float("nan"))
     return {"error_estimate": float(prediction.error_estimate),
             "coverage": float(prediction.covers(W))}
+
+
+def band_stats(prediction, W) -> dict:
+    """Sharpness of one band against the truth ``W``: its mean interval score (Gneiting &
+    Raftery 2007), that of the best constant-width band with the same realized coverage
+    (half-width: that quantile of ``|W − Ŵ|``, an oracle that knows the truth) and the mean
+    half-width relative to the truth's RMS."""
+    nan = float("nan")
+    if prediction is None or not hasattr(prediction, "lower"):
+        return {"interval_score": nan, "constant_interval_score": nan,
+                "relative_half_width": nan, "source": ""}
+    from ..methods.bands import interval_score
+
+    W = np.asarray(W, dtype=float)
+    mean = prediction.mean
+    n = min(W.shape[1], mean.shape[1])
+    W, mean = W[:, :n], mean[:, :n]
+    c = prediction.coverage
+    realized = prediction.covers(W)
+    h = float(np.quantile(np.abs(W - mean), min(max(realized, 0.0), 1.0)))
+    rms = float(np.sqrt(np.mean(W ** 2))) or 1.0
+    half = 0.5 * (prediction.upper[:, :n] - prediction.lower[:, :n])
+    return {"interval_score": interval_score(W, prediction.lower, prediction.upper, c) / rms,
+            "constant_interval_score": interval_score(W, mean - h, mean + h, c) / rms,
+            "relative_half_width": float(np.mean(half)) / rms, "source": prediction.source}

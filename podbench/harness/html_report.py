@@ -372,7 +372,8 @@ def _figures(figs, figure_format: str | None) -> str:
 
 def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, remarks=(),
                   claims_path=None, figures: dict | None = None,
-                  figure_format: str | None = "png", command: str | None = None) -> str:
+                  figure_format: str | None = "png", command: str | None = None,
+                  calibration: str = "") -> str:
     """The HTML text of a study's ``report.html``.
 
     Parameters
@@ -392,6 +393,9 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
         The format of the figure files, None when no figures were drawn.
     command : str, optional
         The command that produced the study (default: this process's command line).
+    calibration : str, optional
+        The calibration section's HTML (:func:`podbench.harness.calibration.calibration_html`);
+        empty: no section.
     """
     from .metrics import __doc__ as metrics_doc
 
@@ -424,6 +428,10 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
         part.append(_figures(figures.get(name, []), figure_format))
         part.append("</section>")
         sections.append("\n".join(part))
+    if calibration:
+        toc.append('<a href="#calibration">Calibration</a>')
+    cal_html = ('<h2 id="calibration">Calibration of the prediction bands</h2>\n'
+                + calibration) if calibration else ""
     toc += ['<a href="#findings">Findings</a>', '<a href="#fits">Fit diagnostics</a>',
             '<a href="#decomposition">Error decomposition</a>',
             '<a href="#provenance">Provenance</a>']
@@ -464,6 +472,7 @@ of ‖W‖<sub>F</sub> of the target; "—" marks a component that is undefined 
 “off scale”.{fmt_note}</p>
 {_legend()}
 {''.join(sections)}
+{cal_html}
 <h2 id="findings">Findings</h2>
 {_findings(evaluated, remarks, claims_path)}
 <h2 id="fits">Fit diagnostics</h2>

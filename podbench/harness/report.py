@@ -19,6 +19,13 @@ import pandas as pd
 from .._atomic import atomic_write_text, replace_dir
 from .._resources import display_path
 from ..errors import InputError
+from .calibration import (
+    calibration_figure,
+    calibration_html,
+    calibration_markdown,
+    calibration_rows,
+    findings_calibration,
+)
 from .claims import evaluate_claims, load_claims, load_claims_file
 from .executor import execute
 from .figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
@@ -261,8 +268,15 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
     df = summary_table(results)
     fits = fits_table(results)
     evaluated, remarks = None, []
+    cal_rows = calibration_rows(df, [s for u in results for s in getattr(u, "band_stats", [])],
+                                scenarios)
+    cal_md = calibration_markdown(cal_rows, Path(out_dir).name)
     with replace_dir(out_dir) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
+        if cal_md:
+            (tmp / "CALIBRATION.md").write_text(cal_md, encoding="utf-8", newline="\n")
+            (tmp / "calibration.csv").write_text(table_csv(cal_rows), encoding="utf-8",
+                                                 newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
         (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
@@ -294,7 +308,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
             (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
                                                                display_path(claims_path),
                                                                linked=linked,
-                                                               linked_from=linked_from),
+                                                               linked_from=linked_from)
+                                             + findings_calibration(cal_rows),
                                              encoding="utf-8", newline="\n")
         elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
             base = load_claims_file(base_claims)
@@ -313,9 +328,20 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                     "uri": uri, "alt": f"{task.title}. {task.subtitle}",
                     "caption": f"{m['structure']}, target {m['target']}: {m['words']} "
                                f"(figures/{task.path.name})"})
+        cal_section = ""
+        if cal_md:
+            uri = None
+            if figures:
+                import base64
+
+                png = calibration_figure(cal_rows, tmp / "figures" / f"calibration.{figure_format}",
+                                         title=f"{Path(out_dir).name}: calibration of the 90 % "
+                                               "bands")
+                uri = "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+            cal_section = calibration_html(cal_rows, uri)
         page = render_report(study=Path(out_dir).name, df=df, fits=fits, scenarios=scenarios,
                              evaluated=evaluated, remarks=remarks, claims_path=claims_path,
                              figures=embedded, figure_format=figure_format if figures else None,
-                             command=command)
+                             command=command, calibration=cal_section)
         (tmp / "report.html").write_text(page, encoding="utf-8", newline="\n")
     return df, evaluated

@@ -31,7 +31,7 @@ from ..fem.files import _display
 from ..measured import read_record
 from ..noise import NoiseSpec, noise_generator, noisy
 from ..scenarios import Scenario, apply_overrides, load_scenario, method_solver
-from .bands import BAND_COLUMNS, band_prediction, band_row
+from .bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from .cache import TruthCache, structure_fingerprint
 from .estimators import all_cases, build_estimator, is_user_method, training_records
 from .executor import execute
@@ -60,7 +60,7 @@ class UnitResult:
     fits: list = field(default_factory=list)  # one dict per reported method: its diagnostics_
     series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
     events: list = field(default_factory=list)  # (time in s, description) of Structure.events
-    bands: dict = field(default_factory=dict)  # (method label, target) -> bands.Prediction
+    band_stats: list = field(default_factory=list)  # per row: interval scores, seconds
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
@@ -389,6 +389,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
         scenario = apply_overrides(scenario, **overrides)
     structure = resolve_structure(structure_entry, scenario)
     cache = TruthCache(cache_dir)
+    if noise is None and scenario.training_noise > 0:
+        noise = NoiseSpec(scenario.training_noise)
     if conditioning is _SCENARIO:
         conditioning = scenario.conditioning
     if conditioning is not None and conditioning.is_identity:
@@ -419,9 +421,11 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             base["method"] = spec.base_label or spec.label
             base["solver"] = method_solver(spec, scenario)
         try:
+            t_fit = time.perf_counter()
             est = _fit(spec, scenario, truth, False)
             preds = {t: np.asarray(est.predict(truth.get(t)), dtype=float)
                      for t in scenario.targets}
+            t_fit = time.perf_counter() - t_fit
         except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
             if not isinstance(exc, _EXPECTED) and not is_user_method(spec.method):
                 raise
@@ -482,10 +486,18 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             ))
             row.update(norm_summaries(W, Wh))
             if bands:
+                t_band = time.perf_counter()
                 band = band_prediction(est, truth.get(t))
+                t_band = time.perf_counter() - t_band
                 row.update(band_row(band, W))
+                res.band_stats.append({
+                    **{k: row[k] for k in ("scenario", "structure", "method", "target")},
+                    **band_stats(band, W), "band_seconds": t_band,
+                    "plain_seconds": t_fit / len(scenario.targets)})
                 if keep_series and band is not None:
-                    res.bands[(spec.label, t)] = band
+                    # |‖w(t)‖ − ‖ŵ(t)‖| ≤ ‖h(t)‖ wherever the truth is inside the band
+                    res.series[t][spec.label + "__band"] = np.linalg.norm(
+                        band.upper - band.mean, axis=0)
             row["status"] = status
             res.rows.append(row)
             if keep_series:

@@ -15,8 +15,10 @@ array. The band is built from the training records only (no truth), from two sou
    ``half-width = z_{(1+c)/2} · s_noise``.
 2. **Model-form error** (projection, diagonalization, linearization, time variance) by
    cross-validation over the training records: each training record is predicted by a
-   model fitted to the others (leave one record out; a method whose ``k`` is bounded by the
-   number of records refits with ``k = N − 1``, a weaker model, so this errs wide). Each
+   model fitted to the others in the fitted basis ``U`` (leave one record out; the basis
+   stays that of the whole fit, so the folds differ from the model only in the dynamics
+   they identify; a method whose ``k`` is bounded by the number of records refits in the
+   first ``N − 1`` columns of ``U``, a weaker model, so this errs wide). Each
    residual ``R_j(i, t)`` is normalized by a difficulty ``s(i, t)`` computed from the
    *prediction only* — its local RMS envelope at that sensor times a time profile ``g(t)``
    (10 bins, learned from the folds' residuals: phase errors grow with time) — and the
@@ -286,9 +288,10 @@ def calibrate(model, records, *, noise_std=None, n_draws: int = 2, seed: int = 0
         k = int(U.shape[1])
         if getattr(model, "records_per_mode", False) and k > len(recs) - 1:
             cv_modes = len(recs) - 1
+        U_cv = U if cv_modes is None else U[:, :cv_modes]
         for j in range(len(recs)):
             rest = recs[:j] + recs[j + 1:]
-            est = _refit(model, rest, n_modes=cv_modes)
+            est = _refit(model, rest, basis=U_cv)
             Wh = np.asarray(est.predict(recs[j]), dtype=float)
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             residuals.append(W - Wh)
