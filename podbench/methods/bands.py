@@ -9,16 +9,18 @@ array. The band is built from the training records only (no truth), from two sou
    record outside the fitted basis, ``(I − UUᵀ)W``, holds ``(m − k)/m`` of white per-channel
    noise (and the projection error, so the estimate errs high) — or given (``noise_std``).
    It is propagated by refitting the method on the training records with fresh noise of that
-   level (``n_draws`` Monte-Carlo refits in the fitted basis); the spread of the target's
-   prediction over the draws is ``s_noise(i, t)`` (a moving RMS over time smooths the few
-   draws). Under Gaussian noise and a linear fit this part alone is exact:
+   level (``n_draws`` Monte-Carlo refits in the fitted basis; by default only where the
+   records allow no split — with cross-validation the noise reaches the band through the
+   folds, which are fitted on noisy records and scored against a noisy one); the spread of
+   the target's prediction over the draws is ``s_noise(i, t)`` (a moving RMS over time
+   smooths the few draws). Under Gaussian noise and a linear fit this part alone is exact:
    ``half-width = z_{(1+c)/2} · s_noise``.
 2. **Model-form error** (projection, diagonalization, linearization, time variance) by
    cross-validation over the training records: each training record is predicted by a
    model fitted to the others in the fitted basis ``U`` (leave one record out; the basis
    stays that of the whole fit, so the folds differ from the model only in the dynamics
    they identify; a method whose ``k`` is bounded by the number of records refits in the
-   first ``N − 1`` columns of ``U``, a weaker model, so this errs wide). Each
+   first ``N − 1`` columns of ``U``: see below). Each
    residual ``R_j(i, t)`` is normalized by a difficulty ``s(i, t)`` computed from the
    *prediction only* — its local RMS envelope at that sensor times a time profile ``g(t)``
    (10 bins, learned from the folds' residuals: phase errors grow with time) — and the
@@ -41,7 +43,18 @@ diagonal assumption's error — such bands are reported with their (poor) calibr
 ``Prediction.source`` says ``"in-sample"``.
 
 The error estimate (the predicted ``total_error`` ‖Ŵ − W‖_F/‖W‖_F) is the RMS of the band's
-predicted residual, ``sqrt(Σ (E[score²]·s² + s_noise²)) / ‖Ŵ‖_F``.
+predicted residual, ``sqrt(Σ (μ·s² + s_noise²)) / ‖Ŵ‖_F``, with ``μ`` the geometric mean over
+the folds of ``‖R_j‖²_F / ‖s_j‖²_F`` (each fold's Frobenius error in units of its
+difficulty, so the estimate measures what ``total_error`` measures): relative errors differ
+by orders of magnitude between records (a load near the clamp barely moves the beam and its
+relative projection error is ten times the others'), and an estimate scored within a factor
+of 2 is a log-scale estimate, for which the geometric mean is the central value. The band
+keeps the pooled quantile (its coverage is a fraction of samples over all folds).
+
+With as many records as modes (MDS, ML on Chapter 4's designs) a fold refits in the first
+``N − 1`` columns of ``U``; its residual is taken as the fold's error inside those modes plus
+the whole basis's projection error ``(I − UUᵀ)W_j`` (not the error of the missing mode,
+which the fitted model does identify).
 """
 
 from __future__ import annotations
@@ -249,13 +262,21 @@ def _noise_is_negligible(noise_std, records) -> bool:
     return bool(np.all(noise_std <= 1e-4 * np.maximum(scale, 1e-300)))
 
 
-def calibrate(model, records, *, noise_std=None, n_draws: int = 2, seed: int = 0,
+def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
               cross_validate: bool = True) -> BandCalibration:
     """Calibrate the band of a fitted ``model`` on its training ``records`` (see the module
     docstring). ``noise_std``: per-channel noise std of the training records (scalar or
-    (m,)), default estimated; ``n_draws`` noise refits; ``cross_validate=False`` gives the
-    noise part alone (the known-answer case)."""
+    (m,)), default estimated; ``n_draws`` noise refits (default: 2 where the records allow
+    no split, 0 where they are cross-validated — each fold is then fitted on noisy records
+    and scored against a noisy one, so the noise reaches the band through the folds, at
+    the cost of no extra refit); ``cross_validate=False`` gives the noise part alone (the
+    known-answer case)."""
     recs = list(records)
+    lo, hi = getattr(model, "n_records", (1, None))
+    can_split = cross_validate and len(recs) >= 2 and len(recs) - 1 >= lo and \
+        (hi is None or len(recs) - 1 <= hi)
+    if n_draws is None:
+        n_draws = 0 if can_split else 2
     m = np.asarray(model.modes_).shape[0]
     U = np.asarray(model.modes_, dtype=float)
     if noise_std is None:
@@ -274,7 +295,6 @@ def calibrate(model, records, *, noise_std=None, n_draws: int = 2, seed: int = 0
                              + sig[:, None] * rng.standard_normal(np.shape(r.W)))
                      for r in recs]
             noise_models.append(_refit(model, noisy, basis=U))
-    lo, hi = getattr(model, "n_records", (1, None))
     n = np.shape(recs[0].W)[1]
     bins = _bins(n)
     if not cross_validate:
@@ -283,7 +303,7 @@ def calibrate(model, records, *, noise_std=None, n_draws: int = 2, seed: int = 0
     residuals, envs = [], []
     source = "in-sample"
     cv_modes = None
-    if len(recs) - 1 >= lo and (hi is None or len(recs) - 1 <= hi) and len(recs) >= 2:
+    if can_split:
         source = "cross-validation"
         k = int(U.shape[1])
         if getattr(model, "records_per_mode", False) and k > len(recs) - 1:
@@ -294,7 +314,14 @@ def calibrate(model, records, *, noise_std=None, n_draws: int = 2, seed: int = 0
             est = _refit(model, rest, basis=U_cv)
             Wh = np.asarray(est.predict(recs[j]), dtype=float)
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
-            residuals.append(W - Wh)
+            if cv_modes is None:
+                residuals.append(W - Wh)
+            else:
+                # the fold's error inside its k − 1 modes (the identification error) plus the
+                # whole basis's projection error: the k-mode model's error without charging
+                # it the mode the fold cannot identify
+                inside = U_cv @ (U_cv.T @ W) - Wh
+                residuals.append(inside + (W - U @ (U.T @ W)))
             envs.append(_envelope(Wh))
     else:
         for r in recs:
@@ -312,10 +339,18 @@ def calibrate(model, records, *, noise_std=None, n_draws: int = 2, seed: int = 0
     else:
         g = np.maximum(g, 1e-3 * np.max(g))
         g = g / np.sqrt(np.mean(g ** 2))
-    scores = np.sort(np.concatenate([
-        (np.abs(R) / (E * g[bins][None, :])).ravel()
-        for R, E in zip(residuals, envs, strict=True)]))
-    return BandCalibration(source, scores, float(np.mean(scores ** 2)), g, sig,
+    per_fold = [(np.abs(R) / (E * g[bins][None, :])).ravel()
+                for R, E in zip(residuals, envs, strict=True)]
+    scores = np.sort(np.concatenate(per_fold))
+    # the error estimate's scale: per fold, κ_j² = ‖R_j‖²/‖s_j‖² (the fold's Frobenius
+    # error in units of its difficulty, so that the estimate is the same quantity as
+    # total_error); the geometric mean over folds (relative errors differ by orders of
+    # magnitude between records — a load near the clamp — and the estimate is scored on a
+    # log scale: within a factor of 2)
+    ms = np.array([np.sum(R ** 2) / np.sum((E * g[bins][None, :]) ** 2)
+                   for R, E in zip(residuals, envs, strict=True)])
+    ms_gm = float(np.exp(np.mean(np.log(ms[ms > 0])))) if np.any(ms > 0) else 0.0
+    return BandCalibration(source, scores, ms_gm, g, sig,
                            len(residuals) if source == "cross-validation" else 0,
                            len(noise_models), cv_modes, noise_models)
 

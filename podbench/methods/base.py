@@ -80,7 +80,7 @@ class PODMethod:
         if "predict" in cls.__dict__:
             cls.predict = _banded_predict(cls.__dict__["predict"])
 
-    def calibrate_band(self, *, noise_std=None, n_draws: int = 2, seed: int = 0,
+    def calibrate_band(self, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
                        cross_validate: bool = True):
         """Calibrate the prediction band on the training records (done on first use of
         ``predict(..., coverage=c)`` with the defaults; call it to set the noise level
