@@ -173,8 +173,10 @@ def calibration_markdown(rows: pd.DataFrame, study: str) -> str:
         "Methods fitted on one design (POVR, SL: one record; MR: exactly three) have no "
         "split: their band rests on the training record's in-sample residual and the noise, "
         "and cannot see the diagonal assumption's error (`source = in-sample`). MDS and ML "
-        "fitted with as many records as modes cross-validate with one mode fewer (a weaker "
-        "model: wide bands).",
+        "fitted with as many records as modes cross-validate in N − 1 modes; each fold is "
+        "charged its error inside them plus the basis's projection error. A target outside "
+        "the training design (Chapter 4's load 5 at 23 in, beyond loads at 2–16 in) is not "
+        "exchangeable with the folds: no coverage is promised there.",
         "",
         "## By structure class, training noise and method",
         "",
