@@ -94,7 +94,8 @@ class PODMethod:
         if not recs:
             raise InputError(
                 f"{type(self).__name__}: a prediction band needs the record form of fit "
-                "(fit(records)); this model was fitted from arrays"
+                "(fit(records) with a record or a sequence of records); this model was "
+                "fitted from arrays or from one record list per part (a superposition)"
             )
         self.band_calibration_ = calibrate(self, recs, noise_std=noise_std, n_draws=n_draws,
                                            seed=seed, cross_validate=cross_validate)
