@@ -10,6 +10,13 @@ of itself (plus a floor for errors near zero) is a regression; floating-point di
 between machines are far below that. A baseline row missing from the new table, or a
 method whose status changes from ``ok`` to a failure, is also a regression. Improvements and
 new rows are reported but do not fail.
+
+Calibration (issue 21) is regressed too, through two derived columns of :data:`CALIBRATION`
+(compared by the same rule, with an absolute floor of :data:`CALIBRATION_ATOL`):
+``coverage_gap = |coverage − 0.9|`` (the 90 % band's distance from its nominal coverage) and
+``estimate_log_ratio = |ln(error_estimate / total_error)|`` (how far the error estimate is
+from the realized error, in log terms). A baseline written before the band columns existed
+has neither, and they are skipped.
 """
 
 from __future__ import annotations
@@ -22,10 +29,26 @@ import pandas as pd
 from podbench.errors import InputError
 from podbench.harness.metrics import ERROR_COLUMNS
 
-__all__ = ["compare", "Comparison", "COMPARED", "KEY", "read_table"]
+__all__ = ["compare", "Comparison", "COMPARED", "KEY", "read_table", "CALIBRATION"]
 
 KEY = ("scenario", "structure", "method", "target")
 COMPARED = (*ERROR_COLUMNS, "norm_pe_median", "norm_pe_p90")
+CALIBRATION = ("coverage_gap", "estimate_log_ratio")
+"""Derived calibration columns (:func:`calibration_columns`), regressed like the errors."""
+CALIBRATION_ATOL = 0.01
+"""Absolute floor of a calibration regression: a coverage that moves by less than one
+percentage point, or an estimate by less than 1 % of itself, is not one."""
+
+
+def calibration_columns(row: dict) -> dict:
+    """``coverage_gap`` and ``estimate_log_ratio`` of one table row (NaN when the row has no
+    band columns or no finite error)."""
+    nan = float("nan")
+    cov = float(row.get("coverage", nan))
+    est, tot = float(row.get("error_estimate", nan)), float(row.get("total_error", nan))
+    ratio = abs(math.log(est / tot)) if est > 0 and tot > 0 and math.isfinite(est / tot) \
+        else nan
+    return {"coverage_gap": abs(cov - 0.9), "estimate_log_ratio": ratio}
 
 
 @dataclass
@@ -42,7 +65,8 @@ class Comparison:
         return bool(self.worse or self.missing or self.status)
 
     def report(self, rtol: float, atol: float) -> str:
-        lines = [f"compared {self.n_rows} rows × {len(COMPARED)} error columns "
+        lines = [f"compared {self.n_rows} rows × {len(COMPARED)} error columns and "
+                 f"{len(CALIBRATION)} calibration columns "
                  f"(worse when new > base·(1 + {rtol:g}) + {atol:g})"]
         def k(key):
             return " / ".join(str(x) for x in key)
@@ -113,6 +137,17 @@ def compare(new: pd.DataFrame, base: pd.DataFrame, *, rtol: float = 0.01,
             if math.isnan(nv) or nv > bv * (1 + rtol) + atol:
                 out.worse.append((key, col, bv, nv))
             elif nv < bv * (1 - rtol) - atol:
+                out.better.append((key, col, bv, nv))
+        if "coverage" not in b or "coverage" not in n:
+            continue
+        bc, nc = calibration_columns(b), calibration_columns(n)
+        for col in CALIBRATION:
+            bv, nv = bc[col], nc[col]
+            if math.isnan(bv):
+                continue
+            if math.isnan(nv) or nv > bv * (1 + rtol) + CALIBRATION_ATOL:
+                out.worse.append((key, col, bv, nv))
+            elif nv < bv * (1 - rtol) - CALIBRATION_ATOL:
                 out.better.append((key, col, bv, nv))
     out.added = [k for k in nk if k not in bk]
     return out

@@ -26,6 +26,7 @@ from podbench.core.response import Response, displacement_norm, norm_percent_err
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import excitation_from_dict
 from podbench.errors import PodbenchError, ScenarioFileError
+from podbench.harness.bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from podbench.harness.cache import TruthCache, structure_fingerprint
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
@@ -41,7 +42,7 @@ __all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "response_counts", 
            "noisy", "check_cases", "noise_generator"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
-           *NORM_COLUMNS, "status")
+           *NORM_COLUMNS, *BAND_COLUMNS, "status")
 SWEEP_DIAGNOSTICS = ("solver_reg", "solver_iterations", "solver_amplification")
 """Fit diagnostics (:attr:`podbench.methods.PODMethod.diagnostics_`) a sweep row carries:
 the Tikhonov parameter the solver chose, its iterations and the deconvolution's
@@ -59,6 +60,7 @@ class UnitResult:
     fits: list = field(default_factory=list)  # one dict per reported method: its diagnostics_
     series: dict = field(default_factory=dict)  # target -> {"t", "truth", label: norm}
     events: list = field(default_factory=list)  # (time in s, description) of Structure.events
+    band_stats: list = field(default_factory=list)  # per row: interval scores, seconds
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
@@ -303,7 +305,8 @@ def _failure(exc: BaseException) -> str:
 
 def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | None = None,
              keep_series: bool = True, *, overrides: dict | None = None,
-             noise: NoiseSpec | None = None, conditioning=_SCENARIO) -> UnitResult:
+             noise: NoiseSpec | None = None, conditioning=_SCENARIO,
+             bands: bool | None = None) -> UnitResult:
     """Run every method of a scenario on one structure.
 
     Truth for every case the methods and targets need is simulated (or read from the cache in
@@ -321,13 +324,21 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
     ``conditioning`` (:class:`podbench.conditioning.Conditioning` or None) replaces the
     scenario's ``[conditioning]`` table; by default the scenario's applies.
+
+    ``bands`` (default: on for a plain run, off for a sweep point) adds every prediction's
+    90 % band and error estimate (:mod:`podbench.harness.bands`: columns ``error_estimate``
+    and ``coverage``; its calibration refits the method, so it costs a few fits).
     """
+    if bands is None:
+        bands = overrides is None and noise is None
     t_start = time.perf_counter()
     scenario = load_scenario(scenario_path)
     if overrides is not None:
         scenario = apply_overrides(scenario, **overrides)
     structure = resolve_structure(structure_entry, scenario)
     cache = TruthCache(cache_dir)
+    if noise is None and scenario.training_noise > 0:
+        noise = NoiseSpec(scenario.training_noise)
     if conditioning is _SCENARIO:
         conditioning = scenario.conditioning
     if conditioning is not None and conditioning.is_identity:
@@ -343,7 +354,8 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
 
     for spec in scenario.reported_methods():
         _run_method(res, spec, scenario, truth, sweep=overrides is not None,
-                    nonlinear=nonlinear, measured=measured, keep_series=keep_series)
+                    nonlinear=nonlinear, measured=measured, keep_series=keep_series,
+                    bands=bands)
     res.simulated = truth.simulated
     res.cached = cache.hits
     res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
@@ -389,23 +401,26 @@ class _Comparisons:
 
 
 def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
-                nonlinear: bool, measured: bool, keep_series: bool) -> None:
+                nonlinear: bool, measured: bool, keep_series: bool, bands: bool) -> None:
     """Fit one reported method, predict every target and add its rows (and fit) to ``res``."""
     base = {"scenario": scenario.name, "structure": res.structure, "method": spec.label}
     if sweep:
         base["method"] = spec.base_label or spec.label
         base["solver"] = method_solver(spec, scenario)
     try:
+        t_fit = time.perf_counter()
         est = _fit(spec, scenario, truth, False)
         preds = {t: np.asarray(est.predict(truth.get(t)), dtype=float)
                  for t in scenario.targets}
+        t_fit = time.perf_counter() - t_fit
     except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
         _raise_unless_expected(exc, spec.method)
         status = _failure(exc)
         for t in scenario.targets:
             res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
                              **({k: float("nan") for k in SWEEP_DIAGNOSTICS} if sweep else {}),
-                             **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
+                             **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS + BAND_COLUMNS,
+                                             float("nan"))})
         return
     diag = getattr(est, "diagnostics_", None)
     diag = diag if isinstance(diag, dict) else {}
@@ -430,11 +445,33 @@ def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, swe
             W_own_lin=None if ref.own_lin is None else ref.own_lin[t],
         ))
         row.update(norm_summaries(W, Wh))
+        if bands:
+            _add_band(res, row, est, truth.get(t), t_fit / len(scenario.targets),
+                      keep_series=keep_series, label=spec.label)
         row["status"] = status
         res.rows.append(row)
         if keep_series:
             res.series[t][spec.label] = displacement_norm(Wh)
             res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
+
+
+def _add_band(res: UnitResult, row: dict, est, target, plain_seconds: float, *,
+              keep_series: bool, label: str) -> None:
+    """The 90 % band of one prediction (:mod:`podbench.harness.bands`): its columns into
+    ``row``, its interval scores and cost into ``res.band_stats``, its norm into the
+    figure's series."""
+    W = target.W
+    t_band = time.perf_counter()
+    band = band_prediction(est, target)
+    t_band = time.perf_counter() - t_band
+    row.update(band_row(band, W))
+    res.band_stats.append({
+        **{k: row[k] for k in ("scenario", "structure", "method", "target")},
+        **band_stats(band, W), "band_seconds": t_band, "plain_seconds": plain_seconds})
+    if keep_series and band is not None:
+        # |‖w(t)‖ − ‖ŵ(t)‖| ≤ ‖h(t)‖ wherever the truth is inside the band
+        res.series[row["target"]][label + "__band"] = np.linalg.norm(
+            band.upper - band.mean, axis=0)
 
 
 def _twin_predictions(spec, est, U, coupled: bool, scenario: Scenario, truth: _Truth,

@@ -265,6 +265,11 @@ def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> 
             peak = float(np.nanmax(y)) / float(np.nanmax(truth))
             name += f", off scale (peak {peak:.2g}× the truth's)"
         a1.plot(x, y, color=color, ls=ls, lw=1.6, zorder=4 - 0.1 * i)
+        band = s.get(label + "__band")
+        if band is not None:  # the norm of the 90 % band's half-width per time
+            h = np.asarray(band, dtype=float)
+            a1.fill_between(x, np.maximum(y - h, 0), y + h, color=color, alpha=0.15, lw=0,
+                            zorder=1)
         ex = _exits(y, top, gap=max(1, y.size // 25))
         if ex.size:
             a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,

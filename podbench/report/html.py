@@ -385,7 +385,8 @@ def _figures(figs, figure_format: str | None) -> str:
 
 def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, remarks=(),
                   claims_path=None, figures: dict | None = None,
-                  figure_format: str | None = "png", command: str | None = None) -> str:
+                  figure_format: str | None = "png", command: str | None = None,
+                  calibration: str = "") -> str:
     """The HTML text of a study's ``report.html``.
 
     Parameters
@@ -405,16 +406,24 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
         The format of the figure files, None when no figures were drawn.
     command : str, optional
         The command that produced the study (default: this process's command line).
+    calibration : str, optional
+        The calibration section's HTML (:func:`podbench.report.calibration.calibration_html`);
+        empty: no section.
     """
     figures = figures or {}
     prov = provenance(command)
     n_figs = sum(len(v) for v in figures.values())
     toc, sections = _scenario_sections(df, scenarios, figures, figure_format)
+    cal_html = ""
+    if calibration:
+        toc.insert(-4, '<a href="#calibration">Calibration</a>')
+        cal_html = ('<h2 id="calibration">Calibration of the prediction bands</h2>\n'
+                    + calibration)
     fmt_note = ("" if figure_format is None else
                 f" The figure files are in <code>figures/*.{_e(figure_format)}</code> beside "
                 "this page; the page embeds them.")
     return _page(study=study, prov=prov, stat_html=_stats(df, evaluated, n_figs), toc=toc,
-                 sections=sections, fmt_note=fmt_note,
+                 sections=sections, fmt_note=fmt_note, cal_html=cal_html,
                  findings=_findings(evaluated, remarks, claims_path), fits=_fits_table(fits))
 
 
@@ -459,7 +468,7 @@ def _scenario_sections(df, scenarios: dict, figures: dict,
 
 
 def _page(*, study: str, prov: dict, stat_html: str, toc: list[str], sections: list[str],
-          fmt_note: str, findings: str, fits: str) -> str:
+          fmt_note: str, cal_html: str, findings: str, fits: str) -> str:
     """The whole page around its parts."""
 
     prov_html = "".join(f"<dt>{_e(k)}</dt><dd>{'<code>' + _e(v) + '</code>' if k in ('commit', 'command') else _e(v)}</dd>"  # noqa: E501
@@ -495,6 +504,7 @@ of ‖W‖<sub>F</sub> of the target; "—" marks a component that is undefined 
 “off scale”.{fmt_note}</p>
 {_legend()}
 {''.join(sections)}
+{cal_html}
 <h2 id="findings">Findings</h2>
 {findings}
 <h2 id="fits">Fit diagnostics</h2>

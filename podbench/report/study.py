@@ -10,6 +10,7 @@ same command on the same commit writes identical tables.
 
 from __future__ import annotations
 
+import base64
 import math
 from pathlib import Path
 
@@ -21,6 +22,13 @@ from podbench.errors import InputError
 from podbench.harness.executor import execute
 from podbench.harness.progress import as_stage
 from podbench.harness.tables import fits_table, summary_table, table_csv
+from podbench.report.calibration import (
+    calibration_figure,
+    calibration_html,
+    calibration_markdown,
+    calibration_rows,
+    findings_calibration,
+)
 from podbench.report.figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
 from podbench.report.html import render_report
 from podbench.report.nonlinearity import write_outputs
@@ -259,6 +267,62 @@ def _draw_all(tasks, jobs: int, progress=None) -> list:
                        progress=lambda *_: stage.advance())
 
 
+def _write_findings(tmp: Path, df, scenarios: dict, claims_path, *, figures: bool,
+                    figure_format: str, sensitivity, nonlinearity, cal_rows):
+    """The nonlinearity checks' outputs and ``FINDINGS.md`` (the claims judged, or a derived
+    study's verdicts over its parameters) in ``tmp``; returns ``(evaluated, remarks)``."""
+    evaluated = None
+    remarks: list = []
+    judged, nl_table, linked_from = df, None, "the claims file's sensitivity study"
+    if nonlinearity is not None:
+
+        spec, nl_rows = nonlinearity
+        nl_table = claim_rows(nl_rows, spec)
+        write_outputs(nl_rows, nl_table, tmp, figures=figures,
+                      figure_format=figure_format)
+        judged = pd.concat([df, nl_table[[c for c in nl_table.columns
+                                          if c not in ("kind", "fraction")]]],
+                           ignore_index=True)
+    if claims_path is not None:
+        claims, remarks = load_claims(claims_path)
+        names = set(scenarios) | ({nonlinearity[0].name} if nonlinearity else set())
+        mine = [c for c in claims if any(x in names for x in c.all_scenarios())]
+        evaluated = evaluate_claims(mine, judged, scenarios=names)
+        linked = linked_verdicts(sensitivity) if sensitivity else None
+        if nl_table is not None:
+            swept = swept_verdicts(mine, nl_table, nonlinearity[0])
+            if swept:
+                linked = {**(linked or {}), **swept}
+                linked_from = ("the nonlinearity sweep (nonlinearity.md)" if not sensitivity
+                               else linked_from + " or the nonlinearity sweep")
+        (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
+                                                           display_path(claims_path),
+                                                           linked=linked,
+                                                           linked_from=linked_from)
+                                         + findings_calibration(cal_rows),
+                                         encoding="utf-8", newline="\n")
+    elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
+        base = load_claims_file(base_claims)
+        verdicts = sensitivity_verdicts(base.claims, scenarios, df, base.bounds)
+        if verdicts:  # derived scenarios without variants judge nothing again
+            (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
+                                             encoding="utf-8", newline="\n")
+    return evaluated, remarks
+
+
+def _calibration_section(cal_rows, cal_md: str, tmp: Path, figures: bool, figure_format: str,
+                         study: str) -> str:
+    """The report's calibration section (with its figure, drawn into ``tmp/figures``)."""
+    if not cal_md:
+        return ""
+    uri = None
+    if figures:
+        png = calibration_figure(cal_rows, tmp / "figures" / f"calibration.{figure_format}",
+                                 title=f"{study}: calibration of the 90 % bands")
+        uri = "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+    return calibration_html(cal_rows, uri)
+
+
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
                 jobs: int = 1, figure_format: str = "png", command: str | None = None,
                 progress=None, sensitivity=None, nonlinearity=None):
@@ -281,46 +345,22 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                          f"{', '.join(FIGURE_FORMATS)}, got {figure_format!r}")
     df = summary_table(results)
     fits = fits_table(results)
-    evaluated = None
-    remarks: list = []
+    cal_rows = calibration_rows(df, [s for u in results for s in getattr(u, "band_stats", [])],
+                                scenarios)
+    cal_md = calibration_markdown(cal_rows, Path(out_dir).name)
     with replace_dir(out_dir) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
+        if cal_md:
+            (tmp / "CALIBRATION.md").write_text(cal_md, encoding="utf-8", newline="\n")
+            (tmp / "calibration.csv").write_text(table_csv(cal_rows), encoding="utf-8",
+                                                 newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",
                                         newline="\n")
         (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
-        judged, nl_table, linked_from = df, None, "the claims file's sensitivity study"
-        if nonlinearity is not None:
-
-            spec, nl_rows = nonlinearity
-            nl_table = claim_rows(nl_rows, spec)
-            write_outputs(nl_rows, nl_table, tmp, figures=figures,
-                          figure_format=figure_format)
-            judged = pd.concat([df, nl_table[[c for c in nl_table.columns
-                                              if c not in ("kind", "fraction")]]],
-                               ignore_index=True)
-        if claims_path is not None:
-            claims, remarks = load_claims(claims_path)
-            names = set(scenarios) | ({nonlinearity[0].name} if nonlinearity else set())
-            mine = [c for c in claims if any(x in names for x in c.all_scenarios())]
-            evaluated = evaluate_claims(mine, judged, scenarios=names)
-            linked = linked_verdicts(sensitivity) if sensitivity else None
-            if nl_table is not None:
-                swept = swept_verdicts(mine, nl_table, nonlinearity[0])
-                if swept:
-                    linked = {**(linked or {}), **swept}
-                    linked_from = ("the nonlinearity sweep (nonlinearity.md)" if not sensitivity
-                                   else linked_from + " or the nonlinearity sweep")
-            (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
-                                                               display_path(claims_path),
-                                                               linked=linked,
-                                                               linked_from=linked_from),
-                                             encoding="utf-8", newline="\n")
-        elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
-            base = load_claims_file(base_claims)
-            verdicts = sensitivity_verdicts(base.claims, scenarios, df, base.bounds)
-            if verdicts:  # derived scenarios without variants judge nothing again
-                (tmp / "FINDINGS.md").write_text(sensitivity_markdown(verdicts, base_claims),
-                                                 encoding="utf-8", newline="\n")
+        evaluated, remarks = _write_findings(tmp, df, scenarios, claims_path, figures=figures,
+                                             figure_format=figure_format,
+                                             sensitivity=sensitivity,
+                                             nonlinearity=nonlinearity, cal_rows=cal_rows)
         embedded: dict = {}
         if figures:
             fdir = tmp / "figures"
@@ -332,9 +372,11 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                     "uri": uri, "alt": f"{task.title}. {task.subtitle}",
                     "caption": f"{m['structure']}, target {m['target']}: {m['words']} "
                                f"(figures/{task.path.name})"})
+        cal_section = _calibration_section(cal_rows, cal_md, tmp, figures, figure_format,
+                                           Path(out_dir).name)
         page = render_report(study=Path(out_dir).name, df=df, fits=fits, scenarios=scenarios,
                              evaluated=evaluated, remarks=remarks, claims_path=claims_path,
                              figures=embedded, figure_format=figure_format if figures else None,
-                             command=command)
+                             command=command, calibration=cal_section)
         (tmp / "report.html").write_text(page, encoding="utf-8", newline="\n")
     return df, evaluated

@@ -261,6 +261,10 @@ class Scenario:
     """The scenario file this one inherits from (``scenario.base``), or None."""
     conditioning: object = None
     """The ``[conditioning]`` table (:class:`podbench.conditioning.Conditioning`) or None."""
+    training_noise: float = 0.0
+    """``scenario.training_noise``: per-channel measurement noise (relative std, 0.01 = 1 %
+    of each channel's RMS, seed 0, on W and F; :class:`podbench.noise.NoiseSpec`) added to
+    every training record of ``podbench run`` (targets stay noise-free)."""
 
     @property
     def folder(self) -> Path:
@@ -409,10 +413,12 @@ def _parse_header(sc: Table, base: Scenario | None) -> dict[str, Any]:
     targets = sc.strings("targets", MISSING if base is None else list(base.targets))
     if not targets:
         sc.fail("targets", "expected at least one target case")
+    training_noise = sc.number("training_noise", 0.0 if base is None else base.training_noise,
+                               nonnegative=True)
     sc.close()
     return {"title": title, "source": source, "description": description.strip(),
             "structures": tuple(structures), "n_samples": n_samples, "dt": dt,
-            "engine": engine, "targets": tuple(targets)}
+            "engine": engine, "targets": tuple(targets), "training_noise": training_noise}
 
 
 def _parse_cases(top: Table, base: Scenario | None) -> dict[str, Case]:

@@ -25,18 +25,22 @@ def test_run_writes_tables_figures_and_is_byte_identical_when_repeated(study, tm
     assert cli.main(args) == 0
     files = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     assert "summary.csv" in files and "summary.md" in files
-    assert sum(f.startswith("figures/") and f.endswith(".png") for f in files) == 2
+    # two prediction figures and the calibration plot (issue 21)
+    assert sum(f.startswith("figures/") and f.endswith(".png") for f in files) == 3
+    assert "CALIBRATION.md" in files and "calibration.csv" in files
     df = pd.read_csv(out / "summary.csv")
     assert list(df.columns[:15]) == [
         "scenario", "structure", "method", "target", "n_modes", "total_error",
         "projection_error", "diagonalization_error", "linearization_error", "residual_error",
         "subspace_error", "twin_error", "own_linearization_error",
         "linear_diagonalization_error", "norm_pe_median"]
-    assert {"norm_pe_p90", "status"} <= set(df.columns)
+    assert {"norm_pe_p90", "error_estimate", "coverage", "status"} <= set(df.columns)
     assert len(df) == 4 and (df.status == "ok").all()
     first = (out / "summary.csv").read_bytes(), (out / "summary.md").read_bytes()
+    cal = (out / "calibration.csv").read_bytes()
     assert cli.main(args + ["--jobs", "2"]) == 0
     assert ((out / "summary.csv").read_bytes(), (out / "summary.md").read_bytes()) == first
+    assert (out / "calibration.csv").read_bytes() == cal
     assert not [p for p in (tmp_path / "results").iterdir() if p.name.startswith(".")]
 
 

@@ -78,7 +78,7 @@ def test_bundled_data_are_the_checkouts_top_level_folders():
     assert root.joinpath("scenarios", "chapter4", "claims.toml").is_file()
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
     assert bundled_structures() == bundled_root() / "structures"
-    assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "chapter5",
+    assert list(bundled_studies()) == ["calibration", "chapter4", "chapter4_variants", "chapter5",
                                       "mr_designs", "peers", "sensitivity", "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
 

@@ -231,7 +231,8 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
     assert len(p.ids) == len(set(p.ids))  # unique anchors
     assert '<html lang="en">' in page and '<meta charset="utf-8">' in page
     # nothing loaded from elsewhere: images are data: URIs, links are anchors in the page
-    assert len(p.imgs) == 2 and all(i["src"].startswith("data:image/png;base64,")
+    # two prediction figures and the calibration plot (issue 21)
+    assert len(p.imgs) == 3 and all(i["src"].startswith("data:image/png;base64,")
                                     for i in p.imgs)
     assert all(r.startswith(("data:", "#")) for r in p.refs)
     assert all("#" + r[1:] in {"#" + i for i in p.ids} for r in p.refs if r.startswith("#"))
@@ -242,7 +243,8 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
                    'badge reproduced', 'badge not-reproduced', "<em>no</em>",
                    "1 of 2 claims reproduced", 'id="fits"', "condition_number",
                    "subspace_error = ‖Ŵ − P W‖ / N", "<dt>commit</dt>", "<dt>NumPy</dt>",
-                   "<dt>matplotlib</dt>", "Coupled chain, free response (k = m = 5)"):
+                   "<dt>matplotlib</dt>", "Coupled chain, free response (k = m = 5)",
+                   'id="calibration"', "Spearman(estimate, realized)"):
         assert needle in page, needle
     assert "Traceback" not in page
 
@@ -250,12 +252,13 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
 def test_the_report_embeds_vector_figures_and_tables_do_not_change(study, tmp_path):
     out = tmp_path / "results" / "small"
     page = _run(study, out, "--figure-format", "svg")
-    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg", ".svg"]
+    # the calibration plot is a file in the chosen format and embedded as PNG
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg", ".svg", ".svg"]
     assert page.count('src="data:image/svg+xml;base64,') == 2
     table = (out / "summary.csv").read_bytes()
     page = _run(study, out, "--figure-format", "pdf")
-    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf", ".pdf"]
-    assert page.count('src="data:image/png;base64,') == 2
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf", ".pdf", ".pdf"]
+    assert page.count('src="data:image/png;base64,') == 3
     assert (out / "summary.csv").read_bytes() == table
     page = _run(study, out, "--no-figures")
     assert "<img" not in page and "Figures not drawn" in page

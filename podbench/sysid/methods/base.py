@@ -16,6 +16,7 @@ how the data were produced.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import cast
 
@@ -26,6 +27,7 @@ from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, IllConditionedError, InputError, NotFittedError
 from podbench.sysid.deconvolution import Solver, deconvolve, make_solver
 from podbench.sysid.deconvolution._api import SOLVER_OPTIONS
+from podbench.sysid.methods.bands import calibrate, check_coverage, predict_band
 from podbench.sysid.params import InstanceOf, Interval, Options, ParamsMixin, check_param
 from podbench.sysid.pod import check_orthonormal, n_modes_for_energy, numerical_rank, snapshot_svd
 
@@ -78,6 +80,35 @@ class PODMethod(ParamsMixin):
     modes_: np.ndarray
     n_modes_: int
     dt_: float
+
+    def __init_subclass__(cls, **kwargs):
+        # every method's fit remembers its training records and every predict takes
+        # ``coverage=`` (a band and an error estimate: podbench.sysid.methods.bands)
+        super().__init_subclass__(**kwargs)
+        if "fit" in cls.__dict__:
+            cls.fit = _remembering_fit(cls.__dict__["fit"])
+        if "predict" in cls.__dict__:
+            cls.predict = _banded_predict(cls.__dict__["predict"])
+
+    def calibrate_band(self, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
+                       cross_validate: bool = True):
+        """Calibrate the prediction band on the training records (done on first use of
+        ``predict(..., coverage=c)`` with the defaults; call it to set the noise level
+        ``noise_std`` (per channel, in the units of ``W``), the number of noise refits
+        ``n_draws``, or ``cross_validate=False`` for the noise part alone). Returns the
+        :class:`~podbench.sysid.methods.bands.BandCalibration`."""
+        self._check_is_fitted()
+        recs = getattr(self, "training_records_", None)
+        if not recs:
+            raise InputError(
+                f"{type(self).__name__}: a prediction band needs the record form of fit "
+                "(fit(records) with a record or a sequence of records); this model was "
+                "fitted from arrays or from one record list per part (a superposition)"
+            )
+        self.band_calibration_ = calibrate(self, recs, noise_std=noise_std, n_draws=n_draws,
+                                           seed=seed, cross_validate=cross_validate)
+        return self.band_calibration_
+
 
     def _validate_params(self) -> None:
         """Check the declared hyperparameters (:mod:`podbench.sysid.params`) and, for a
@@ -236,6 +267,40 @@ class PODMethod(ParamsMixin):
                 f"{dt_fit:g} s (the identified kernel is sampled at the training interval)"
             )
         return rec
+
+
+def _remembering_fit(fit):
+    @functools.wraps(fit)
+    def wrapper(self, records, *args, **kwargs):
+        out = fit(self, records, *args, **kwargs)
+        if is_record_input(records) and not args and kwargs.keys() <= {"basis"}:
+            recs = [records] if is_record(records) else list(records)
+            self.training_records_ = recs
+        else:
+            self.training_records_ = None
+        self.__dict__.pop("band_calibration_", None)
+        return out
+
+    return wrapper
+
+
+def _banded_predict(predict):
+    @functools.wraps(predict)
+    def wrapper(self, *args, coverage=None, **kwargs):
+        mean = predict(self, *args, **kwargs)
+        if coverage is None:
+            return mean
+        c = check_coverage(coverage)
+        record = args[0] if args else kwargs.get("record")
+        if not is_record(record):
+            raise InputError(f"{type(self).__name__}.predict: a band (`coverage`) needs the "
+                             "target as a record (an object with W, F, w0, v0, dt)")
+        cal = getattr(self, "band_calibration_", None)
+        if cal is None:
+            cal = self.calibrate_band()
+        return predict_band(self, record, c, cal, mean)
+
+    return wrapper
 
 
 _BESIDE = {"x0": "w0 or v0"}  # the record field of an array-form argument, for messages

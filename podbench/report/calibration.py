@@ -1,0 +1,318 @@
+"""Calibration section of a study (issue 21): how well the bands and error estimates of
+:mod:`podbench.sysid.methods.bands` held, from the study's rows (``error_estimate``,
+``coverage``) and the sharpness of each band (:func:`podbench.harness.bands.band_stats`).
+
+Written by :func:`podbench.harness.report.write_study` as ``CALIBRATION.md`` and
+``calibration.csv`` (deterministic: no timings) whenever the study has band columns; the
+report page draws the predicted-vs-realized scatter and the coverage table.
+
+Scores:
+
+* ``coverage``: fraction of the truth's samples inside the 90 % band (target 0.85–0.95);
+* Spearman rank correlation between ``error_estimate`` and ``total_error`` over the rows,
+  and the share of rows whose estimate is within a factor of 2 of the realized error;
+* interval score (Gneiting & Raftery 2007) of each band against the truth, relative to that
+  of the best constant-width band with the same realized coverage (an oracle: its width is
+  a quantile of the true residual); reported as the ratio of their sums (< 1: the band is
+  sharper than any constant width).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["structure_class", "calibration_rows", "calibration_summary", "calibration_markdown",
+           "findings_calibration"]
+
+_CLASSES = {"lti_beam": "LTI", "ltv_beam": "LTV", "nl_beam": "NL",
+            "satellite_truss": "truss (LTV)"}
+
+
+def structure_class(name: str) -> str:
+    return _CLASSES.get(name, name)
+
+
+def calibration_rows(df: pd.DataFrame, stats: list, scenarios: dict) -> pd.DataFrame:
+    """One row per prediction with a band: the table's keys, class, training noise, errors,
+    coverage and sharpness."""
+    if "coverage" not in df or not np.isfinite(df["coverage"].astype(float)).any():
+        return pd.DataFrame()
+    key = ["scenario", "structure", "method", "target"]
+    out = df[[*key, "total_error", "error_estimate", "coverage"]].copy()
+    if stats:
+        st = pd.DataFrame(stats)
+        st = st[[*key, "source", "interval_score", "constant_interval_score",
+                 "relative_half_width"]]
+        out = out.merge(st, on=key, how="left")
+    else:
+        for c in ("interval_score", "constant_interval_score", "relative_half_width"):
+            out[c] = float("nan")
+        out["source"] = ""
+    out = out[np.isfinite(out["coverage"].astype(float))]
+    out.insert(2, "class", [structure_class(s) for s in out["structure"]])
+    out.insert(3, "training_noise", [
+        float(getattr(scenarios.get(s), "training_noise", 0.0) or 0.0) for s in out["scenario"]])
+    return out.reset_index(drop=True)
+
+
+def _spearman(x, y) -> float:
+    from scipy.stats import spearmanr
+
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 3:
+        return float("nan")
+    return float(spearmanr(x[ok], y[ok]).statistic)
+
+
+def calibration_summary(rows: pd.DataFrame, *, split: bool = True) -> dict:
+    """The study-wide scores over ``rows`` (:func:`calibration_rows`); with ``split`` also
+    those of the cross-validated rows alone (``cv_…``)."""
+    if rows.empty:
+        return {}
+    extra = {}
+    if split and "source" in rows:
+        cv = rows[rows["source"] == "cross-validation"]
+        if len(cv):
+            extra = {f"cv_{k}": v for k, v in calibration_summary(cv, split=False).items()}
+    est = rows["error_estimate"].to_numpy(float)
+    tot = rows["total_error"].to_numpy(float)
+    ok = np.isfinite(est) & np.isfinite(tot) & (est > 0) & (tot > 0)
+    ratio = est[ok] / tot[ok]
+    isc = rows["interval_score"].to_numpy(float)
+    csc = rows["constant_interval_score"].to_numpy(float)
+    okc = np.isfinite(isc) & np.isfinite(csc)
+    return {
+        "predictions": int(len(rows)),
+        "median_coverage": float(np.median(rows["coverage"])),
+        "spearman": _spearman(est, tot),
+        "within_factor_2": float(np.mean((ratio >= 0.5) & (ratio <= 2))) if ok.any()
+        else float("nan"),
+        "interval_score_ratio": float(isc[okc].sum() / csc[okc].sum()) if okc.any()
+        and csc[okc].sum() > 0 else float("nan"),
+        **extra,
+    }
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str):
+        return v
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "–"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return f"{v:.3g}"
+
+
+def _md_table(df: pd.DataFrame) -> str:
+    cols = list(df.columns)
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for r in df.itertuples(index=False):
+        lines.append("| " + " | ".join(_fmt(v) for v in r) + " |")
+    return "\n".join(lines)
+
+
+def grouped(rows: pd.DataFrame) -> pd.DataFrame:
+    """Coverage, estimate and sharpness by structure class, training noise and method."""
+    def agg(g):
+        est, tot = g["error_estimate"].to_numpy(float), g["total_error"].to_numpy(float)
+        ok = (est > 0) & (tot > 0) & np.isfinite(est / np.where(tot > 0, tot, 1))
+        r = est[ok] / tot[ok]
+        isc, csc = g["interval_score"].to_numpy(float), g["constant_interval_score"].to_numpy(float)
+        okc = np.isfinite(isc) & np.isfinite(csc)
+        return pd.Series({
+            "n": len(g),
+            "coverage_mean": g["coverage"].mean(),
+            "coverage_min": g["coverage"].min(),
+            "in_0.85–0.95": float(np.mean((g["coverage"] >= 0.85) & (g["coverage"] <= 0.95))),
+            "total_error_median": float(np.median(tot)),
+            "estimate_median": float(np.median(est)),
+            "within_factor_2": float(np.mean((r >= 0.5) & (r <= 2))) if len(r) else math.nan,
+            "half_width_rel": g["relative_half_width"].median(),
+            "IS/IS_const": float(isc[okc].sum() / csc[okc].sum()) if okc.any()
+            and csc[okc].sum() > 0 else math.nan,
+        })
+
+    keys = ["class", "training_noise", "method"]
+    out = rows.groupby(keys, sort=True).apply(agg, include_groups=False).reset_index()
+    out["n"] = out["n"].astype(int)
+    out["training_noise"] = [f"{100 * v:g} %" for v in out["training_noise"]]
+    return out
+
+
+def calibration_markdown(rows: pd.DataFrame, study: str) -> str:
+    """``CALIBRATION.md``: the study-wide scores and the table by class, noise and method."""
+    if rows.empty:
+        return ""
+    s = calibration_summary(rows)
+    lines = [
+        f"# Calibration of the prediction bands: {study}",
+        "",
+        "Every prediction's 90 % band and error estimate (`predict(target, coverage=0.9)`, "
+        "podbench.sysid.methods.bands), scored against the noise-free truth. Coverage: fraction of "
+        "the truth's samples inside the band (nominal 0.9; target 0.85–0.95). Estimate: the "
+        "predicted total error ‖Ŵ − W‖/‖W‖ against the realized one. IS/IS_const: summed "
+        "interval score (Gneiting & Raftery 2007) of the bands over that of the best "
+        "constant-width band with the same realized coverage per prediction (an oracle "
+        "that knows the truth; < 1 = sharper).",
+        "",
+        f"- predictions: {s['predictions']}",
+        f"- median coverage: {_fmt(s['median_coverage'])}",
+        f"- Spearman(error_estimate, total_error): {_fmt(s['spearman'])} (target ≥ 0.7)",
+        f"- estimate within a factor of 2: {_fmt(s['within_factor_2'])} (target ≥ 0.8)",
+        f"- IS/IS_const over all predictions: {_fmt(s['interval_score_ratio'])} "
+        "(target ≤ 0.85)",
+        "",
+        *([f"Cross-validated bands alone (MDS, ML, peers with ≥ 2 records; "
+           f"{s['cv_predictions']} predictions): median coverage "
+           f"{_fmt(s['cv_median_coverage'])}, Spearman {_fmt(s['cv_spearman'])}, within a "
+           f"factor of 2 {_fmt(s['cv_within_factor_2'])}, IS/IS_const "
+           f"{_fmt(s['cv_interval_score_ratio'])}.", ""] if "cv_predictions" in s else []),
+        "Methods fitted on one design (POVR, SL: one record; MR: exactly three) have no "
+        "split: their band rests on the training record's in-sample residual and the noise, "
+        "and cannot see the diagonal assumption's error (`source = in-sample`). MDS and ML "
+        "fitted with as many records as modes cross-validate in N − 1 modes; each fold is "
+        "charged its error inside them plus the basis's projection error. A target outside "
+        "the training design (Chapter 4's load 5 at 23 in, beyond loads at 2–16 in) is not "
+        "exchangeable with the folds: no coverage is promised there.",
+        "",
+        "## By structure class, training noise and method",
+        "",
+        _md_table(grouped(rows)),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def findings_calibration(rows: pd.DataFrame) -> str:
+    """The calibration section appended to ``FINDINGS.md`` (empty without bands)."""
+    if rows.empty:
+        return ""
+    s = calibration_summary(rows)
+    by = rows.groupby(["class", "method"], sort=True)["coverage"].mean()
+    cov = "; ".join(f"{c} {m} {v:.2f}" for (c, m), v in by.items())
+    return (
+        "\n## Calibration of the prediction bands\n\n"
+        f"Every prediction's 90 % band and error estimate against the truth ({s['predictions']} "
+        f"predictions; details in `CALIBRATION.md`): median coverage "
+        f"{_fmt(s['median_coverage'])}, Spearman(estimate, realized total error) "
+        f"{_fmt(s['spearman'])}, estimate within a factor of 2 for "
+        f"{_fmt(s['within_factor_2'])} of them, summed interval score "
+        f"{_fmt(s['interval_score_ratio'])} × that of the best constant-width band. Mean "
+        f"coverage by structure class and method: {cov}.\n"
+    )
+
+
+def _estimate_scatter(a1, rows: pd.DataFrame, methods, colors: dict) -> None:
+    """Predicted against realized total error, log axes, y = x and the factor-2 lines."""
+    est = rows["error_estimate"].to_numpy(float)
+    tot = rows["total_error"].to_numpy(float)
+    ok = (est > 0) & (tot > 0) & np.isfinite(est) & np.isfinite(tot)
+    for m in methods:
+        sel = ok & (rows["method"] == m).to_numpy()
+        a1.scatter(tot[sel], est[sel], s=18, alpha=0.75, color=colors[m], label=m)
+    if ok.any():
+        lo = float(min(est[ok].min(), tot[ok].min())) / 2
+        hi = float(max(est[ok].max(), tot[ok].max())) * 2
+        x = np.array([lo, hi])
+        a1.plot(x, x, color="black", lw=1)
+        a1.plot(x, 2 * x, color="grey", lw=0.8, ls="--")
+        a1.plot(x, x / 2, color="grey", lw=0.8, ls="--")
+        a1.set_xlim(lo, hi)
+        a1.set_ylim(lo, hi)
+    a1.set_xscale("log")
+    a1.set_yscale("log")
+    a1.set_xlabel("realized total error ‖Ŵ − W‖/‖W‖")
+    a1.set_ylabel("error_estimate (before the truth)")
+    a1.grid(True, which="both", alpha=0.25)
+    a1.legend(fontsize=8, ncol=2)
+    s = calibration_summary(rows)
+    a1.set_title(f"Spearman {s['spearman']:.2f}, within ×2: {s['within_factor_2']:.0%}",
+                 fontsize=10)
+
+
+def _coverage_bars(a2, rows: pd.DataFrame, colors: dict) -> None:
+    """The coverage of the 90 % bands by structure class and method (mean, min–max)."""
+    g = rows.groupby(["class", "method"], sort=True)["coverage"]
+    labels, means, mins, maxs, cols = [], [], [], [], []
+    for (c, m), v in g:
+        labels.append(f"{c} · {m}")
+        means.append(v.mean())
+        mins.append(v.min())
+        maxs.append(v.max())
+        cols.append(colors[m])
+    y = np.arange(len(labels))
+    a2.axvspan(0.85, 0.95, color="green", alpha=0.12, lw=0)
+    a2.axvline(0.9, color="green", lw=1)
+    a2.hlines(y, mins, maxs, colors=cols, lw=2, alpha=0.6)
+    a2.scatter(means, y, color=cols, zorder=3, s=25)
+    a2.set_yticks(y, labels, fontsize=7)
+    a2.invert_yaxis()
+    a2.set_xlim(0, 1.01)
+    a2.set_xlabel("coverage of the truth by the 90 % band (mean, min–max over targets)")
+    a2.grid(True, axis="x", alpha=0.25)
+
+
+def calibration_figure(rows: pd.DataFrame, path, *, title: str = "") -> bytes:
+    """Predicted vs realized total error (log axes, with y = x and the factor-2 lines) and
+    the coverage of the 90 % bands by structure class and method; written to ``path`` (its
+    suffix gives the format) and returned as PNG bytes for embedding."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5.2), gridspec_kw={"width_ratios": [1, 1.3]})
+    try:
+        methods = sorted(rows["method"].unique())
+        cmap = plt.get_cmap("tab10")
+        colors = {m: cmap(i % 10) for i, m in enumerate(methods)}
+        _estimate_scatter(a1, rows, methods, colors)
+        _coverage_bars(a2, rows, colors)
+        if title:
+            fig.suptitle(title, fontsize=11)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=90)
+        return buf.getvalue()
+    finally:
+        plt.close(fig)
+
+
+def calibration_html(rows: pd.DataFrame, figure_uri: str | None) -> str:
+    """The report page's calibration section (summary, figure, table by class/method)."""
+    import html
+
+    if rows.empty:
+        return ""
+    s = calibration_summary(rows)
+    items = [("predictions", s["predictions"]), ("median coverage", s["median_coverage"]),
+             ("Spearman(estimate, realized)", s["spearman"]),
+             ("estimate within ×2", s["within_factor_2"]),
+             ("IS / IS of best constant width", s["interval_score_ratio"])]
+    if "cv_predictions" in s:
+        items += [("cross-validated bands: predictions", s["cv_predictions"]),
+                  ("… median coverage", s["cv_median_coverage"]),
+                  ("… Spearman", s["cv_spearman"]), ("… within ×2", s["cv_within_factor_2"])]
+    out = ["<p>Every prediction's 90 % band and error estimate "
+           "(<code>predict(target, coverage=0.9)</code>), scored against the truth "
+           "(<code>CALIBRATION.md</code>, <code>calibration.csv</code>).</p>", "<ul>"]
+    out += [f"<li>{html.escape(k)}: <b>{html.escape(_fmt(v))}</b></li>" for k, v in items]
+    out.append("</ul>")
+    if figure_uri:
+        out.append(f'<figure><img src="{figure_uri}" alt="Predicted vs realized total error '
+                   'and coverage by structure class and method" style="max-width:100%">'
+                   "</figure>")
+    t = grouped(rows)
+    out.append('<div class="tablewrap"><table><thead><tr>'
+               + "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
+               + "</tr></thead><tbody>")
+    for r in t.itertuples(index=False):
+        out.append("<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in r) + "</tr>")
+    out.append("</tbody></table></div>")
+    return "\n".join(out)

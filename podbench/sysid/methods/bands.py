@@ -1,0 +1,409 @@
+"""Prediction bands and error estimates: every prediction states its own error (issue 21).
+
+``model.predict(target, coverage=0.9)`` returns a :class:`Prediction` (``mean``, ``lower``,
+``upper``, ``error_estimate``, ``to_pandas()``); ``model.predict(target)`` still returns the
+array. The band is built from the training records only (no truth), from two sources:
+
+1. **Identification uncertainty** (measurement noise through the deconvolution). The noise
+   of each sensor channel is estimated from the training records — the part of every
+   record outside the fitted basis, ``(I − UUᵀ)W``, holds ``(m − k)/m`` of white per-channel
+   noise (and the projection error, so the estimate errs high) — or given (``noise_std``).
+   It is propagated by refitting the method on the training records with fresh noise of that
+   level (``n_draws`` Monte-Carlo refits in the fitted basis; by default only where the
+   records allow no split — with cross-validation the noise reaches the band through the
+   folds, which are fitted on noisy records and scored against a noisy one); the spread of
+   the target's prediction over the draws is ``s_noise(i, t)`` (a moving RMS over time
+   smooths the few draws). Under Gaussian noise and a linear fit this part alone is exact:
+   ``half-width = z_{(1+c)/2} · s_noise``.
+2. **Model-form error** (projection, diagonalization, linearization, time variance) by
+   cross-validation over the training records: each training record is predicted by a
+   model fitted to the others in the fitted basis ``U`` (leave one record out; the basis
+   stays that of the whole fit, so the folds differ from the model only in the dynamics
+   they identify; a method whose ``k`` is bounded by the number of records refits in the
+   first ``N − 1`` columns of ``U``: see below). Each
+   residual ``R_j(i, t)`` is normalized by a difficulty ``s(i, t)`` computed from the
+   *prediction only* — its local RMS envelope at that sensor times a time profile ``g(t)``
+   (10 bins, learned from the folds' residuals: phase errors grow with time) — and the
+   conformal quantile ``q`` of the pooled normalized residuals at the level ``c`` (with the
+   ``(n + 1)`` correction of split-conformal regression, as crepes' normalized
+   ``ConformalRegressor`` computes it) scales the target's band:
+   ``half-width = q · s(i, t)``.
+
+The two half-widths add in quadrature. **Exchangeability.** Samples of one time history are
+not exchangeable (neighbouring samples share their error), so no per-sample guarantee is
+claimed. The unit that is argued exchangeable is the *record*: training load cases and the
+target are draws of one test design (load position, shape, initial profile); the coverage
+podbench scores is the fraction of a target's samples inside the band, and the pooled
+quantile estimates the quantile of that fraction's distribution over records. With N
+records the guarantee is at the record level only, and weak (N = 3…6); it is measured, not
+assumed (the calibration study). Where a method takes one design only (POVR, SL: one
+record; MR: exactly three) there is no split: the model-form part then rests on the
+training record's in-sample residual (its projection error) alone, which cannot see the
+diagonal assumption's error — such bands are reported with their (poor) calibration and
+``Prediction.source`` says ``"in-sample"``.
+
+The error estimate (the predicted ``total_error`` ‖Ŵ − W‖_F/‖W‖_F) is the RMS of the band's
+predicted residual, ``sqrt(Σ (μ·s² + s_noise²)) / ‖Ŵ‖_F``, with ``μ`` the geometric mean over
+the folds of ``‖R_j‖²_F / ‖s_j‖²_F`` (each fold's Frobenius error in units of its
+difficulty, so the estimate measures what ``total_error`` measures): relative errors differ
+by orders of magnitude between records (a load near the clamp barely moves the beam and its
+relative projection error is ten times the others'), and an estimate scored within a factor
+of 2 is a log-scale estimate, for which the geometric mean is the central value. The band
+keeps the pooled quantile (its coverage is a fraction of samples over all folds).
+
+With as many records as modes (MDS, ML on Chapter 4's designs) a fold refits in the first
+``N − 1`` columns of ``U``; its residual is taken as the fold's error inside those modes plus
+the whole basis's projection error ``(I − UUᵀ)W_j`` (not the error of the missing mode,
+which the fitted model does identify).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from statistics import NormalDist
+
+import numpy as np
+
+from podbench.core.records import Record, as_record
+from podbench.errors import InputError
+
+__all__ = ["Prediction", "BandCalibration", "calibrate", "predict_band", "check_coverage",
+           "interval_score", "band_coverage"]
+
+N_TIME_BINS = 10
+"""Bins of the learned time profile g(t) of the model-form difficulty."""
+ENVELOPE_FRACTION = 0.05
+"""Window of the moving-RMS envelope, as a fraction of the record length."""
+FLOOR = 0.05
+"""Floor of the envelope, as a fraction of the prediction's overall RMS at that sensor (a
+sensor at rest at time t still gets a band)."""
+
+
+def check_coverage(coverage) -> float:
+    """A coverage in (0, 1); InputError naming ``coverage`` otherwise."""
+    try:
+        c = float(coverage)
+    except (TypeError, ValueError):
+        raise InputError(f"Parameter `coverage`: expected a number in (0, 1), got "
+                         f"{coverage!r}") from None
+    if not 0.0 < c < 1.0 or not math.isfinite(c):
+        raise InputError(f"Parameter `coverage`: must be in (0, 1), got {coverage!r}")
+    return c
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """A prediction with its band and error estimate.
+
+    Attributes
+    ----------
+    mean : (m, n) ndarray
+        The prediction (what ``predict(target)`` returns).
+    lower, upper : (m, n) ndarray
+        The band meant to hold the true response at each sensor and time with probability
+        ``coverage``.
+    coverage : float
+        The nominal coverage.
+    error_estimate : float
+        The predicted total error ‖Ŵ − W‖_F/‖W‖_F (the harness's ``total_error``).
+    source : str
+        What the model-form part rests on: ``"cross-validation"`` (leave one record out,
+        ``n_folds`` folds), ``"in-sample"`` (one design only: no split) or ``"noise"``
+        (the noise part alone was asked for).
+    details : dict
+        Scalars of the calibration (conformal quantile, folds, noise level, …).
+    """
+
+    mean: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    coverage: float
+    error_estimate: float
+    dt: float | None = None
+    source: str = ""
+    details: dict = field(default_factory=dict)
+
+    @property
+    def half_width(self) -> np.ndarray:
+        return 0.5 * (self.upper - self.lower)
+
+    def to_arrays(self) -> dict:
+        """``{"W_hat": mean, "lower": lower, "upper": upper}`` (what an ``.npz`` holds)."""
+        return {"W_hat": self.mean, "lower": self.lower, "upper": self.upper}
+
+    def to_pandas(self):
+        """A long table: one row per sensor and sample (``sensor``, ``sample``, ``time``,
+        ``mean``, ``lower``, ``upper``)."""
+        import pandas as pd
+
+        m, n = self.mean.shape
+        sensor, sample = np.meshgrid(np.arange(m), np.arange(n), indexing="ij")
+        time = sample * self.dt if self.dt is not None else np.full((m, n), np.nan)
+        return pd.DataFrame({
+            "sensor": sensor.ravel(), "sample": sample.ravel(), "time": time.ravel(),
+            "mean": self.mean.ravel(), "lower": self.lower.ravel(),
+            "upper": self.upper.ravel(),
+        })
+
+    def covers(self, W) -> float:
+        """Fraction of the samples of ``W`` (the truth) inside the band."""
+        return band_coverage(W, self.lower, self.upper)
+
+    def interval_score(self, W) -> float:
+        """Mean interval score (Gneiting & Raftery 2007) of the band against ``W``."""
+        return interval_score(W, self.lower, self.upper, self.coverage)
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self.mean, dtype=dtype)
+
+
+def band_coverage(W, lower, upper) -> float:
+    W = np.asarray(W, dtype=float)
+    n = min(W.shape[1], lower.shape[1])
+    inside = (W[:, :n] >= lower[:, :n]) & (W[:, :n] <= upper[:, :n])
+    return float(np.mean(inside))
+
+
+def interval_score(W, lower, upper, coverage: float) -> float:
+    """Mean over samples of ``(u − l) + (2/α)(l − y)₊ + (2/α)(y − u)₊``, α = 1 − coverage
+    (Gneiting & Raftery 2007, Eq. 43): lower is better; it rewards narrow bands and
+    penalizes misses by their distance."""
+    y = np.asarray(W, dtype=float)
+    n = min(y.shape[1], lower.shape[1])
+    y, lo, up = y[:, :n], lower[:, :n], upper[:, :n]
+    a = 1.0 - coverage
+    s = (up - lo) + (2 / a) * np.maximum(lo - y, 0) + (2 / a) * np.maximum(y - up, 0)
+    return float(np.mean(s))
+
+
+# ---------------------------------------------------------------------- difficulty
+def _moving_rms(X: np.ndarray, width: int) -> np.ndarray:
+    """Centered moving RMS along the last axis (window ``width`` samples, edges shrink)."""
+    width = max(1, int(width))
+    X2 = np.asarray(X, dtype=float) ** 2
+    c = np.cumsum(np.pad(X2, [(0, 0)] * (X2.ndim - 1) + [(1, 0)]), axis=-1)
+    n = X2.shape[-1]
+    lo = np.clip(np.arange(n) - width // 2, 0, n)
+    hi = np.clip(np.arange(n) + width - width // 2, 0, n)
+    return np.sqrt(np.maximum((c[..., hi] - c[..., lo]) / (hi - lo), 0.0))
+
+
+def _envelope(W_hat: np.ndarray) -> np.ndarray:
+    """Local RMS envelope of a prediction at each sensor, with a floor (FLOOR × the
+    sensor's overall RMS, and 1e-12 × the whole prediction's RMS)."""
+    n = W_hat.shape[1]
+    env = _moving_rms(W_hat, max(3, round(ENVELOPE_FRACTION * n)))
+    rms_i = np.sqrt(np.mean(W_hat ** 2, axis=1, keepdims=True))
+    tiny = 1e-12 * (float(np.sqrt(np.mean(W_hat ** 2))) or 1.0)
+    return np.sqrt(env ** 2 + (FLOOR * rms_i) ** 2 + tiny ** 2)
+
+
+def _bins(n: int) -> np.ndarray:
+    return np.minimum((np.arange(n) * N_TIME_BINS) // max(n, 1), N_TIME_BINS - 1)
+
+
+# ---------------------------------------------------------------------- calibration
+@dataclass
+class BandCalibration:
+    """What the training records say about a fitted method's error (reused by every
+    prediction of that fit)."""
+
+    source: str                      # "cross-validation" | "in-sample"
+    scores: np.ndarray               # pooled normalized residuals |R|/s (sorted)
+    mean_square_score: float         # E[score²]: the error estimate's scale
+    time_profile: np.ndarray         # g per time bin (N_TIME_BINS,)
+    noise_std: np.ndarray | None     # per channel, (m,) (None: no noise part)
+    n_folds: int
+    n_draws: int
+    cv_modes: int | None = None      # k of the cross-validation refits
+    noise_models: list = field(default_factory=list)  # refits on noisy copies
+
+    def quantile(self, coverage: float) -> float:
+        """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
+        inf when there are too few."""
+        n = self.scores.size
+        if n == 0:
+            return 0.0
+        rank = math.ceil(coverage * (n + 1))
+        return float(self.scores[rank - 1]) if rank <= n else math.inf
+
+
+def _refit(model, records, *, n_modes=None, basis=None):
+    est = type(model)(**model.get_params(deep=False))
+    if n_modes is not None and "n_modes" in est.get_params(deep=False):
+        est.set_params(n_modes=n_modes)
+    return est.fit(records, basis=basis)
+
+
+def _with_W(rec, W):
+    r = as_record(rec)
+    return Record(W=W, F=r.F, w0=r.w0, v0=r.v0, dt=r.dt)
+
+
+def estimate_noise_std(model, records) -> np.ndarray:
+    """Per-channel noise std from the training records: the part outside the fitted basis,
+    ``(I − UUᵀ)W``, scaled by ``m/(m − k)`` (white per-channel noise leaves that share
+    outside a k-dimensional subspace); includes the projection error (errs high). Zeros
+    when ``k = m`` (nothing is outside: give ``noise_std``)."""
+    U = np.asarray(model.modes_, dtype=float)
+    m, k = U.shape
+    if k >= m:
+        return np.zeros(m)
+    R = [np.asarray(r.W, float) - U @ (U.T @ np.asarray(r.W, float)) for r in records]
+    ms = np.mean([np.mean(Rj ** 2, axis=1) for Rj in R], axis=0)
+    return np.sqrt(ms * m / (m - k))
+
+
+def _noise_is_negligible(noise_std, records) -> bool:
+    scale = np.sqrt(np.mean([np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in records],
+                            axis=0))
+    return bool(np.all(noise_std <= 1e-4 * np.maximum(scale, 1e-300)))
+
+
+def _noise_std(model, recs, noise_std, m: int):
+    """The per-channel noise std (m,) of the training records: given, or estimated (None
+    where it is negligible)."""
+    if noise_std is None:
+        sig = estimate_noise_std(model, recs)
+        return None if _noise_is_negligible(sig, recs) else sig
+    sig = np.broadcast_to(np.asarray(noise_std, dtype=float), (m,)).copy()
+    if np.any(sig < 0) or not np.all(np.isfinite(sig)):
+        raise InputError("Parameter `noise_std`: expected finite values >= 0")
+    return sig
+
+
+def _noise_refits(model, recs, sig, n_draws: int, seed: int, U) -> list:
+    """``n_draws`` refits of ``model`` in the basis ``U`` on noisy copies of the records."""
+    noise_models: list = []
+    if sig is None or n_draws <= 0:
+        return noise_models
+    rng = np.random.default_rng(seed)
+    for _ in range(n_draws):
+        noisy = [_with_W(r, np.asarray(r.W, float)
+                         + sig[:, None] * rng.standard_normal(np.shape(r.W)))
+                 for r in recs]
+        noise_models.append(_refit(model, noisy, basis=U))
+    return noise_models
+
+
+def _residuals(model, recs, U, can_split: bool):
+    """``(source, residuals, envelopes, cv_modes)``: leave-one-record-out residuals where the
+    records allow a split, else the in-sample residuals."""
+    residuals, envs = [], []
+    source = "in-sample"
+    cv_modes = None
+    if can_split:
+        source = "cross-validation"
+        k = int(U.shape[1])
+        if getattr(model, "records_per_mode", False) and k > len(recs) - 1:
+            cv_modes = len(recs) - 1
+        U_cv = U if cv_modes is None else U[:, :cv_modes]
+        for j in range(len(recs)):
+            rest = recs[:j] + recs[j + 1:]
+            est = _refit(model, rest, basis=U_cv)
+            Wh = np.asarray(est.predict(recs[j]), dtype=float)
+            W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
+            if cv_modes is None:
+                residuals.append(W - Wh)
+            else:
+                # the fold's error inside its k − 1 modes (the identification error) plus the
+                # whole basis's projection error: the k-mode model's error without charging
+                # it the mode the fold cannot identify
+                inside = U_cv @ (U_cv.T @ W) - Wh
+                residuals.append(inside + (W - U @ (U.T @ W)))
+            envs.append(_envelope(Wh))
+    else:
+        for r in recs:
+            Wh = np.asarray(model.predict(r), dtype=float)
+            W = np.asarray(r.W, dtype=float)[:, :Wh.shape[1]]
+            residuals.append(W - Wh)
+            envs.append(_envelope(Wh))
+    return source, residuals, envs, cv_modes
+
+
+def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
+              cross_validate: bool = True) -> BandCalibration:
+    """Calibrate the band of a fitted ``model`` on its training ``records`` (see the module
+    docstring). ``noise_std``: per-channel noise std of the training records (scalar or
+    (m,)), default estimated; ``n_draws`` noise refits (default: 2 where the records allow
+    no split, 0 where they are cross-validated — each fold is then fitted on noisy records
+    and scored against a noisy one, so the noise reaches the band through the folds, at
+    the cost of no extra refit); ``cross_validate=False`` gives the noise part alone (the
+    known-answer case)."""
+    recs = list(records)
+    lo, hi = getattr(model, "n_records", (1, None))
+    can_split = cross_validate and len(recs) >= 2 and len(recs) - 1 >= lo and \
+        (hi is None or len(recs) - 1 <= hi)
+    if n_draws is None:
+        n_draws = 0 if can_split else 2
+    m = np.asarray(model.modes_).shape[0]
+    U = np.asarray(model.modes_, dtype=float)
+    sig = _noise_std(model, recs, noise_std, m)
+    noise_models = _noise_refits(model, recs, sig, n_draws, seed, U)
+    n = np.shape(recs[0].W)[1]
+    bins = _bins(n)
+    if not cross_validate:
+        return BandCalibration("noise", np.zeros(0), 0.0, np.ones(N_TIME_BINS), sig, 0,
+                               len(noise_models), None, noise_models)
+    source, residuals, envs, cv_modes = _residuals(model, recs, U, can_split)
+    # the time profile g: RMS of residual/envelope per time bin over folds and sensors,
+    # normalized to a mean square of one
+    ratio2 = np.stack([(R / E) ** 2 for R, E in zip(residuals, envs, strict=True)])
+    g = np.array([np.sqrt(np.mean(ratio2[:, :, bins == b])) if np.any(bins == b) else 1.0
+                  for b in range(N_TIME_BINS)])
+    if not np.all(np.isfinite(g)) or np.max(g) == 0:
+        g = np.ones(N_TIME_BINS)
+    else:
+        g = np.maximum(g, 1e-3 * np.max(g))
+        g = g / np.sqrt(np.mean(g ** 2))
+    per_fold = [(np.abs(R) / (E * g[bins][None, :])).ravel()
+                for R, E in zip(residuals, envs, strict=True)]
+    scores = np.sort(np.concatenate(per_fold))
+    # the error estimate's scale: per fold, κ_j² = ‖R_j‖²/‖s_j‖² (the fold's Frobenius
+    # error in units of its difficulty, so that the estimate is the same quantity as
+    # total_error); the geometric mean over folds (relative errors differ by orders of
+    # magnitude between records — a load near the clamp — and the estimate is scored on a
+    # log scale: within a factor of 2)
+    ms = np.array([np.sum(R ** 2) / np.sum((E * g[bins][None, :]) ** 2)
+                   for R, E in zip(residuals, envs, strict=True)])
+    ms_gm = float(np.exp(np.mean(np.log(ms[ms > 0])))) if np.any(ms > 0) else 0.0
+    return BandCalibration(source, scores, ms_gm, g, sig,
+                           len(residuals) if source == "cross-validation" else 0,
+                           len(noise_models), cv_modes, noise_models)
+
+
+def predict_band(model, record, coverage: float, cal: BandCalibration,
+                 mean: np.ndarray) -> Prediction:
+    """The band of ``model``'s prediction ``mean`` for ``record`` at ``coverage``."""
+    c = check_coverage(coverage)
+    Wh = np.asarray(mean, dtype=float)
+    m, n = Wh.shape
+    var_noise = np.zeros_like(Wh)
+    if cal.noise_models:
+        devs = np.stack([np.asarray(e.predict(record), dtype=float) - Wh
+                         for e in cal.noise_models])
+        # moving RMS over time smooths the few draws' spread
+        var_noise = _moving_rms(np.sqrt(np.mean(devs ** 2, axis=0)),
+                                max(3, round(ENVELOPE_FRACTION * n))) ** 2
+    z = NormalDist().inv_cdf(0.5 + c / 2)
+    if cal.source == "noise":
+        s_model = np.zeros_like(Wh)
+        q = 0.0
+    else:
+        bins = _bins(n)
+        s_model = _envelope(Wh) * cal.time_profile[bins][None, :]
+        q = cal.quantile(c)
+    half = np.sqrt((z ** 2) * var_noise + (q * s_model) ** 2)
+    norm = float(np.linalg.norm(Wh))
+    pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise))
+    err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
+    details = {"conformal_quantile": q, "n_folds": cal.n_folds, "n_draws": cal.n_draws,
+               "n_scores": int(cal.scores.size),
+               "noise_std_max": float(np.max(cal.noise_std)) if cal.noise_std is not None
+               else 0.0}
+    if cal.cv_modes is not None:
+        details["cv_modes"] = cal.cv_modes
+    return Prediction(mean=Wh, lower=Wh - half, upper=Wh + half, coverage=c,
+                      error_estimate=err, dt=getattr(model, "dt_", None) or
+                      getattr(record, "dt", None), source=cal.source, details=details)

@@ -1,0 +1,65 @@
+"""Band columns of the study tables, their regression and the calibration section (issue 21)."""
+
+import math
+
+import numpy as np
+import pandas as pd
+from conftest import CHAIN_FREE
+
+from podbench.harness.regress import compare
+from podbench.harness.runner import COLUMNS, run_unit
+from podbench.report.calibration import (
+    calibration_markdown,
+    calibration_rows,
+    calibration_summary,
+)
+
+
+def test_every_row_gets_an_error_estimate_and_a_coverage(write_scenario):
+    p = write_scenario(CHAIN_FREE)
+    res = run_unit(p, "chain_coupled")
+    assert {"error_estimate", "coverage"} <= set(COLUMNS)
+    rows = {r["method"]: r for r in res.rows}
+    for m in ("POVR", "MDS"):
+        assert 0.0 <= rows[m]["coverage"] <= 1.0
+        assert math.isfinite(rows[m]["error_estimate"]) and rows[m]["error_estimate"] >= 0
+    # POVR on the coupled chain: one record, the band cannot see the diagonal assumption
+    assert rows["POVR"]["coverage"] < 0.85
+    assert {s["source"] for s in res.band_stats} == {"in-sample", "cross-validation"}
+
+
+def test_a_sweep_point_computes_no_band(write_scenario):
+    p = write_scenario(CHAIN_FREE)
+    res = run_unit(p, "chain_coupled", overrides={"n_modes": 5})
+    assert all("coverage" not in r for r in res.rows)
+
+
+def _table(cov, est, tot=0.1):
+    return pd.DataFrame([{"scenario": "s", "structure": "b", "method": "ML", "target": "t",
+                          "total_error": tot, "error_estimate": est, "coverage": cov,
+                          "status": "ok"}])
+
+
+def test_regress_compares_calibration():
+    base = _table(0.9, 0.1)
+    assert not compare(_table(0.905, 0.101), base).failed
+    worse = compare(_table(0.7, 0.1), base)
+    assert worse.failed and worse.worse[0][1] == "coverage_gap"
+    worse = compare(_table(0.9, 0.5), base)
+    assert worse.failed and worse.worse[0][1] == "estimate_log_ratio"
+    # a baseline written before the band columns existed compares errors only
+    old = base.drop(columns=["coverage", "error_estimate"])
+    assert not compare(_table(0.2, 9.0), old).failed
+
+
+def test_calibration_summary_scores():
+    rng = np.random.default_rng(0)
+    tot = np.exp(rng.uniform(-5, 0, 40))
+    df = pd.DataFrame({"scenario": "s", "structure": "lti_beam", "method": "ML",
+                       "target": [f"t{i}" for i in range(40)], "total_error": tot,
+                       "error_estimate": tot * np.exp(rng.uniform(-0.5, 0.5, 40)),
+                       "coverage": 0.9})
+    rows = calibration_rows(df, [], {})
+    s = calibration_summary(rows)
+    assert s["predictions"] == 40 and s["spearman"] > 0.9 and s["within_factor_2"] == 1.0
+    assert "LTI" in calibration_markdown(rows, "x")

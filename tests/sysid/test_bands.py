@@ -1,0 +1,106 @@
+"""Prediction bands (issue 21): the API and coverage on a case whose answer is known.
+
+Known answer: MDS on the 5-DOF coupled chain with k = m = 5 is exactly identifiable (the
+prediction is ``Σ_j W_j c_j`` with ``c = X0⁻¹ x_new``: it does not depend on the basis), so
+per-channel Gaussian noise of known std in the training records reaches the prediction
+linearly and exactly Gaussian, independently at every sensor and sample. The noise part of
+the band (``cross_validate=False``) must then cover the noise-free truth with the nominal
+probability: over R noise realizations of m·n samples each, the coverage is binomial with
+standard error ``sqrt(c(1 − c)/(R m n))`` (plus the Monte-Carlo error of the propagated
+std, which the test bounds by its own draws).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from podbench.methods import MDS, POVR, MultipleLoad, SingleLoad
+
+from podbench import Record
+from podbench.errors import InputError
+from podbench.sysid.methods.bands import Prediction, interval_score
+
+from ._cases import forced_case, free_case
+
+
+def _noisy(W, sig, rng):
+    return W + sig[:, None] * rng.standard_normal(W.shape)
+
+
+def _chain_records(rng, sig, case):
+    return [Record(W=_noisy(W, sig, rng), w0=x, dt=case.dt)
+            for W, x in zip(case.W, case.x0, strict=True)]
+
+
+@pytest.mark.parametrize("coverage", [0.9, 0.5])
+def test_noise_band_coverage_is_nominal_on_an_exactly_identifiable_chain(coverage):
+    case = free_case("coupled", "displacement")
+    m, n = case.W[0].shape
+    rms = np.sqrt(np.mean(np.stack(case.W) ** 2, axis=(0, 2)))
+    sig = 0.01 * rms  # 1 % per-channel noise, known
+    target = Record(W=case.W_new, w0=case.x0_new, dt=case.dt)
+    covered, reps = [], 8
+    for r in range(reps):
+        rng = np.random.default_rng(100 + r)
+        model = MDS(excitation="displacement").fit(_chain_records(rng, sig, case))
+        model.calibrate_band(noise_std=sig, n_draws=30, seed=r, cross_validate=False)
+        p = model.predict(target, coverage=coverage)
+        covered.append(p.covers(case.W_new))
+    se = math.sqrt(coverage * (1 - coverage) / (reps * m * n))
+    # 3 binomial standard errors + the Monte-Carlo error of a std from 30 draws smoothed over
+    # a window of 10 samples (relative error ≈ 1/sqrt(2·300) → coverage shift ≤ 0.01)
+    assert abs(np.mean(covered) - coverage) <= 3 * se + 0.01, (np.mean(covered), covered)
+
+
+def test_predict_without_coverage_returns_the_array():
+    case = forced_case("coupled")
+    recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
+    model = MultipleLoad(solver="block").fit(recs)
+    target = Record(W=case.W_new, F=case.F_new, dt=case.dt)
+    plain = model.predict(target)
+    assert isinstance(plain, np.ndarray)
+    p = model.predict(target, coverage=0.9)
+    assert isinstance(p, Prediction)
+    np.testing.assert_array_equal(p.mean, plain)
+    assert p.lower.shape == p.upper.shape == plain.shape
+    assert np.all(p.lower <= p.mean) and np.all(p.mean <= p.upper)
+    assert math.isfinite(p.error_estimate) and p.error_estimate > 0
+    df = p.to_pandas()
+    assert list(df.columns) == ["sensor", "sample", "time", "mean", "lower", "upper"]
+    assert len(df) == plain.size
+    assert set(p.to_arrays()) == {"W_hat", "lower", "upper"}
+    # a wider coverage gives a wider band
+    p99 = model.predict(target, coverage=0.99)
+    assert np.all(p99.upper - p99.lower >= p.upper - p.lower - 1e-15)
+
+
+@pytest.mark.parametrize("bad", [0, 1, 1.5, -0.1, float("nan"), "x"])
+def test_bad_coverage_is_one_clear_error(bad):
+    case = free_case("coupled", "displacement")
+    model = POVR(n_modes=2).fit(Record(W=case.W[0], w0=case.x0[0], dt=case.dt))
+    with pytest.raises(InputError, match="coverage"):
+        model.predict(Record(W=case.W_new, w0=case.x0_new), coverage=bad)
+
+
+def test_array_form_fit_has_no_band():
+    case = forced_case("coupled")
+    model = SingleLoad(n_modes=2, solver="block").fit(case.W[0], case.F[0], dt=case.dt)
+    with pytest.raises(InputError, match="record form"):
+        model.predict(Record(W=case.W_new, F=case.F_new, dt=case.dt), coverage=0.9)
+
+
+def test_one_record_methods_say_what_the_band_rests_on():
+    case = free_case("coupled", "displacement")
+    model = POVR(n_modes=3).fit(Record(W=case.W[0], w0=case.x0[0], dt=case.dt))
+    p = model.predict(Record(W=case.W_new, w0=case.x0_new, dt=case.dt), coverage=0.9)
+    assert p.source == "in-sample"
+    assert np.all(np.isfinite(p.lower)) and np.all(np.isfinite(p.upper))
+
+
+def test_interval_score_rewards_cover_and_sharpness():
+    W = np.zeros((2, 4))
+    lo, up = -np.ones((2, 4)), np.ones((2, 4))
+    assert interval_score(W, lo, up, 0.9) == pytest.approx(2.0)
+    assert interval_score(W + 2, lo, up, 0.9) == pytest.approx(2.0 + 20.0)
