@@ -185,12 +185,12 @@ class _Coupler:
         self.BSB = self.B.T @ self.SB
         # rows of the compatibility: accelerations as they are, displacements scaled by βh²
         self.scale = np.concatenate([np.full(c.p, 1.0 if c.quantity == "acceleration"
-                                             else self.bh2) for c in self.comps])
+                                             else self.bh2) for c in self.comps] + [[]])
         self.disp = np.concatenate([np.full(c.p, c.quantity == "displacement")
-                                    for c in self.comps])
+                                    for c in self.comps] + [np.zeros(0, bool)])
         self._cache: dict = {}
         self.time_varying = any(c.time_varying for c in self.comps)
-        self.ss = all(c.realization is not None for c in self.comps)
+        self.ss = bool(self.comps) and all(c.realization is not None for c in self.comps)
         self.nx = 0
         if self.ss:  # block-diagonal realization of all components
             self.Ax = scipy.linalg.block_diag(*[c.realization[0] for c in self.comps])
@@ -226,7 +226,7 @@ class _Coupler:
         """``r`` at sample ``n``: Σ_{k≥1} H[n, k] g[n−k]; ``past(k)`` gives ``g[n−k]`` rows
         (P, …) for k = 1 … kmax as an array (kmax, P, …); ``memory`` overrides the number
         of past samples available (default ``n``)."""
-        r = None
+        r = np.zeros((0,) + past(0).shape[2:])
         for c, cc in zip(self.comps, self.cols, strict=True):
             Hn = c.at(n)
             m = min(c.lags - 1, n if memory is None else memory)
@@ -236,7 +236,7 @@ class _Coupler:
                 gp = past(m)[:, cc]                       # (m, p, …)
                 rc = np.tensordot(Hn[1:m + 1], gp, axes=([0, 2], [0, 1])) if gp.ndim == 3 \
                     else np.einsum("kij,kj->i", Hn[1:m + 1], gp)
-            r = rc if r is None else np.concatenate([r, rc])
+            r = np.concatenate([r, rc])
         return r
 
     def step(self, q, v, a, f, r, g_prev, n: int, scheme: str):
@@ -249,6 +249,9 @@ class _Coupler:
         if self.damped:
             rhs -= self.C @ vp
         astar = scipy.linalg.cho_solve(self.S, rhs)
+        if self.P == 0:  # no component: the parent's own Newmark step
+            g0 = np.zeros((0,) + rhs.shape[1:])
+            return qp + self.bh2 * astar, vp + self.gh * astar, astar, g0
         Ainv = self.matrices(n, scheme)
         sc = self.scale if astar.ndim == 1 else self.scale[:, None]
         dsp = self.disp if astar.ndim == 1 else self.disp[:, None]
@@ -264,6 +267,46 @@ class _Coupler:
         q = qp + self.bh2 * a
         v = vp + self.gh * a
         return q, v, a, g
+
+
+class _FastStep:
+    """The coupled step of one state vector with the operators premultiplied by ``S⁻¹``
+    (``S⁻¹K``, ``S⁻¹C``, the loads ``S⁻¹f`` of every sample in one solve): the same
+    arithmetic as :meth:`_Coupler.step` in a few dense products per step."""
+
+    def __init__(self, cp: _Coupler, f: np.ndarray, scheme: str):
+        self.cp, self.scheme = cp, scheme
+        self.SK = scipy.linalg.cho_solve(cp.S, cp.K)
+        self.SC = scipy.linalg.cho_solve(cp.S, cp.C) if cp.damped else None
+        self.Sf = scipy.linalg.cho_solve(cp.S, f)
+        self.idx = np.array([d for c in cp.comps for d in c.dofs], dtype=np.int64)
+        self.any_disp = bool(np.any(cp.disp))
+        self.unit = bool(np.all(cp.scale == 1.0))
+        self.Ainv = None if cp.time_varying or not cp.P else cp.matrices(0, scheme)
+
+    def __call__(self, q, v, a, r, g_prev, n: int):
+        cp = self.cp
+        qp = q + cp.h * v + cp.bh2 * a
+        vp = v + cp.gh * a
+        astar = self.Sf[:, n] - self.SK @ qp
+        if self.SC is not None:
+            astar -= self.SC @ vp
+        if not cp.P:
+            return qp + cp.bh2 * astar, vp + cp.gh * astar, astar, g_prev
+        Ainv = self.Ainv if self.Ainv is not None else cp.matrices(n, self.scheme)
+        idx = self.idx
+        if self.scheme == "implicit":
+            y = astar[idx] if self.unit else cp.scale * astar[idx]
+            if self.any_disp:
+                y = y + np.where(cp.disp, qp[idx], 0.0)
+            g = Ainv @ (y - r)
+            a = astar - cp.SB @ g
+        else:
+            a = astar - cp.SB @ g_prev
+            y = np.where(cp.disp, qp[idx] + cp.bh2 * a[idx], a[idx]) if self.any_disp \
+                else a[idx]
+            g = Ainv @ (y - r)
+        return qp + cp.bh2 * a, vp + cp.gh * a, a, g
 
 
 def _check_scheme(scheme: str) -> str:
@@ -343,7 +386,7 @@ def couple(structure: Structure, q0, v0, f, dt: float, components: Sequence[Comp
     scheme : {"implicit", "two-step"}
         The interface solve (see the module docstring).
     check : bool
-        Compute the growth factor first and refuse a two-step coupling whose growth factor
+        Compute the growth factor of a two-step coupling first and refuse it if it
         exceeds ``1 + GROWTH_TOL`` (:class:`UnstableCouplingError`). ``False`` runs it anyway
         (to measure where it diverges).
     limit : float, optional
@@ -360,7 +403,7 @@ def couple(structure: Structure, q0, v0, f, dt: float, components: Sequence[Comp
         raise DimensionError(f"couple: f must be ({N}, n_samples), got {f.shape}")
     n = f.shape[1]
     growth = float("nan")
-    if check:
+    if check and scheme == "two-step" and cp.P:
         growth = _growth(cp, scheme, None)
         if growth > 1.0 + GROWTH_TOL:
             mp = 1.0 / np.diag(cp.BSB)
@@ -391,20 +434,29 @@ def couple(structure: Structure, q0, v0, f, dt: float, components: Sequence[Comp
     def past(m):
         return G[:, j + 1 - m:j + 1].T[::-1] if m > 0 else np.zeros((1, cp.P))
 
+    fast = _FastStep(cp, f, scheme)
     x = np.zeros(cp.nx) if cp.ss else None
-    for j in range(n - 1):
-        if cp.ss:
-            x = cp.Ax @ x + cp.Bx @ G[:, j]
-            r = cp.Cx @ x
-        else:
-            r = cp.history(j + 1, past)
-        q, v, a, g = cp.step(q, v, a, f[:, j + 1], r, G[:, j], j + 1, scheme)
-        G[:, j + 1] = g
-        if not np.all(np.isfinite(q)) or (limit is not None and np.max(np.abs(q)) > limit):
-            diverged = j + 1
-            G[:, j + 1:] = np.nan
-            break
-        Q[:, j + 1], V[:, j + 1], A[:, j + 1] = out(q), out(v), out(a)
+    Rq = None if R is None else R
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j in range(n - 1):
+            if not cp.P:
+                r = None
+            elif cp.ss:
+                x = cp.Ax @ x + cp.Bx @ G[:, j]
+                r = cp.Cx @ x
+            else:
+                r = cp.history(j + 1, past)
+            q, v, a, g = fast(q, v, a, r, G[:, j], j + 1)
+            G[:, j + 1] = g
+            if not np.all(np.isfinite(q)) or (limit is not None
+                                               and np.max(np.abs(q)) > limit):
+                diverged = j + 1
+                G[:, j + 1:] = np.nan
+                break
+            if Rq is None:
+                Q[:, j + 1], V[:, j + 1], A[:, j + 1] = q, v, a
+            else:
+                Q[:, j + 1], V[:, j + 1], A[:, j + 1] = Rq @ q, Rq @ v, Rq @ a
     return CoupledResult(q=Q, v=V, a=A, g=G, diverged_at_step=diverged, scheme=scheme,
                          growth=growth)
 

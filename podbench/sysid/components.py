@@ -36,14 +36,16 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from podbench.errors import DimensionError, InputError
-from podbench.sysid.deconvolution import ConvolutionSystem, make_solver
+from podbench.sysid.deconvolution import ConvolutionSystem, make_solver, solve
 from podbench.sysid.statespace import era_realization, realize
 
-__all__ = ["KernelFit", "identify_kernel", "interface_system", "temporal_basis",
-           "kernel_realization", "BASIS_CANDIDATES"]
+__all__ = ["KernelFit", "identify_kernel", "identify_lagged", "lagged_matrix",
+           "interface_system", "temporal_basis", "kernel_realization", "BASIS_CANDIDATES"]
 
-BASIS_CANDIDATES = (1, 3, 5, 7, 9, 11, 13)
+BASIS_CANDIDATES = (1, 3, 5, 7, 9, 11, 13, 17, 21)
 """Numbers of temporal functions tried by the hold-out rule of a time-varying kernel."""
+LAG_CANDIDATES = (1, 3, 10)
+"""Kernel lengths tried by the hold-out rule of :func:`identify_lagged`."""
 
 
 @dataclass
@@ -195,3 +197,64 @@ def identify_kernel(forces: Sequence, responses: Sequence, dt: float, *, n_lags:
             real = kernel_realization(H, int(order))
             info["realization_order"] = int(order)
     return KernelFit(kernel=H, realization=real, info=info)
+
+
+def lagged_matrix(forces, n_lags: int, basis: np.ndarray) -> np.ndarray:
+    """Regressors of a lag-limited time-varying kernel: rows (record, sample), columns
+    (lag k, function b, input i) holding ``φ_b[n−k] g_i[n−k]`` (zero before the record)."""
+    cols = []
+    for k in range(n_lags):
+        for phi in basis:
+            for i in range(forces[0].shape[0]):
+                c = []
+                for f in forces:
+                    u = phi * f[i]
+                    c.append(np.concatenate([np.zeros(k), u[:u.size - k]]))
+                cols.append(np.concatenate(c))
+    return np.column_stack(cols)
+
+
+def _lagged_fit(F, Y, n_lags, nb, solver):
+    basis = temporal_basis(F[0].shape[1], nb)
+    A = lagged_matrix(F, n_lags, basis)
+    rhs = np.vstack([y.T for y in Y])
+    X = solve(A, rhs, solver=solver)
+    return X, basis
+
+
+def identify_lagged(forces: Sequence, responses: Sequence, *, n_lags: int | str = "auto",
+                    n_basis: int | str = "auto", solver: str = "ls",
+                    lag_candidates: Sequence[int] = LAG_CANDIDATES,
+                    basis_candidates: Sequence[int] = BASIS_CANDIDATES) -> KernelFit:
+    """A time-varying kernel ``H[n, k] = Σ_b φ_b[n−k] Θ_b[k]`` with few lags (``k < L``),
+    by a dense solver of :mod:`podbench.sysid.deconvolution` (``"ls"`` or ``"tls"``) on the
+    lag-limited regressors (:func:`lagged_matrix`): ``L·B·p`` unknowns per output, so a few
+    records of ``n`` samples determine it. ``"auto"``: the ``(L, B)`` whose fit on the even
+    records best predicts the odd ones (needs 2 records). Returns the kernel (n, L, p, p)."""
+    F, Y = _check_records(forces, responses)
+    p, n = F[0].shape
+    info: dict = {"n_records": len(F)}
+    Ls = list(lag_candidates) if n_lags == "auto" else [int(n_lags)]
+    Bs = list(basis_candidates) if n_basis == "auto" else [int(n_basis)]
+    if len(Ls) * len(Bs) > 1:
+        if len(F) < 2:
+            raise InputError("identify_lagged: the hold-out choice of lags and basis needs at "
+                             "least 2 records; give n_lags and n_basis")
+        fit_i, test_i = list(range(0, len(F), 2)), list(range(1, len(F), 2))
+        Ft, Yt = [F[i] for i in test_i], [Y[i] for i in test_i]
+        rt = np.vstack([y.T for y in Yt])
+        errs = {}
+        for L in Ls:
+            for nb in Bs:
+                X, basis = _lagged_fit([F[i] for i in fit_i], [Y[i] for i in fit_i], L, nb,
+                                       solver)
+                pred = lagged_matrix(Ft, L, basis) @ X
+                errs[(L, nb)] = float(np.sum((pred - rt) ** 2) / np.sum(rt ** 2))
+        L, nb = min(errs, key=lambda key: (errs[key], key[0] * key[1]))
+        info["holdout"] = {f"L={a},B={b}": e for (a, b), e in errs.items()}
+    else:
+        L, nb = Ls[0], Bs[0]
+    X, basis = _lagged_fit(F, Y, L, nb, solver)
+    info.update({"n_lags": L, "n_basis": nb, "solver": solver})
+    H = _kernel_from(X.reshape(L, nb * p, p), 1.0, p, basis, L)
+    return KernelFit(kernel=H, realization=None, info=info)
