@@ -193,9 +193,10 @@ class _Coupler:
         self.ss = bool(self.comps) and all(c.realization is not None for c in self.comps)
         self.nx = 0
         if self.ss:  # block-diagonal realization of all components
-            self.Ax = scipy.linalg.block_diag(*[c.realization[0] for c in self.comps])
-            self.Bx = scipy.linalg.block_diag(*[c.realization[1] for c in self.comps])
-            self.Cx = scipy.linalg.block_diag(*[c.realization[2] for c in self.comps])
+            reals = [c.realization for c in self.comps if c.realization is not None]
+            self.Ax = scipy.linalg.block_diag(*[r[0] for r in reals])
+            self.Bx = scipy.linalg.block_diag(*[r[1] for r in reals])
+            self.Cx = scipy.linalg.block_diag(*[r[2] for r in reals])
             self.nx = self.Ax.shape[0]
 
     def h0(self, n: int) -> np.ndarray:

@@ -16,8 +16,8 @@ from podbench.core.atomic import atomic_write_text
 __all__ = ["write_substructuring", "medians"]
 
 SUMMARY_COLUMNS = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise",
-                   "seed", "total_error", "diverged_at_step", "time_ratio", "growth", "status",
-                   "detail"]
+                   "seed", "total_error", "diverged_at_step", "time_ratio", "growth",
+                   "record_error", "status", "detail"]
 GROUP = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise"]
 
 QUOTES = [
@@ -45,6 +45,8 @@ def medians(df: pd.DataFrame) -> pd.DataFrame:
             "first_divergence": float(np.nanmin(g.diverged_at_step))
             if np.any(np.isfinite(g.diverged_at_step)) else np.nan,
             "max_growth": float(np.max(g.growth)),
+            "median_record_error": float(np.median(g.record_error))
+            if np.all(np.isfinite(g.record_error)) else np.nan,
             "time_ratio": float(np.median(g.time_ratio))})
     return df.groupby(GROUP, sort=False, dropna=False).apply(agg, include_groups=False
                                                              ).reset_index()
@@ -58,15 +60,16 @@ def _fmt(x, spec=".3g") -> str:
 
 def _table(med: pd.DataFrame) -> str:
     head = ("| component | scheme | kernel | records | n_records | noise | median error | "
-            "seeds (diverged) | first divergence | max growth | time ratio |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "seeds (diverged) | first divergence | max growth | time ratio | "
+            "500-sample error |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in med.itertuples():
         div = "" if not np.isfinite(r.first_divergence) else f"step {int(r.first_divergence)}"
         lines.append(f"| {r.component} | {r.scheme} | {r.kernel} | {r.records or '—'} | "
-                     f"{r.n_records} | {r.noise:g} | {_fmt(r.median_error)} | {r.seeds} "
-                     f"({r.diverged}) | {div} | {r.max_growth:.8g} | "
-                     f"{_fmt(r.time_ratio, '.2f')} |")
+                     f"{r.n_records} | {r.noise:g} | {_fmt(r.median_error)} | {int(r.seeds)} "
+                     f"({int(r.diverged)}) | {div} | {r.max_growth:.8g} | "
+                     f"{_fmt(r.time_ratio, '.2f')} | {_fmt(r.median_record_error)} |")
     return head + "\n".join(lines) + "\n"
 
 
@@ -85,7 +88,10 @@ def _targets(med: pd.DataFrame) -> str:
     for lev, goal in ((0.01, "3 %"), (0.05, "10 %")):
         h = _pick(med, component="chain_heavy", kernel="lti", records="acceleration",
                   scheme="implicit", noise=lev)
-        val = ", ".join(_fmt(x) for x in h.median_error)
+        val = "; ".join(f"{_fmt(r.median_error)} ({int(r.diverged)}/{int(r.seeds)} seeds "
+                        f"diverge within 20 × 500 steps, first at step "
+                        f"{_fmt(r.first_divergence, '.0f')}; over the 500-sample record: "
+                        f"median {_fmt(r.median_record_error)})" for r in h.itertuples())
         out.append(f"| heavy chain, acceleration records, {lev:.0%} noise ≤ {goal} | {val} |")
     for lev, goal in ((0.01, "1 %"), (0.05, "5 %")):
         t = _pick(med, component="tip_mass", kernel="ltv", scheme="implicit", noise=lev)
@@ -98,7 +104,9 @@ def _targets(med: pd.DataFrame) -> str:
                f"max {np.max(ok.time_ratio):.2f} |")
     d = _pick(med, records="displacement", scheme="implicit")
     val = ", ".join(f"{r.component} {r.noise:.0%}: {_fmt(r.median_error)} "
-                    f"({r.diverged}/{r.seeds} diverged)" for r in d.itertuples())
+                    f"({int(r.diverged)}/{int(r.seeds)} diverged, first at step "
+                    f"{_fmt(r.first_divergence, '.0f')}, growth up to {r.max_growth:.4g})"
+                    for r in d.itertuples())
     out.append(f"| displacement records: stable at 1 % (stretch) | {val or 'not run'} |")
     return "\n".join(out) + "\n"
 
@@ -128,9 +136,17 @@ def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
               f"  `{ref}`",
               "  The table's `first divergence` column is where the unchecked run leaves "
               "10× the truth's peak (runs continue unloaded to 20 × 500 steps).",
+              "- Interface mass is not the whole limit: the light chain (interface mass "
+              "8.4e-5, 7× below the parent's) still makes the two-step grow (factor 1.037, "
+              "through its stiffness and the one-step lag), slowly enough that a 500-sample "
+              "record looks fine and the run leaves 10× the truth's peak only near step "
+              "1200: the growth-factor check, not the record, is what refuses it.",
               "- `max growth` above 1 for an identified kernel with the implicit scheme: an "
               "identified kernel need not be passive, so the coupled step can grow slowly "
-              "even where the 500-step error is small; the column states it per row.",
+              "even where the 500-sample error is small (the `500-sample error` column); the "
+              "heavy chain's identified kernels do this at 1 % and 5 % noise, and those "
+              "runs count as diverged. Making an identified kernel passive before coupling "
+              "is not done yet.",
               "- Time-varying tip mass: the kernel is expanded over Legendre polynomials of "
               "the time at which the force acts and a few lags (both by hold-out over the "
               "records), solved by podbench's dense least squares; the number of unknowns no "
@@ -179,7 +195,8 @@ def write_substructuring(rows, truths, out, *, dt: float, figures: bool = True,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     df = pd.DataFrame([{k: r.get(k, "") for k in SUMMARY_COLUMNS} for r in rows])
-    for c in ("total_error", "diverged_at_step", "time_ratio", "growth", "noise"):
+    for c in ("total_error", "diverged_at_step", "time_ratio", "growth", "noise",
+              "record_error"):
         df[c] = pd.to_numeric(df[c], errors="coerce")
     atomic_write_text(out / "summary.csv", df.to_csv(index=False, float_format="%.6g",
                                                      lineterminator="\n"))
