@@ -66,11 +66,14 @@ def substructuring_file(files) -> Path | None:
         return None
     try:
         text = files[0].read_text(encoding="utf-8")
-    except OSError:
+    except (OSError, UnicodeDecodeError):  # the scenario reader reports it, in one line
         return None
     if f"[{TABLE}]" not in text:
         return None
-    return files[0] if TABLE in _read(files[0]) else None
+    try:
+        return files[0] if TABLE in tomllib.loads(text) else None
+    except tomllib.TOMLDecodeError:
+        return None
 
 
 def _get(d: dict, key: str, kind, path: Path, default=None):
