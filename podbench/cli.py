@@ -29,6 +29,7 @@ from podbench.errors import InputError, PodbenchError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
+from podbench.study.substructuring import substructuring_file
 from podbench.sysid.deconvolution import available_solvers
 from podbench.sysid.methods import BUILTIN_METHODS
 
@@ -318,6 +319,9 @@ def _list_scenarios(folder: Path, indent: str) -> None:
 
     for f in sorted(folder.glob("*.toml")):
         if f.name in NOT_SCENARIOS:
+            continue
+        if substructuring_file([f]) is not None:  # Chapter 6: a study with its own runner
+            print(f"{indent}{f.stem}: Chapter 6 substructuring study (its own runner)")
             continue
         try:
             sc = load_scenario(f)

@@ -79,7 +79,8 @@ def test_bundled_data_are_the_checkouts_top_level_folders():
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
     assert bundled_structures() == bundled_root() / "structures"
     assert list(bundled_studies()) == ["chapter4", "chapter4_variants", "chapter5",
-                                      "mr_designs", "peers", "sensitivity", "sweeps"]
+                                      "mr_designs", "peers", "sensitivity", "substructuring",
+                                      "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
 
 

@@ -43,7 +43,7 @@ def test_reduced_study_runs_through_podbench_run(tmp_path):
     exact = df[(df.kernel == "exact") & (df.scheme == "implicit")]
     assert exact.total_error.iloc[0] <= 1e-10
     two = df[(df.kernel == "exact") & (df.scheme == "two-step")]
-    assert math.isnan(two.total_error.iloc[0]) and two.status.iloc[0] == "refused"
+    assert math.isnan(two.total_error.iloc[0]) and two.outcome.iloc[0] == "refused"
     ltv = df[(df.kernel == "ltv") & (df.scheme == "implicit")]
     assert ltv.total_error.iloc[0] < 0.02
     assert (tmp_path / "out" / "FINDINGS.md").read_text(encoding="utf-8").count("Chapter 6")
