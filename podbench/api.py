@@ -20,7 +20,6 @@ with one line naming the file and the field, or the parameter.
 from __future__ import annotations
 
 import csv
-import difflib
 import os
 import shlex
 import shutil
@@ -33,13 +32,19 @@ from pathlib import Path
 import pandas as pd
 
 from podbench.core.atomic import atomic_write_text
-from podbench.core.resources import DEFAULT_STUDY, SWEEPS_STUDY, bundled_studies, resolve_bundled
+from podbench.core.resources import (
+    DEFAULT_STUDY,
+    SWEEPS_STUDY,
+    bundled_studies,
+    display_path,
+    resolve_bundled,
+)
 from podbench.errors import InputError, UnknownNameError
-from podbench.harness.linked import run_linked
+from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import run_checks
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
-from podbench.harness.runner import response_counts, run_study
+from podbench.harness.runner import plan, response_counts, run_study
 from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
@@ -49,6 +54,7 @@ from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file
 from podbench.study.experiments import check_experiment, write_experiment
+from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.study.substructuring import load_substructuring, substructuring_file
 from podbench.sysid.deconvolution import available_solvers
@@ -81,11 +87,6 @@ def _as_list(study) -> list:
                      f"{type(study).__name__}")
 
 
-def _did_you_mean(name: str, choices) -> str:
-    close = difflib.get_close_matches(str(name), list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Path]]:
     """The paths a study names and their scenario files.
 
@@ -111,7 +112,7 @@ def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Pat
                                            for f in find_scenarios([d])]
                 raise UnknownNameError(
                     f"{p}: no such file or folder, nor a bundled study or scenario"
-                    f"{_did_you_mean(str(p), choices)} (bundled studies: "
+                    f"{did_you_mean(str(p), choices)} (bundled studies: "
                     f"{', '.join(studies)}; podbench list shows every scenario)")
             resolved.append(b)
         else:
@@ -318,6 +319,8 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     claims_file = load_claims_file(claims) if claims is not None else None  # before any work
     cache_dir = _check_run_options(jobs, cache)
     progress = _progress(progress, quiet)
+    if isinstance(progress, Progress):
+        progress.note(_announcement(files, scenarios, claims_file, claims, figures))
     t0 = time.perf_counter()
     results = run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                         progress=progress, keep_series=figures)
@@ -343,20 +346,40 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
                        simulated=n_sim, cached=n_cached, _units=results)
 
 
+def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) -> str:
+    """What a run is about to do, in one line: scenarios and units, the claims' linked
+    sensitivity study and nonlinearity checks (run beside the study, so that FINDINGS
+    can state each claim's verdict over the parameters the text leaves open), figures."""
+    n_units = len(plan(files))
+    parts = [f"{len(scenarios)} scenario{'s' if len(scenarios) != 1 else ''} "
+             f"({n_units} unit{'s' if n_units != 1 else ''} of structure × scenario)"]
+    if claims_file is not None:
+        linked = linked_scenarios(claims_file, scenarios)
+        if linked:
+            n = len(plan(list(linked)))
+            parts.append(f"the claims' sensitivity study ({n} units of "
+                         f"{display_path(claims_file.sensitivity)}, for FINDINGS' verdicts "
+                         "over the unstated parameters)")
+        if claims_file.nonlinearity is not None and _whole_study(claims, scenarios):
+            parts.append("the §5.2 nonlinearity checks")
+    parts.append("figures and report.html" if figures else "report.html")
+    return "podbench: running " + "; then ".join(parts)
+
+
 def _run_substructuring(path, out: Path, figures: bool, figure_format: str, quiet: bool,
                         command: str) -> StudyResult:
     """The substructuring study (:mod:`podbench.harness.substructuring`): same output folder
     rules as every study, its own table (``summary.csv``), ``FINDINGS.md`` and figures."""
-    plan = load_substructuring(path)
+    study_plan = load_substructuring(path)
     t0 = time.perf_counter()
     rows, truths = run_substructuring(
-        plan, progress=None if quiet else (lambda msg: print(msg, file=sys.stderr)))
+        study_plan, progress=None if quiet else (lambda msg: print(msg, file=sys.stderr)))
     seconds = time.perf_counter() - t0
-    df, drawn = write_substructuring(rows, truths, out, dt=plan.dt, figures=figures,
+    df, drawn = write_substructuring(rows, truths, out, dt=study_plan.dt, figures=figures,
                                      figure_format=figure_format, command=command)
     return StudyResult(out=out, summary=df, fits=pd.DataFrame(), claims=None, figures=drawn,
-                       scenarios={plan.name: plan}, seconds=seconds,
-                       simulated=len(plan.components), cached=0)
+                       scenarios={study_plan.name: study_plan}, seconds=seconds,
+                       simulated=len(study_plan.components), cached=0)
 
 
 # ---------------------------------------------------------------------------- regress
@@ -389,6 +412,7 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     if update:
         atomic_write_text(baseline, table_csv(new))
         return len(new)
+    assert base is not None  # read above, before the run, unless update
     return compare(new, base, rtol=rtol, atol=atol)
 
 
@@ -420,8 +444,8 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
         for name in solvers:
             if name not in available_solvers():
                 raise UnknownNameError(f"--solvers: unknown solver {name!r}"
-                                       f"{_did_you_mean(name, available_solvers())}; "
-                                       f"solvers: {', '.join(available_solvers())}")
+                                       f"{did_you_mean(name, available_solvers())} "
+                                       f"(solvers: {', '.join(available_solvers())})")
         axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
     cache_dir = None if cache is None else writable_folder(cache, "--cache")
@@ -441,7 +465,7 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
 
 
 # ------------------------------------------------------------------------- experiment
-def experiment(study, *, check: bool = False) -> list[Path]:
+def experiment(study, *, check: bool = False) -> list[Path] | list[str]:
     """Write (or with ``check``, compare with a fresh generation) the record files of a
     virtual experiment (``experiment.toml`` in a study folder, e.g. the bundled
     ``chapter5``). Returns the files written, or those that differ."""
@@ -450,7 +474,7 @@ def experiment(study, *, check: bool = False) -> list[Path]:
         b = resolve_bundled(str(study))
         if b is None or not b.is_dir():
             raise UnknownNameError(f"{study}: no such file or folder, nor a bundled study"
-                                   f"{_did_you_mean(str(study), bundled_studies())}")
+                                   f"{did_you_mean(str(study), bundled_studies())}")
         path = b
     return check_experiment(path) if check else write_experiment(path)
 

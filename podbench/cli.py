@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import textwrap
 import traceback
@@ -87,45 +88,72 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    for add in (_add_run, _add_regress, _add_sweep, _add_experiment, _add_list):
+        add(sub)
+    return p
 
-    def common(sp, paths_help):
-        sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
-        sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
-                        help="worker processes for the (scenario, structure) units "
-                             "(default 1; results do not depend on N)")
-        sp.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
-                        help=f"truth-data cache folder (default {DEFAULT_CACHE}); entries are "
-                             "keyed by the content of structure and scenario")
-        sp.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
-        sp.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
-                        help="override the scenarios' integration engine (default: each "
-                             "scenario's own, normally newmark)")
-        sp.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress on stderr (neither the bar nor the plain lines)")
-        sp.add_argument("--debug", action="store_true",
-                        help="show the Python traceback of an internal error (exit code 3)")
 
-    r = sub.add_parser(
-        "run", help="run scenarios and write tables, figures and findings",
-        description=textwrap.fill(
-                    "Simulate the truth data (cached), fit every method of every scenario, "
-                    "predict every target and write OUT/summary.csv, OUT/summary.md, "
-                    "OUT/fits.csv, OUT/figures/*.png and (with a claims.toml beside the "
-                    "scenarios) OUT/FINDINGS.md. OUT is replaced as a whole only when "
-                    "everything is written. A part of a study (a scenario file given alone) "
-                    "is written to its own folder, results/<file name>, never over the "
-                    "study's results/<study>; an existing OUT that holds scenarios this run "
-                    "does not produce is refused.", width=88),
-        epilog=_EPILOG + """
+def _add_debug(sp) -> None:
+    sp.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
+
+
+def _add_jobs(sp, help_text: str) -> None:
+    sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N", help=help_text)
+
+
+def _add_cache_options(sp, *, cache_help: str, engine_help: str) -> None:
+    """``--cache``, ``--no-cache``, ``--engine`` and ``--quiet`` (run, regress and sweep)."""
+    sp.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
+                    help=f"truth-data cache folder (default {DEFAULT_CACHE}); {cache_help}")
+    sp.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
+    sp.add_argument("--engine", choices=("newmark", "exudyn"), default=None, help=engine_help)
+    sp.add_argument("-q", "--quiet", action="store_true",
+                    help="no progress on stderr (neither the bar nor the plain lines)")
+
+
+def _add_study_options(sp, paths_help: str) -> None:
+    """The paths and the options ``run`` and ``regress`` share."""
+    sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
+    _add_jobs(sp, "worker processes for the (scenario, structure) units "
+                  "(default 1; results do not depend on N)")
+    _add_cache_options(sp, cache_help="entries are keyed by the content of structure and "
+                                      "scenario",
+                       engine_help="override the scenarios' integration engine (default: each "
+                                   "scenario's own, normally newmark)")
+    _add_debug(sp)
+
+
+def _command(sub, name: str, help_text: str, description: str, epilog: str):
+    """The sub-parser of one command: its one-line help, its description (wrapped to 88
+    columns) and its epilog (shown as written)."""
+    return sub.add_parser(name, help=help_text, description=textwrap.fill(description, width=88),
+                          epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def _add_run(sub) -> None:
+    """``podbench run``."""
+    r = _command(
+        sub, "run", "run scenarios and write tables, figures and findings",
+        "Simulate the truth data (cached), fit every method of every scenario, "
+        "predict every target and write OUT/summary.csv, OUT/summary.md, "
+        "OUT/fits.csv, OUT/figures/*.png and (with a claims.toml beside the "
+        "scenarios) OUT/FINDINGS.md. OUT is replaced as a whole only when "
+        "everything is written. A part of a study (a scenario file given alone) "
+        "is written to its own folder, results/<file name>, never over the "
+        "study's results/<study>; an existing OUT that holds scenarios this run "
+        "does not produce is refused.",
+        _EPILOG + """
 Examples:
   podbench run                           # the bundled Chapter 4 study -> results/chapter4
   podbench run chapter4/beam_forced      # one bundled scenario -> results/beam_forced
   podbench run my_study/                 # your folder of scenarios -> results/my_study
   podbench run my_study/a.toml           # one of your files -> results/a
-""", formatter_class=argparse.RawDescriptionHelpFormatter)
-    common(r, "scenario files or folders of them, or a bundled study (chapter4) or scenario "
-              "(chapter4/beam_forced) by name when no such path exists (default: chapter4); "
-              "the claims.toml beside the scenarios is judged into FINDINGS.md")
+""")
+    _add_study_options(r, "scenario files or folders of them, or a bundled study (chapter4) or "
+                          "scenario (chapter4/beam_forced) by name when no such path exists "
+                          "(default: chapter4); the claims.toml beside the scenarios is judged "
+                          "into FINDINGS.md")
     r.add_argument("-o", "--out", default=None, metavar="DIR",
                    help="output folder (default results/<folder name> for a folder, "
                         "results/<file name> for a single file, the names joined by '+' for "
@@ -138,17 +166,20 @@ Examples:
                    help="format of OUT/figures/* (default png, 150 dpi; svg and pdf are "
                         "vector graphics); report.html embeds the figures in any format")
 
-    g = sub.add_parser(
-        "regress", help="re-run the study and compare every error with the baseline",
-        description="Re-run the scenarios (no figures, nothing written to results/ except "
-                    "with --update) and compare every error column with the baseline table. "
-                    "An error is worse when new > base·(1 + rtol) + atol. Exit 0 when "
-                    "nothing got worse, 1 with a readable diff when something did, 2 on "
-                    "unusable input.",
-        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    common(g, "scenario files or folders of them, or a bundled study or scenario by name "
-              "(default: chapter4 and chapter5, the studies of results/baseline.csv); claims "
-              "are not judged and nothing is written")
+
+def _add_regress(sub) -> None:
+    """``podbench regress``."""
+    g = _command(
+        sub, "regress", "re-run the study and compare every error with the baseline",
+        "Re-run the scenarios (no figures, nothing written to results/ except "
+        "with --update) and compare every error column with the baseline table. "
+        "An error is worse when it exceeds base·(1 + rtol) + atol. Exit 0 when "
+        "nothing got worse, 1 with a readable diff when something did, 2 on "
+        "unusable input.",
+        _EPILOG)
+    _add_study_options(g, "scenario files or folders of them, or a bundled study or scenario "
+                          "by name (default: chapter4 and chapter5, the studies of "
+                          "results/baseline.csv); claims are not judged and nothing is written")
     g.add_argument("--baseline", default=str(DEFAULT_BASELINE), metavar="CSV",
                    help=f"baseline table (default {DEFAULT_BASELINE})")
     g.add_argument("--rtol", type=_tolerance, default=0.01,
@@ -160,24 +191,26 @@ Examples:
     g.add_argument("--table", default=None, metavar="CSV",
                    help="compare this existing summary.csv instead of re-running")
 
-    w = sub.add_parser(
-        "sweep", help="run scenarios over noise levels, mode counts, seeds and solvers",
-        description=textwrap.fill(
-                    "Run every point of the scenarios' [sweep] axes — noise levels × mode "
-                    "counts × seeds (× deconvolution solvers) × structures × methods — and "
-                    "write DIR/<scenario name>/sweep.csv (one row per point, method and "
-                    "target; columns as summary.csv plus noise, modes, seed, solver) and "
-                    "sweep.md (median and max over seeds). Noise is what a laboratory meets: "
-                    "Gaussian per measured channel, standard deviation = level × RMS of that "
-                    "channel's own record, on every sensor row of W and on the loaded rows "
-                    "of F only (noise_model = \"per_channel\"; \"per_entry_rms\" is the "
-                    "former whole-matrix model), seeded by (seed, scenario, structure, case, "
-                    "quantity, channel); targets are noise-free (see podbench.noise and "
-                    "docs/noise.md). The --noise/--n-modes/--seeds/"
-                    "--solvers options replace the file's axes. The table is identical "
-                    "whether the points run serially, in --jobs local processes or on a Dask "
-                    "cluster (--scheduler).", width=88),
-        epilog=_EPILOG + """
+
+def _add_sweep(sub) -> None:
+    """``podbench sweep``."""
+    w = _command(
+        sub, "sweep", "run scenarios over noise levels, mode counts, seeds and solvers",
+        "Run every point of the scenarios' [sweep] axes — noise levels × mode "
+        "counts × seeds (× deconvolution solvers) × structures × methods — and "
+        "write DIR/<scenario name>/sweep.csv (one row per point, method and "
+        "target; columns as summary.csv plus noise, modes, seed, solver) and "
+        "sweep.md (median and max over seeds). Noise is what a laboratory meets: "
+        "Gaussian per measured channel, standard deviation = level × RMS of that "
+        "channel's own record, on every sensor row of W and on the loaded rows "
+        "of F only (noise_model = \"per_channel\"; \"per_entry_rms\" is the "
+        "former whole-matrix model), seeded by (seed, scenario, structure, case, "
+        "quantity, channel); targets are noise-free (see podbench.noise and "
+        "docs/noise.md). The --noise/--n-modes/--seeds/"
+        "--solvers options replace the file's axes. The table is identical "
+        "whether the points run serially, in --jobs local processes or on a Dask "
+        "cluster (--scheduler).",
+        _EPILOG + """
 Examples:
   podbench sweep                                   # the bundled sweeps, 1 process
   podbench sweep sweeps/beam_forced_noise --jobs 2
@@ -189,12 +222,11 @@ Examples:
   solvers = ["ls", "tls"]     noise_on = ["W", "F"]   coupled_train = "first"
 n_modes replaces every method's k; MDS and ML (k = number of training sets) train on their
 first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
-""", formatter_class=argparse.RawDescriptionHelpFormatter)
+""")
     w.add_argument("paths", nargs="*", metavar="PATH",
                    help="scenario files or folders of them, or a bundled study or scenario by "
                         f"name (default: the bundled {SWEEPS_STUDY})")
-    w.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N",
-                   help="local worker processes (default 1; the table does not depend on N)")
+    _add_jobs(w, "local worker processes (default 1; the table does not depend on N)")
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the points on a Dask distributed cluster, e.g. "
                         "tcp://host:8786 (workers need podbench and the same project folder "
@@ -212,48 +244,43 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
                    help="output root: each scenario writes DIR/<scenario name>/sweep.csv and "
                         "sweep.md (default results); DIR/<scenario name> must not exist, be "
                         "empty, or be a previous sweep output (holding sweep.csv)")
-    w.add_argument("--cache", default=str(DEFAULT_CACHE), metavar="DIR",
-                   help=f"truth-data cache folder (default {DEFAULT_CACHE}); noise is added "
-                        "after loading, so sweep and run share entries")
-    w.add_argument("--no-cache", action="store_true", help="simulate everything afresh")
-    w.add_argument("--engine", choices=("newmark", "exudyn"), default=None,
-                   help="override the scenarios' integration engine")
-    w.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress on stderr (neither the bar nor the plain lines)")
-    w.add_argument("--debug", action="store_true",
-                   help="show the Python traceback of an internal error (exit code 3)")
+    _add_cache_options(w, cache_help="noise is added after loading, so sweep and run share "
+                                     "entries",
+                       engine_help="override the scenarios' integration engine")
+    _add_debug(w)
 
-    x = sub.add_parser(
-        "experiment", help="write (or --check) the records of a virtual experiment",
-        description=textwrap.fill(
-            "Simulate the laboratory tests of an experiment.toml (podbench.experiments: the "
-            "tests, their loads, per-channel noise levels), and write one record file per "
-            "test, noise level and case under data/ beside it (each data/<test> folder "
-            "replaced atomically). The study's scenarios read those files back like "
-            "measurements. With --check nothing is written: the committed files are "
-            "compared byte for byte with a fresh generation (exit 1 when they differ).",
-            width=88),
-        epilog="""
+
+def _add_experiment(sub) -> None:
+    """``podbench experiment``."""
+    x = _command(
+        sub, "experiment", "write (or --check) the records of a virtual experiment",
+        "Simulate the laboratory tests of an experiment.toml (podbench.experiments: the "
+        "tests, their loads, per-channel noise levels), and write one record file per "
+        "test, noise level and case under data/ beside it (each data/<test> folder "
+        "replaced atomically). The study's scenarios read those files back like "
+        "measurements. With --check nothing is written: the committed files are "
+        "compared byte for byte with a fresh generation (exit 1 when they differ).",
+        """
 Examples:
   podbench experiment chapter5           # the bundled Chapter 5 tests -> its data/
   podbench experiment my_study/          # my_study/experiment.toml -> my_study/data/
   podbench experiment chapter5 --check   # are the committed records up to date?
-""", formatter_class=argparse.RawDescriptionHelpFormatter)
+""")
     x.add_argument("path", help="an experiment.toml, its folder, or a bundled study by name")
     x.add_argument("--check", action="store_true",
                    help="compare with a fresh generation instead of writing")
-    x.add_argument("--debug", action="store_true",
-                   help="show the Python traceback of an internal error (exit code 3)")
+    _add_debug(x)
 
+
+def _add_list(sub) -> None:
+    """``podbench list``."""
     ls = sub.add_parser("list", help="list structures, scenarios, methods and solvers",
                         description="List the structures and scenarios bundled with podbench "
                                     "and those of the current folder (./structures, "
                                     "PODBENCH_STRUCTURES, ./scenarios), each with where it "
                                     "comes from, the built-in methods and the deconvolution "
                                     "solvers.")
-    ls.add_argument("--debug", action="store_true",
-                    help="show the Python traceback of an internal error (exit code 3)")
-    return p
+    _add_debug(ls)
 
 
 def _plural(n: int, word: str, plural: str | None = None) -> str:
@@ -287,6 +314,7 @@ def cmd_run(args) -> int:
         for folder in dict.fromkeys(Path(p).resolve().parent for p in parts):
             print(f"part of the study in {display_path(folder)}: written to {out}/, "
                   f"{api.DEFAULT_RESULTS / folder.name}/ left as it was")
+    print(f"report: {out / 'report.html'}")
     return 0
 
 
@@ -298,7 +326,7 @@ def cmd_experiment(args) -> int:
         print(f"{len(files)} record file(s) differ from a fresh generation" if files
               else "every record file equals a fresh generation")
         return 1 if files else 0
-    folders = sorted({display_path(f.parent.parent) for f in files})
+    folders = sorted({display_path(Path(f).parent.parent) for f in files})
     print(f"{len(files)} record files written under {', '.join(folders)}")
     return 0
 
@@ -308,7 +336,7 @@ def cmd_regress(args) -> int:
                       update=args.update, table=args.table, jobs=args.jobs,
                       cache=_cache(args), engine=args.engine,
                       progress=Progress(quiet=args.quiet))
-    if args.update:
+    if isinstance(got, int):  # --update: the number of rows written
         print(f"baseline updated: {args.baseline} ({got} rows)")
         return 0
     print(got.report(args.rtol, args.atol))
@@ -401,7 +429,7 @@ def _list_arg(text, name: str, kind):
     """Parse a comma-separated option (``--noise 0,0.01``; ``--seeds 0-4``)."""
     if text is None:
         return None
-    out = []
+    out: list = []
     for item in text.split(","):
         item = item.strip()
         try:
@@ -465,7 +493,7 @@ def cmd_sweep(args) -> int:
     return 0
 
 
-def _one_line(text: str, limit: int = 1000) -> str:
+def _one_line(text: object, limit: int = 1000) -> str:
     text = " ".join(str(text).split())
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
@@ -514,6 +542,27 @@ def main(argv=None) -> int:
         print(f"{prog}: internal error: {type(exc).__name__}: {msg} (this is a bug; rerun "
               "with --debug for the traceback)", file=sys.stderr)
         return 3
+
+
+def reference_markdown() -> str:
+    """The command-line reference (docs/reference/cli.md): every command's ``--help``, as the
+    parser prints it at 100 columns."""
+    parser = _parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    old = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "100"
+    try:
+        parts = ["# Command line\n\nGenerated from the parser (`podbench <command> --help`); "
+                 "tests/test_docs_site.py checks that it is current.\n\n```text\n"
+                 + parser.format_help() + "```\n"]
+        for name, sp in subs.choices.items():
+            parts.append(f"\n## podbench {name}\n\n```text\n{sp.format_help()}```\n")
+    finally:
+        if old is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = old
+    return "".join(parts)
 
 
 if __name__ == "__main__":  # pragma: no cover

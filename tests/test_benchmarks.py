@@ -14,6 +14,8 @@ if str(ROOT) not in sys.path:
 
 from benchmarks import groups, measure, report  # noqa: E402
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def test_pod_group_at_a_tiny_size_writes_the_csv_columns_and_positive_ratios(tmp_path):
     lines = []

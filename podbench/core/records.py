@@ -21,9 +21,23 @@ from podbench.errors import DimensionError, InputError
 __all__ = ["Record", "as_record", "is_record"]
 
 
+class SensorSamples:
+    """``n_sensors`` and ``n_samples`` of an object whose ``W`` is (sensors, samples)
+    (:class:`Record` and :class:`~podbench.core.response.Response`)."""
+
+    W: np.ndarray
+
+    @property
+    def n_samples(self) -> int:
+        return self.W.shape[1]
+
+    @property
+    def n_sensors(self) -> int:
+        return self.W.shape[0]
+
 
 @dataclass(frozen=True, eq=False)
-class Record:
+class Record(SensorSamples):
     """What an identification method sees of one test: arrays only (no structure, no engine).
 
     Every method of :mod:`podbench.methods` fits on a sequence of records and predicts from
@@ -78,14 +92,6 @@ class Record:
             object.__setattr__(self, name, a)
         if self.dt is not None:
             object.__setattr__(self, "dt", check_positive(self.dt, "dt"))
-
-    @property
-    def n_samples(self) -> int:
-        return self.W.shape[1]
-
-    @property
-    def n_sensors(self) -> int:
-        return self.W.shape[0]
 
 
 def as_record(obj, name: str = "record") -> Record:

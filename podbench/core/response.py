@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from podbench.core.records import Record, as_record, is_record
+from podbench.core.records import Record, SensorSamples, as_record, is_record
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, InputError
 
@@ -57,7 +57,7 @@ def _check_sampling(t: np.ndarray, dt: float) -> None:
 
 
 @dataclass(frozen=True, eq=False)
-class Response:
+class Response(SensorSamples):
     """A simulated (or measured) response.
 
     Attributes
@@ -111,14 +111,6 @@ class Response:
         object.__setattr__(self, "F", F)
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "dt", dt)
-
-    @property
-    def n_samples(self) -> int:
-        return self.W.shape[1]
-
-    @property
-    def n_sensors(self) -> int:
-        return self.W.shape[0]
 
     def displacement_norm(self) -> np.ndarray:
         """Eq. 4.1 at every sample (in)."""

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numbers
+from collections.abc import Collection
+from typing import Literal, TypeVar, overload
 
 import numpy as np
 
@@ -37,7 +39,20 @@ def as_finite_array(x, name: str, *, ndim: int | None = None, dtype=float) -> np
     return arr
 
 
-def check_positive(x, name: str, *, integer: bool = False, allow_zero: bool = False):
+_T = TypeVar("_T")
+
+
+@overload
+def check_positive(x, name: str, *, integer: Literal[True], allow_zero: bool = False) -> int: ...
+
+
+@overload
+def check_positive(x, name: str, *, integer: Literal[False] = False,
+                   allow_zero: bool = False) -> float: ...
+
+
+def check_positive(x, name: str, *, integer: bool = False,
+                   allow_zero: bool = False) -> int | float:
     """Return ``x`` after checking it is a positive (or non-negative) finite number."""
     if integer:
         if isinstance(x, bool) or not isinstance(x, numbers.Integral):
@@ -55,7 +70,7 @@ def check_positive(x, name: str, *, integer: bool = False, allow_zero: bool = Fa
     return x
 
 
-def check_choice(value, name: str, choices):
+def check_choice(value: _T, name: str, choices: Collection) -> _T:
     """Return ``value`` if it is one of ``choices``, else raise an InputError naming them."""
     if value not in choices:
         raise InputError(

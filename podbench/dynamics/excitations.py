@@ -40,6 +40,7 @@ one sample after ``t = 0`` (``start = dt``), so every pulse's first sample is ze
 from __future__ import annotations
 
 import numbers
+from typing import Any, cast
 
 import numpy as np
 import scipy.sparse as sp
@@ -181,7 +182,8 @@ def _at(field: str, exc: InputError) -> InputError:
     """``exc`` with ``field`` prepended to its ``field`` attribute (the dotted path, inside
     the excitation's table, of the entry at fault; see :func:`check_excitation`)."""
     inner = getattr(exc, "field", None)
-    exc.field = f"{field}.{inner}" if inner else field
+    # InputError declares no `field`: it is attached here, read with getattr by the callers
+    cast(Any, exc).field = f"{field}.{inner}" if inner else field
     return exc
 
 
@@ -204,7 +206,8 @@ def _check_loads(loads, name: str) -> list[tuple[object, float]]:
         raise InputError(f"Parameter `{name}`: at least one (location, force_lbf) pair is needed")
     out = []
     for loc, val in pairs:
-        if isinstance(val, bool) or not isinstance(val, numbers.Real) or not np.isfinite(val):
+        if isinstance(val, bool) or not isinstance(val, numbers.Real) or not np.isfinite(
+                float(val)):
             raise InputError(f"Parameter `{name}`: force at {loc!r} must be a finite number")
         out.append((loc, float(val)))
     return out
@@ -242,6 +245,17 @@ def _check_reference(structure: Structure, reference: Structure | None) -> Struc
     return reference
 
 
+def _check_reference_and_locations(structure: Structure, reference: Structure | None, pairs,
+                                   name: str, by: str) -> None:
+    """The ``check`` of an initial state: the reference structure (field ``reference``), then
+    every load location on it (fields ``<name>[i]``)."""
+    try:
+        ref = _check_reference(structure, reference)
+    except InputError as exc:
+        raise _at("reference", exc) from None
+    _check_locations(ref, pairs, name, by)
+
+
 # ---------------------------------------------------------------------------- initial states
 class StaticDisplacement:
     """Initial displacement from static point loads: ``q0 = K(0)⁻¹ f`` (in).
@@ -275,11 +289,7 @@ class StaticDisplacement:
         InputError
             With a ``field`` attribute (``"reference"``, ``"loads[1]"``) naming the entry.
         """
-        try:
-            ref = _check_reference(structure, self.reference)
-        except InputError as exc:
-            raise _at("reference", exc) from None
-        _check_locations(ref, self.loads, "loads", self.by)
+        _check_reference_and_locations(structure, self.reference, self.loads, "loads", self.by)
 
     def dof_vector(self, structure: Structure) -> np.ndarray:
         """``q0`` (n_dofs,) in inches (radians for rotations)."""
@@ -361,11 +371,8 @@ class ImpulseVelocity:
 
     def check(self, structure: Structure) -> None:
         """As :meth:`StaticDisplacement.check` (fields ``reference``, ``impulses[i]``)."""
-        try:
-            ref = _check_reference(structure, self.reference)
-        except InputError as exc:
-            raise _at("reference", exc) from None
-        _check_locations(ref, self.impulses, "impulses", self.by)
+        _check_reference_and_locations(structure, self.reference, self.impulses, "impulses",
+                                       self.by)
 
     def dof_vector(self, structure: Structure) -> np.ndarray:
         """``v0`` (n_dofs,) in in/s (rad/s for rotations)."""
@@ -374,12 +381,16 @@ class ImpulseVelocity:
             J = self.duration * _load_vector(ref, self.impulses, self.by)
             return _solve(ref.mass(0.0), J, f"The mass matrix M(0) of {ref.name!r}")
 
+        dt = self.dt
+        if dt is None:  # __init__ requires dt; only reached if it was set to None since
+            raise InputError("Parameter `dt`: velocity='measured' needs the integration "
+                             "step dt (s)")
         f = _load_vector(ref, self.impulses, self.by)
-        j0, j1 = Pulse(0, 1.0, self.duration, by="dof").window(self.dt)
+        j0, j1 = Pulse(0, 1.0, self.duration, by="dof").window(dt)
         F = np.zeros((ref.n_dofs, j1 + 1))
         F[:, j0:j1] = f[:, None]
         zero = np.zeros(ref.n_dofs)
-        return newmark(ref, zero, zero, F, self.dt).v[:, j1].copy()
+        return newmark(ref, zero, zero, F, dt).v[:, j1].copy()
 
     def to_dict(self) -> dict:
         d = {
@@ -498,13 +509,14 @@ class Pulse(_Force):
             np.isfinite(amplitude)
         ):
             raise InputError(f"Parameter `amplitude`: expected a finite number, got {amplitude!r}")
-        self.location = location
-        self.amplitude = float(amplitude)
-        self.duration = check_positive(duration, "duration")
-        self.start = None if start is None else check_positive(start, "start", allow_zero=True)
-        self.shape = check_choice(shape, "shape", self.SHAPES)
-        self.by = check_choice(by, "by", _BY)
-        self.hits = _check_hits(hits)
+        self.location: Any = location
+        self.amplitude: float = float(amplitude)
+        self.duration: float = check_positive(duration, "duration")
+        self.start: float | None = None if start is None else check_positive(
+            start, "start", allow_zero=True)
+        self.shape: str = check_choice(shape, "shape", self.SHAPES)
+        self.by: str = check_choice(by, "by", _BY)
+        self.hits: tuple[tuple[float, float], ...] = _check_hits(hits)
 
     def window(self, dt: float, start: float | None = None) -> tuple[int, int]:
         """First loaded sample and one past the last: ``(j0, j1)`` (of the first hit, or of
@@ -572,12 +584,7 @@ class Pulse(_Force):
 
     def sample(self, structure: Structure, n_samples: int, dt: float) -> np.ndarray:
         """The force matrix (n_sensors, n_samples) in lbf."""
-        row = resolve_sensor(structure, self.location, by=self.by)
-        if structure.sensor_dofs[row] < 0:
-            raise InputError(
-                f"Pulse location {_describe(self.location, self.by)}: sensor {row} of "
-                f"structure {structure.name!r} is on a constrained point"
-            )
+        row = self._row(structure)
         F = np.zeros((structure.n_sensors, n_samples))
         F[row] = self.history(n_samples, dt)
         return F
@@ -609,7 +616,7 @@ def _check_hits(hits) -> tuple[tuple[float, float], ...]:
     out = []
     for k, h in enumerate(hits):
         ok = isinstance(h, (list, tuple)) and len(h) == 2 and all(
-            isinstance(x, numbers.Real) and not isinstance(x, bool) and np.isfinite(x)
+            isinstance(x, numbers.Real) and not isinstance(x, bool) and np.isfinite(float(x))
             for x in h)
         if not ok or h[0] <= 0:
             raise _at(f"hits[{k}]", InputError(
@@ -702,49 +709,66 @@ def excitation_from_dict(d: dict, *, structures: dict[str, Structure] | None = N
     d = dict(d)
     kind = d.pop("kind")
     if "reference" in d:
-        name = d.pop("reference")
-        if isinstance(name, Structure):
-            d["reference"] = name
-        elif not isinstance(name, str):
-            raise _at("reference", InputError(
-                f"Excitation {kind!r}: expected the name of a structure, got {name!r}"))
-        elif structures is None or name not in structures:
-            raise _at("reference", UnknownNameError(
-                f"Excitation {kind!r}: reference structure {name!r} is not among the "
-                f"structures given ({sorted(structures or {})})"
-            ))
-        else:
-            d["reference"] = structures[name]
+        d["reference"] = _reference_structure(d.pop("reference"), kind, structures)
     try:
-        if kind == "static_displacement":
-            return StaticDisplacement(d.pop("loads"), **d)
-        if kind == "impulse_velocity":
-            return ImpulseVelocity(d.pop("impulses"), d.pop("duration"), **d)
-        if kind == "pulse":
-            return Pulse(d.pop("location"), d.pop("amplitude"), d.pop("duration"), **d)
-        if kind == "force_history":
-            return ForceHistory(d.pop("F"), **d)
-        if kind == "combined":
-            parts = d.pop("parts")
-            if d:
-                raise TypeError(f"unexpected entries {sorted(d)}")
-            if not isinstance(parts, (list, tuple)):
-                raise _at("parts", InputError(
-                    f"Excitation 'combined': expected an array of force tables, got {parts!r}"))
-            built = []
-            for i, p in enumerate(parts):
-                try:
-                    built.append(excitation_from_dict(p, structures=structures))
-                except InputError as exc:
-                    raise _at(f"parts[{i}]", exc) from None
-            if any(not isinstance(b, _Force) for b in built):
-                raise _at("parts", InputError(
-                    "Excitation 'combined': every part must be a force (pulse, force_history, "
-                    "combined)"))
-            return Combined(*built)
+        built = _build_excitation(kind, d, structures)
     except KeyError as exc:
         raise InputError(f"Excitation {kind!r}: missing entry {exc}") from None
     except TypeError as exc:
         raise InputError(f"Excitation {kind!r}: {exc}") from None
+    if built is not None:
+        return built
     kinds = "static_displacement, impulse_velocity, pulse, force_history, combined"
     raise UnknownNameError(f"Excitation: unknown kind {kind!r}; known kinds: {kinds}")
+
+
+def _reference_structure(name, kind, structures: dict[str, Structure] | None) -> Structure:
+    """The structure a ``"reference"`` entry names (or the Structure given there)."""
+    if isinstance(name, Structure):
+        return name
+    if not isinstance(name, str):
+        raise _at("reference", InputError(
+            f"Excitation {kind!r}: expected the name of a structure, got {name!r}"))
+    if structures is None or name not in structures:
+        raise _at("reference", UnknownNameError(
+            f"Excitation {kind!r}: reference structure {name!r} is not among the "
+            f"structures given ({sorted(structures or {})})"
+        ))
+    return structures[name]
+
+
+def _build_excitation(kind, d: dict, structures: dict[str, Structure] | None):
+    """The excitation of ``kind`` from the constructor's arguments ``d`` (None: unknown kind).
+    A missing argument raises KeyError, an unexpected one TypeError."""
+    if kind == "static_displacement":
+        return StaticDisplacement(d.pop("loads"), **d)
+    if kind == "impulse_velocity":
+        return ImpulseVelocity(d.pop("impulses"), d.pop("duration"), **d)
+    if kind == "pulse":
+        return Pulse(d.pop("location"), d.pop("amplitude"), d.pop("duration"), **d)
+    if kind == "force_history":
+        return ForceHistory(d.pop("F"), **d)
+    if kind == "combined":
+        return _combined_from_dict(d, structures)
+    return None
+
+
+def _combined_from_dict(d: dict, structures: dict[str, Structure] | None) -> Combined:
+    """``{"parts": [force tables]}``: every part rebuilt (fields ``parts[i]``), all forces."""
+    parts = d.pop("parts")
+    if d:
+        raise TypeError(f"unexpected entries {sorted(d)}")
+    if not isinstance(parts, (list, tuple)):
+        raise _at("parts", InputError(
+            f"Excitation 'combined': expected an array of force tables, got {parts!r}"))
+    built = []
+    for i, p in enumerate(parts):
+        try:
+            built.append(excitation_from_dict(p, structures=structures))
+        except InputError as exc:
+            raise _at(f"parts[{i}]", exc) from None
+    if any(not isinstance(b, _Force) for b in built):
+        raise _at("parts", InputError(
+            "Excitation 'combined': every part must be a force (pulse, force_history, "
+            "combined)"))
+    return Combined(*built)

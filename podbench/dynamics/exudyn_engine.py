@@ -40,7 +40,7 @@ import scipy.sparse as sp
 
 from podbench.dynamics.newmark import DENSE_MAX_DOFS
 from podbench.errors import ConvergenceError, InputError
-from podbench.structures.structure import Structure
+from podbench.structures.structure import Structure, VariableMass
 
 __all__ = ["simulate_exudyn"]
 
@@ -99,7 +99,6 @@ def simulate_exudyn(
     n_dofs, n = f.shape
     h = float(dt)
     sparse = n_dofs > DENSE_MAX_DOFS
-    C = s.damping_matrix()
     state0 = tuple(i for i, ev in enumerate(s.events) if ev.first_sample(h) <= 0)
     K0, M, _ = s.matrices_at(state0)
     mass_events = any(ev.delta_M is not None or ev.removed_dofs for ev in s.events)
@@ -114,80 +113,23 @@ def simulate_exudyn(
             numberOfODE2Coordinates=n_dofs,
         )
     )
-
-    def sample_index(t: float) -> int:
-        return min(max(int(round(t / h)), 0), n - 1)
-
-    nonlinear = s.nonlinear
-    el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in nonlinear]
-
-    def force_uf(mbs_, t, item, q, q_t):
-        out = f[:, sample_index(t)].copy()
-        if nonlinear:
-            q = np.asarray(q)
-            q_t = np.asarray(q_t)
-            for el, d in zip(nonlinear, el_dofs, strict=True):
-                out[d] -= el.force(q[d], q_t[d])
-        return out
-
-    if nonlinear:
-        def jacobian_uf(mbs_, t, item, q, q_t, fODE2, fODE2_t):
-            q = np.asarray(q)
-            q_t = np.asarray(q_t)
-            J = np.zeros((n_dofs, n_dofs))
-            for el, d in zip(nonlinear, el_dofs, strict=True):
-                ix = np.ix_(d, d)
-                J[ix] += fODE2 * np.asarray(el.stiffness(q[d], q_t[d]))
-                J[ix] += fODE2_t * np.asarray(el.damping(q[d], q_t[d]))
-            return sp.csr_matrix(J) if sparse else J
-    else:
-        zero_jac = sp.csr_matrix((n_dofs, n_dofs)) if sparse else np.zeros((n_dofs, n_dofs))
-
-        def jacobian_uf(mbs_, t, item, q, q_t, fODE2, fODE2_t):
-            return zero_jac
-
     kwargs = {}
-    vm = s.variable_mass
-    if vm is not None:
-        Md = M.toarray()
-        m_t = vm(np.arange(n) * h)
-
-        def mass_uf(mbs_, t, item, q, q_t):
-            Mt = Md.copy()
-            Mt[vm.dof, vm.dof] += m_t[sample_index(t)]
-            return Mt
-
-        kwargs["massMatrixUserFunction"] = mass_uf
-
+    if s.variable_mass is not None:
+        kwargs["massMatrixUserFunction"] = _mass_user_function(s.variable_mass, M, n, h)
     obj = mbs.AddObject(
         items.ObjectGenericODE2(
             nodeNumbers=[node],
             massMatrix=_matrix(exu, M, sparse),
             stiffnessMatrix=_matrix(exu, K0, sparse),
-            dampingMatrix=_matrix(exu, C, sparse),
-            forceUserFunction=force_uf,
-            jacobianUserFunction=jacobian_uf,
+            dampingMatrix=_matrix(exu, s.damping_matrix(), sparse),
+            forceUserFunction=_force_user_function(s, f, h),
+            jacobianUserFunction=_jacobian_user_function(s, n_dofs, sparse),
             visualization=items.VObjectGenericODE2(show=False),
             **kwargs,
         )
     )
-
     if s.events:
-        first = [ev.first_sample(h) for ev in s.events]
-        current = {"state": tuple(i for i, fj in enumerate(first) if 0 >= fj)}
-
-        def pre_step(mbs_, t):
-            j = sample_index(t)
-            state = tuple(i for i, fj in enumerate(first) if j >= fj)
-            if state != current["state"]:
-                K, Mt, _ = s.matrices_at(state)
-                mbs_.SetObjectParameter(obj, "stiffnessMatrix", _matrix(exu, K, sparse))
-                if mass_events:
-                    mbs_.SetObjectParameter(obj, "massMatrix", _matrix(exu, Mt, sparse))
-                current["state"] = state
-            return True
-
-        mbs.SetPreStepUserFunction(pre_step)
+        mbs.SetPreStepUserFunction(_event_pre_step(exu, s, obj, n, h, sparse, mass_events))
 
     OT = exu.OutputVariableType
     sensors = [
@@ -199,7 +141,109 @@ def simulate_exudyn(
         for ot in (OT.Coordinates, OT.Coordinates_t)
     ]
     mbs.Assemble()
+    sim = _simulation_settings(exu, n, h, sparse=sparse,
+                               newton_rtol=newton_rtol if s.nonlinear else max(newton_rtol, 1e-10),
+                               constant_mass=s.variable_mass is None and not mass_events)
+    try:
+        mbs.SolveDynamic(sim)
+    except Exception as exc:  # exudyn raises its own SolverError / ModelError types
+        raise ConvergenceError(f"exudyn failed to integrate {s.name!r}: {exc}") from exc
+    q, qd = (_sensor_history(mbs, sensor, s, n) for sensor in sensors)
+    for ev in s.events:  # removed DOFs: zero from the event's sample on (see the module doc)
+        if ev.removed_dofs:
+            rows = np.asarray(ev.removed_dofs)
+            for hist in (q, qd):
+                hist[rows, ev.first_sample(h):] = 0.0
+    return q, qd
 
+
+def _sample_index(t: float, h: float, n: int) -> int:
+    """The sample ``round(t/h)`` (clipped to the record) at exudyn's accumulated time ``t``."""
+    return min(max(int(round(t / h)), 0), n - 1)
+
+
+def _force_user_function(s: Structure, f: np.ndarray, h: float):
+    """``forceUserFunction``: the DOF load ``f[:, round(t/h)]`` minus the restoring forces
+    ``g(q, q')`` of the nonlinear elements."""
+    n = f.shape[1]
+    nonlinear = s.nonlinear
+    el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in nonlinear]
+
+    def force_uf(mbs_, t, item, q, q_t):
+        out = f[:, _sample_index(t, h, n)].copy()
+        if nonlinear:
+            q = np.asarray(q)
+            q_t = np.asarray(q_t)
+            for el, d in zip(nonlinear, el_dofs, strict=True):
+                out[d] -= el.force(q[d], q_t[d])
+        return out
+
+    return force_uf
+
+
+def _jacobian_user_function(s: Structure, n_dofs: int, sparse: bool):
+    """``jacobianUserFunction``: ``fODE2·∂g/∂q + fODE2_t·∂g/∂q'`` of the nonlinear elements
+    (zero for a linear structure: exudyn adds K and C itself)."""
+    nonlinear = s.nonlinear
+    if not nonlinear:
+        zero_jac = sp.csr_matrix((n_dofs, n_dofs)) if sparse else np.zeros((n_dofs, n_dofs))
+
+        def zero_jacobian_uf(mbs_, t, item, q, q_t, fODE2, fODE2_t):
+            return zero_jac
+
+        return zero_jacobian_uf
+    el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in nonlinear]
+
+    def jacobian_uf(mbs_, t, item, q, q_t, fODE2, fODE2_t):
+        q = np.asarray(q)
+        q_t = np.asarray(q_t)
+        J = np.zeros((n_dofs, n_dofs))
+        for el, d in zip(nonlinear, el_dofs, strict=True):
+            ix = np.ix_(d, d)
+            J[ix] += fODE2 * np.asarray(el.stiffness(q[d], q_t[d]))
+            J[ix] += fODE2_t * np.asarray(el.damping(q[d], q_t[d]))
+        return sp.csr_matrix(J) if sparse else J
+
+    return jacobian_uf
+
+
+def _mass_user_function(vm: VariableMass, M: sp.csr_matrix, n: int, h: float):
+    """``massMatrixUserFunction``: ``M + m(t_j) e eᵀ`` at sample ``j = round(t/h)``."""
+    Md = M.toarray()
+    m_t = vm(np.arange(n) * h)
+
+    def mass_uf(mbs_, t, item, q, q_t):
+        Mt = Md.copy()
+        Mt[vm.dof, vm.dof] += m_t[_sample_index(t, h, n)]
+        return Mt
+
+    return mass_uf
+
+
+def _event_pre_step(exu, s: Structure, obj, n: int, h: float, sparse: bool, mass_events: bool):
+    """Pre-step user function: at the sample ``round(t/h)`` of the step about to be solved,
+    set the stiffness (and mass) of the events reached so far, when they changed."""
+    first = [ev.first_sample(h) for ev in s.events]
+    current = {"state": tuple(i for i, fj in enumerate(first) if 0 >= fj)}
+
+    def pre_step(mbs_, t):
+        j = _sample_index(t, h, n)
+        state = tuple(i for i, fj in enumerate(first) if j >= fj)
+        if state != current["state"]:
+            K, Mt, _ = s.matrices_at(state)
+            mbs_.SetObjectParameter(obj, "stiffnessMatrix", _matrix(exu, K, sparse))
+            if mass_events:
+                mbs_.SetObjectParameter(obj, "massMatrix", _matrix(exu, Mt, sparse))
+            current["state"] = state
+        return True
+
+    return pre_step
+
+
+def _simulation_settings(exu, n: int, h: float, *, sparse: bool, newton_rtol: float,
+                         constant_mass: bool):
+    """Plain Newmark (β = 1/4, γ = 1/2), ``n − 1`` fixed steps of ``h``, full Newton with
+    relative tolerance ``newton_rtol``, sensors stored in memory at every step."""
     sim = exu.SimulationSettings()
     ti = sim.timeIntegration
     ti.numberOfSteps = n - 1
@@ -213,8 +257,8 @@ def simulate_exudyn(
     # exudyn's tolerance is relative to each step's initial residual. A linear step is solved
     # exactly by the first Newton iteration (residual ~1e-13 relative); a tighter goal would
     # only iterate on round-off noise (and fail on the truss), so linear structures use 1e-10.
-    ti.newton.relativeTolerance = newton_rtol if nonlinear else max(newton_rtol, 1e-10)
-    if vm is not None or mass_events:
+    ti.newton.relativeTolerance = newton_rtol
+    if not constant_mass:
         ti.reuseConstantMassMatrix = False
     sim.solution.file.write = False
     sim.solution.sensors.writePeriod = h
@@ -222,23 +266,14 @@ def simulate_exudyn(
     sim.show.statistics = False
     if sparse:
         sim.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    return sim
 
-    try:
-        mbs.SolveDynamic(sim)
-    except Exception as exc:  # exudyn raises its own SolverError / ModelError types
-        raise ConvergenceError(f"exudyn failed to integrate {s.name!r}: {exc}") from exc
 
-    out = []
-    for sensor in sensors:
-        data = np.asarray(mbs.GetSensorStoredData(sensor))
-        if data.shape[0] != n:
-            raise ConvergenceError(
-                f"exudyn returned {data.shape[0]} samples for {s.name!r}, expected {n}"
-            )
-        out.append(np.ascontiguousarray(data[:, 1:].T))
-    for ev in s.events:  # removed DOFs: zero from the event's sample on (see the module doc)
-        if ev.removed_dofs:
-            rows = np.asarray(ev.removed_dofs)
-            for hist in out:
-                hist[rows, ev.first_sample(h):] = 0.0
-    return out[0], out[1]
+def _sensor_history(mbs, sensor, s: Structure, n: int) -> np.ndarray:
+    """A sensor's stored data as an (n_dofs, n) history (the time column dropped)."""
+    data = np.asarray(mbs.GetSensorStoredData(sensor))
+    if data.shape[0] != n:
+        raise ConvergenceError(
+            f"exudyn returned {data.shape[0]} samples for {s.name!r}, expected {n}"
+        )
+    return np.ascontiguousarray(data[:, 1:].T)

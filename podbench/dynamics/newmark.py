@@ -182,7 +182,7 @@ class _Model:
         self.el_dofs = [np.asarray(el.dofs, dtype=np.int64) for el in self.nonlinear]
 
         self.vm = s.variable_mass
-        self.m_t = None
+        self.m_t = np.zeros(n)  # m(t_j) of the variable mass; without one zeros, never read
         if self.vm is not None:
             self.m_t = self.vm(np.arange(n) * h)
             if self.m_t.shape != (n,) or not np.all(np.isfinite(self.m_t)):
@@ -201,7 +201,7 @@ class _Model:
         self.el_pos = [np.array([pos[int(d)] for d in ed]) for ed in self.el_dofs]
 
         self.first = [ev.first_sample(h) for ev in s.events]
-        self._cache: dict[tuple[int, ...], tuple] = {}
+        self._cache: dict[tuple[int, ...], dict] = {}
 
     def _state(self, j: int) -> dict:
         state = tuple(i for i, fj in enumerate(self.first) if j >= fj)
@@ -382,17 +382,7 @@ def newmark(
     bh2, gh = model.bh2, model.gh
     iters = np.zeros(n, dtype=np.int64)
 
-    # initial acceleration: M(0) a0 = f0 − C v0 − K(0) q0 − g(q0, v0)
-    q = np.array(q0, dtype=float)
-    v = np.array(v0, dtype=float)
-    K0 = model.stiffness(0)[0]
-    removed = model.removed(0)
-    q[removed] = v[removed] = 0.0
-    rhs0 = load(0) - K0 @ q - model.restoring(q, v)
-    if model.has_damping:
-        rhs0 -= model.C @ v
-    rhs0[removed] = 0.0
-    a = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
+    q, v, a = _initial_state(model, q0, v0, load(0))
     out(0, q, v, a)
 
     for j in range(n - 1):
@@ -421,6 +411,23 @@ def newmark(
     return NewmarkResult(q=out.q, v=out.v, a=out.a, newton_iterations=iters)
 
 
+def _initial_state(model: _Model, q0: np.ndarray, v0: np.ndarray,
+                   f0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(q0, v0, a0)`` with the initial acceleration from the equilibrium at ``t = 0``:
+    ``M(0) a0 = f0 − C v0 − K(0) q0 − g(q0, v0)``; DOFs removed at sample 0 are held at zero."""
+    q = np.array(q0, dtype=float)
+    v = np.array(v0, dtype=float)
+    K0 = model.stiffness(0)[0]
+    removed = model.removed(0)
+    q[removed] = v[removed] = 0.0
+    rhs0 = f0 - K0 @ q - model.restoring(q, v)
+    if model.has_damping:
+        rhs0 -= model.C @ v
+    rhs0[removed] = 0.0
+    a = _Factorization(model.mass_matrix(0), "The mass matrix M(0)").solve(rhs0)
+    return q, v, a
+
+
 def _newton(model: _Model, j, a, qp, vp, f, K, absK, solver, rtol, max_iter):
     """Newton iterations for the acceleration at sample ``j``, starting from ``a``.
 
@@ -447,7 +454,7 @@ def _newton(model: _Model, j, a, qp, vp, f, K, absK, solver, rtol, max_iter):
             break
         da = solver.solve(r, model.update(j, q, v))
         a = a + da
-        dq_norm = bh2 * np.linalg.norm(da)  # displacement increment of this iteration
+        dq_norm = float(bh2 * np.linalg.norm(da))  # displacement increment of this iteration
     raise ConvergenceError(
         f"Newton iterations did not converge at time step {j} (t = {j * model.h:.6g} s) "
         f"after {max_iter} iterations: residual {r_norm:.3e} lbf, force scale "

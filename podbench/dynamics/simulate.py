@@ -53,6 +53,28 @@ def _force_history(force, structure: Structure, n_samples: int, dt: float) -> np
     return F
 
 
+def _run_engine(engine: str, structure: Structure, q0: np.ndarray, v0: np.ndarray,
+                F: np.ndarray, dt: float, dof_histories: bool,
+                ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """``(W, q, qd)``: the sensor readings and, with ``dof_histories``, the DOF histories.
+
+    ``"newmark"`` loads the sensors' DOFs through ``Sᵀ`` one sample at a time and, without
+    DOF histories, records only ``W = S q``; ``"exudyn"`` takes the full DOF load array.
+    """
+    if engine == "newmark":
+        S = structure.sensor_matrix()
+        res = newmark(structure, q0, v0, F, dt, force_map=S.T,
+                      record=None if dof_histories else S)
+        if dof_histories:
+            return structure.observe(res.q), res.q, res.v
+        return res.q, None, None
+    q, qd = simulate_exudyn(structure, q0, v0, structure.to_dofs(F), dt)
+    W = structure.observe(q)
+    if not dof_histories:
+        return W, None, None
+    return W, q, qd
+
+
 def simulate(
     structure: Structure,
     n_samples: int = 500,
@@ -146,23 +168,7 @@ def simulate(
     v0 = _dof_vector(initial_velocity, structure, "initial_velocity")
     F = _force_history(force, structure, n_samples, dt)
 
-    if engine == "newmark":
-        S = structure.sensor_matrix()
-        res = newmark(structure, q0, v0, F, dt, force_map=S.T,
-                      record=None if dof_histories else S)
-        if dof_histories:
-            q, qd = res.q, res.v
-            W = structure.observe(q)
-        else:
-            q = qd = None
-            W = res.q
-    else:
-
-        q, qd = simulate_exudyn(structure, q0, v0, structure.to_dofs(F), dt)
-        W = structure.observe(q)
-        if not dof_histories:
-            q = qd = None
-
+    W, q, qd = _run_engine(engine, structure, q0, v0, F, dt, bool(dof_histories))
     return Response(
         t=np.arange(n_samples) * dt,
         W=W,

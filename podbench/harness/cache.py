@@ -114,4 +114,4 @@ class TruthCache:
             return
         buf = io.BytesIO()
         np.savez(buf, **{k: np.asarray(v) for k, v in arrays.items()})
-        atomic_write_bytes(self._path(key), buf.getbuffer())
+        atomic_write_bytes(self._path(key), buf.getvalue())

@@ -141,35 +141,53 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | 
             progress(done, total, time.perf_counter() - t0, out)
 
     if scheduler is not None:
-        client = _dask_client(scheduler, connect_timeout)
-        try:
-            from distributed import as_completed as dask_completed
-
-            futs = client.map(_call, [func] * total, tasks, pure=False)
-            index = {f.key: i for i, f in enumerate(futs)}
-            try:
-                for fut in dask_completed(futs, loop=client.loop):
-                    finished(index[fut.key], fut.result())
-            except BaseException:
-                client.cancel(futs)
-                raise
-        finally:
-            client.close()
+        _on_dask(func, tasks, finished, scheduler, connect_timeout)
     elif jobs == 1 or total <= 1:
-        for i, task in enumerate(tasks):
-            with single_blas_thread():
-                out = func(task)  # the original exception, traceback and all
-            finished(i, out)
+        _serially(func, tasks, finished)
     else:
-        ex = ProcessPoolExecutor(max_workers=min(jobs, total), mp_context=get_context("spawn"),
-                                 initializer=one_line_warnings)
-        try:
-            pending = {ex.submit(_call, func, task): i for i, task in enumerate(tasks)}
-            while pending:
-                ready, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for f in ready:
-                    finished(pending.pop(f), f.result())
-        finally:
-            # on an error or Ctrl-C: drop the queued tasks, wait for the running ones
-            ex.shutdown(wait=True, cancel_futures=True)
+        _in_processes(func, tasks, finished, jobs)
     return results
+
+
+def _on_dask(func: Callable, tasks: list, finished: Callable, scheduler: str,
+             timeout: float) -> None:
+    """Every task on the workers of the Dask scheduler ``scheduler``; ``finished(i, out)``
+    as each ends (the pending ones are cancelled when it raises)."""
+    client = _dask_client(scheduler, timeout)
+    try:
+        from distributed import as_completed as dask_completed
+
+        futs = client.map(_call, [func] * len(tasks), tasks, pure=False)
+        index = {f.key: i for i, f in enumerate(futs)}
+        try:
+            for fut in dask_completed(futs, loop=client.loop):
+                finished(index[fut.key], fut.result())
+        except BaseException:
+            client.cancel(futs)
+            raise
+    finally:
+        client.close()
+
+
+def _serially(func: Callable, tasks: list, finished: Callable) -> None:
+    """Every task in the calling process, one BLAS thread (a task's exception propagates
+    as it was raised, traceback and all)."""
+    for i, task in enumerate(tasks):
+        with single_blas_thread():
+            out = func(task)  # the original exception, traceback and all
+        finished(i, out)
+
+
+def _in_processes(func: Callable, tasks: list, finished: Callable, jobs: int) -> None:
+    """Every task in at most ``jobs`` spawned processes; ``finished(i, out)`` as each ends."""
+    ex = ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=get_context("spawn"),
+                             initializer=one_line_warnings)
+    try:
+        pending = {ex.submit(_call, func, task): i for i, task in enumerate(tasks)}
+        while pending:
+            ready, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for f in ready:
+                finished(pending.pop(f), f.result())
+    finally:
+        # on an error or Ctrl-C: drop the queued tasks, wait for the running ones
+        ex.shutdown(wait=True, cancel_futures=True)

@@ -12,23 +12,31 @@ from podbench.study.scenarios import find_scenarios, load_scenario
 from podbench.study.sensitivity import sensitivity_verdicts
 
 
-def run_linked(claims_file, scenarios: dict, *, jobs: int = 1, cache_dir=None,
-               engine: str | None = None, progress=None) -> list[dict] | None:
-    """Run the scenarios of the claims file's ``sensitivity`` folder that derive from the
-    ``scenarios`` of this run, and judge the claims on their variants (the same computation
-    as ``podbench run`` of that folder, so both FINDINGS agree). None without such a
-    folder or such scenarios."""
+def linked_scenarios(claims_file, scenarios: dict) -> dict:
+    """Scenario file → scenario, for the scenarios of the claims file's ``sensitivity``
+    folder that derive from the ``scenarios`` of this run and vary their structures (empty
+    without such a folder or such scenarios)."""
     if claims_file.sensitivity is None:
-        return None
+        return {}
     here = {Path(sc.path).resolve() for sc in scenarios.values()}
-    files, derived = [], {}
+    derived = {}
     for f in find_scenarios([claims_file.sensitivity]):
         sc = load_scenario(f)
         if sc.base is not None and Path(sc.base).resolve() in here and sc.variants:
-            files.append(f)
-            derived[sc.name] = sc
-    if not files:
+            derived[f] = sc
+    return derived
+
+
+def run_linked(claims_file, scenarios: dict, *, jobs: int = 1, cache_dir=None,
+               engine: str | None = None, progress=None) -> list[dict] | None:
+    """Run the scenarios of the claims file's ``sensitivity`` folder that derive from the
+    ``scenarios`` of this run (:func:`linked_scenarios`), and judge the claims on their
+    variants (the same computation as ``podbench run`` of that folder, so both FINDINGS
+    agree). None without such a folder or such scenarios."""
+    linked = linked_scenarios(claims_file, scenarios)
+    if not linked:
         return None
+    files, derived = list(linked), {sc.name: sc for sc in linked.values()}
     results = run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                         progress=progress, keep_series=False)
     return sensitivity_verdicts(claims_file.claims, derived, summary_table(results),

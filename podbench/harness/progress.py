@@ -96,6 +96,11 @@ class Progress:
             bar = bool(isatty and isatty())
         self.bar = bar and not quiet
 
+    def note(self, text: str) -> None:
+        """One line of what the run is about to do (nothing when ``quiet``)."""
+        if not self.quiet:
+            print(text, file=self.stream, flush=True)
+
     def stage(self, desc: str, total: int, unit: str, *, every: int = 1) -> Stage:
         """A new stage; ``every``: plain lines only after every ``every``-th item."""
         return Stage(desc, total, unit, stream=self.stream, bar=self.bar,

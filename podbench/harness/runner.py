@@ -17,6 +17,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -86,7 +87,7 @@ def _case_error(scenario: Scenario, case: str, key: str, exc: Exception,
     return ScenarioFileError(f"{_display(scenario.path)}: field `{path}`{on}: {msg}")
 
 
-def _build_case(scenario: Scenario, case: str, refs: dict) -> list[tuple[str, object]]:
+def _build_case(scenario: Scenario, case: str, refs: dict) -> list[tuple[str, Any]]:
     """``(key, excitation)`` of every excitation of ``case`` (``refs``: name → Structure)."""
     out = []
     for key, d in scenario.cases[case].excitation_fields():
@@ -334,11 +335,30 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     truth = _Truth(scenario, structure, cache, engine or scenario.engine, noise, conditioning)
     res = UnitResult(scenario=scenario.name, structure=structure.name,
                      events=[(float(e.time), e.description) for e in structure.events])
+    nonlinear, measured = _simulate_needed(scenario, structure, truth)
 
+    for target in scenario.targets:
+        W = truth.get(target).W
+        res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
+
+    for spec in scenario.reported_methods():
+        _run_method(res, spec, scenario, truth, sweep=overrides is not None,
+                    nonlinear=nonlinear, measured=measured, keep_series=keep_series)
+    res.simulated = truth.simulated
+    res.cached = cache.hits
+    res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
+    res.seconds = time.perf_counter() - t_start
+    return res
+
+
+def _simulate_needed(scenario: Scenario, structure, truth: _Truth) -> tuple[bool, bool]:
+    """Simulate (or read) every case the methods and targets need, and its linear twin for a
+    nonlinear structure; returns ``(nonlinear, measured)``: whether linear twins exist, and
+    whether a case is measured (a measured case has no linear twin: no linearization is
+    computed, its columns are NaN)."""
     needed = set(scenario.targets)
     for m in scenario.methods:
         needed |= all_cases(m, scenario.method)
-    # a measured case has no linear twin: no linearization is computed, its columns are NaN
     measured = isinstance(structure, MeasuredStructure) or any(
         scenario.cases[c].file is not None for c in needed)
     nonlinear = not structure.is_linear and not measured
@@ -346,88 +366,112 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
         truth.get(c)
         if nonlinear:
             truth.get(c, linear=True)
+    return nonlinear, measured
 
-    for target in scenario.targets:
-        W = truth.get(target).W
-        res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
 
-    for spec in scenario.reported_methods():
-        base = {"scenario": scenario.name, "structure": structure.name, "method": spec.label}
-        if overrides is not None:
-            base["method"] = spec.base_label or spec.label
-            base["solver"] = method_solver(spec, scenario)
-        try:
-            est = _fit(spec, scenario, truth, False)
-            preds = {t: np.asarray(est.predict(truth.get(t)), dtype=float)
-                     for t in scenario.targets}
-        except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
-            if not isinstance(exc, _EXPECTED) and not is_user_method(spec.method):
-                raise
-            status = _failure(exc)
-            for t in scenario.targets:
-                res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
-                                 **({k: float("nan") for k in SWEEP_DIAGNOSTICS}
-                                    if overrides is not None else {}),
-                                 **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
-            continue
-        diag = getattr(est, "diagnostics_", None)
-        diag = diag if isinstance(diag, dict) else {}
-        res.fits.append({**base, **diag})
-        if overrides is not None:  # a sweep point: what the solver chose, on every row
-            base = {**base, **{k: diag.get(k, float("nan")) for k in SWEEP_DIAGNOSTICS}}
-        U = getattr(est, "modes_", None)
-        U = None if U is None else np.asarray(U, dtype=float)
-        status = "ok"
-        coupled = bool(getattr(est, "coupled", False))
-        twin_spec = spec if coupled else (scenario.method(spec.twin) if spec.twin else None)
-        W_twin = W_lin = W_twin_lin = None
-        if twin_spec is not None and U is not None:
-            try:
-                tw = est if coupled else _fit(twin_spec, scenario, truth, False, basis=U)
-                W_twin = {t: tw.predict(truth.get(t)) for t in scenario.targets}
-                if nonlinear:
-                    twl = _fit(twin_spec, scenario, truth, True, basis=U)
-                    W_twin_lin = {t: twl.predict(truth.get(t, True)) for t in scenario.targets}
-                    W_lin = {t: truth.get(t, True).W for t in scenario.targets}
-            except Exception as exc:  # noqa: BLE001 - a user's twin may raise anything
-                if not isinstance(exc, _EXPECTED) and not is_user_method(twin_spec.method):
-                    raise
-                status = "twin " + _failure(exc)
-                W_twin = W_lin = W_twin_lin = None
-        W_own_lin = None
-        if nonlinear and U is not None:  # the method itself, refitted on the linear twin
-            try:
-                own = _fit(spec, scenario, truth, True, basis=U)
-                W_own_lin = {t: own.predict(truth.get(t, True)) for t in scenario.targets}
-                if W_lin is None:
-                    W_lin = {t: truth.get(t, True).W for t in scenario.targets}
-            except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
-                if not isinstance(exc, _EXPECTED) and not is_user_method(spec.method):
-                    raise
-                if status == "ok":
-                    status = "linear refit " + _failure(exc)
+def _raise_unless_expected(exc: Exception, method: str) -> None:
+    """Re-raise ``exc`` unless a method may fail that way (a row then says why): an expected
+    error (ill-conditioned data, too few data sets, ...) or anything a user's method raises."""
+    if not isinstance(exc, _EXPECTED) and not is_user_method(method):
+        raise exc
+
+
+@dataclass
+class _Comparisons:
+    """Per target (or None): the predictions the error decomposition compares a method's
+    with: its coupled twin's, the linear twin's truth, the coupled twin's on the linear twin
+    and the method's own refitted on the linear twin."""
+
+    twin: dict | None = None
+    lin: dict | None = None
+    twin_lin: dict | None = None
+    own_lin: dict | None = None
+
+
+def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
+                nonlinear: bool, measured: bool, keep_series: bool) -> None:
+    """Fit one reported method, predict every target and add its rows (and fit) to ``res``."""
+    base = {"scenario": scenario.name, "structure": res.structure, "method": spec.label}
+    if sweep:
+        base["method"] = spec.base_label or spec.label
+        base["solver"] = method_solver(spec, scenario)
+    try:
+        est = _fit(spec, scenario, truth, False)
+        preds = {t: np.asarray(est.predict(truth.get(t)), dtype=float)
+                 for t in scenario.targets}
+    except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
+        _raise_unless_expected(exc, spec.method)
+        status = _failure(exc)
         for t in scenario.targets:
-            W = truth.get(t).W
-            Wh = preds[t]
-            row = {**base, "target": t, "n_modes": -1 if U is None else int(U.shape[1])}
-            row.update(decompose(
-                W, Wh, U, W_twin=None if W_twin is None else W_twin[t], coupled=coupled,
-                W_lin=None if W_lin is None else W_lin[t],
-                W_twin_lin=None if W_twin_lin is None else W_twin_lin[t],
-                nonlinear=nonlinear or measured,
-                W_own_lin=None if W_own_lin is None else W_own_lin[t],
-            ))
-            row.update(norm_summaries(W, Wh))
-            row["status"] = status
-            res.rows.append(row)
-            if keep_series:
-                res.series[t][spec.label] = displacement_norm(Wh)
-                res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
-    res.simulated = truth.simulated
-    res.cached = cache.hits
-    res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
-    res.seconds = time.perf_counter() - t_start
-    return res
+            res.rows.append({**base, "target": t, "n_modes": -1, "status": status,
+                             **({k: float("nan") for k in SWEEP_DIAGNOSTICS} if sweep else {}),
+                             **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS, float("nan"))})
+        return
+    diag = getattr(est, "diagnostics_", None)
+    diag = diag if isinstance(diag, dict) else {}
+    res.fits.append({**base, **diag})
+    if sweep:  # a sweep point: what the solver chose, on every row
+        base = {**base, **{k: diag.get(k, float("nan")) for k in SWEEP_DIAGNOSTICS}}
+    U = getattr(est, "modes_", None)
+    U = None if U is None else np.asarray(U, dtype=float)
+    coupled = bool(getattr(est, "coupled", False))
+    ref, status = _twin_predictions(spec, est, U, coupled, scenario, truth, nonlinear)
+    if nonlinear and U is not None:  # the method itself, refitted on the linear twin
+        status = _own_linear_refit(spec, U, scenario, truth, ref, status)
+    for t in scenario.targets:
+        W = truth.get(t).W
+        Wh = preds[t]
+        row = {**base, "target": t, "n_modes": -1 if U is None else int(U.shape[1])}
+        row.update(decompose(
+            W, Wh, U, W_twin=None if ref.twin is None else ref.twin[t], coupled=coupled,
+            W_lin=None if ref.lin is None else ref.lin[t],
+            W_twin_lin=None if ref.twin_lin is None else ref.twin_lin[t],
+            nonlinear=nonlinear or measured,
+            W_own_lin=None if ref.own_lin is None else ref.own_lin[t],
+        ))
+        row.update(norm_summaries(W, Wh))
+        row["status"] = status
+        res.rows.append(row)
+        if keep_series:
+            res.series[t][spec.label] = displacement_norm(Wh)
+            res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
+
+
+def _twin_predictions(spec, est, U, coupled: bool, scenario: Scenario, truth: _Truth,
+                      nonlinear: bool) -> tuple[_Comparisons, str]:
+    """The coupled twin's predictions (the method's own if it is coupled), on the linear
+    twin too for a nonlinear structure, and the row status ("ok" or why the twin failed)."""
+    twin_spec = spec if coupled else (scenario.method(spec.twin) if spec.twin else None)
+    ref = _Comparisons()
+    if twin_spec is None or U is None:
+        return ref, "ok"
+    try:
+        tw = est if coupled else _fit(twin_spec, scenario, truth, False, basis=U)
+        ref.twin = {t: tw.predict(truth.get(t)) for t in scenario.targets}
+        if nonlinear:
+            twl = _fit(twin_spec, scenario, truth, True, basis=U)
+            ref.twin_lin = {t: twl.predict(truth.get(t, True)) for t in scenario.targets}
+            ref.lin = {t: truth.get(t, True).W for t in scenario.targets}
+    except Exception as exc:  # noqa: BLE001 - a user's twin may raise anything
+        _raise_unless_expected(exc, twin_spec.method)
+        return _Comparisons(), "twin " + _failure(exc)
+    return ref, "ok"
+
+
+def _own_linear_refit(spec, U, scenario: Scenario, truth: _Truth, ref: _Comparisons,
+                      status: str) -> str:
+    """The method refitted on the linear twin (in the basis ``U``) into ``ref.own_lin``;
+    returns the row status (the first failure's reason)."""
+    try:
+        own = _fit(spec, scenario, truth, True, basis=U)
+        ref.own_lin = {t: own.predict(truth.get(t, True)) for t in scenario.targets}
+        if ref.lin is None:
+            ref.lin = {t: truth.get(t, True).W for t in scenario.targets}
+    except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
+        _raise_unless_expected(exc, spec.method)
+        if status == "ok":
+            status = "linear refit " + _failure(exc)
+    return status
 
 
 def _unit_worker(args):

@@ -124,7 +124,8 @@ def sweep_axes(scenario: Scenario, *, noise=None, n_modes=None, seeds=None,
     if any(not (math.isfinite(x) and x >= 0) for x in out.noise):
         raise InputError(f"sweep axis `noise`: expected finite levels >= 0, got {list(out.noise)}")
     if any(k < 1 for k in out.n_modes or ()):
-        raise InputError(f"sweep axis `n_modes`: expected integers >= 1, got {list(out.n_modes)}")
+        raise InputError(f"sweep axis `n_modes`: expected integers >= 1, "
+                         f"got {list(out.n_modes or ())}")
     if any(s < 0 for s in out.seeds):
         raise InputError(f"sweep axis `seeds`: expected integers >= 0, got {list(out.seeds)}")
     if out.solvers is not None:
@@ -248,7 +249,7 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
     results = {t.index: out for t, out in zip(todo, outs, strict=True)}
     # table order; a noise-free point's rows are repeated for every seed
     source = {_noise_free_source(t): t.index for t in todo if t.noise == 0}
-    rows = []
+    rows: list[dict] = []
     for t in tasks:
         i = t.index if _computed(t) else source[_noise_free_source(t)]
         rows.extend({**r, "seed": int(t.seed)} for r in results[i]["rows"])

@@ -215,8 +215,6 @@ def make_figure(task: FigureTask):
     truth = np.asarray(s["truth"], dtype=float)
     scale, unit = time_unit(float(t[-1]))
     x = scale * t
-    sub = textwrap.wrap(task.subtitle, 92) if task.subtitle else []
-    title = textwrap.wrap(task.title, 68) or [""]
     with plt.rc_context(RC):
         fig, (a1, a2) = plt.subplots(2, 1, figsize=SIZE, sharex=True,
                                      gridspec_kw={"height_ratios": [3, 2]})
@@ -226,76 +224,100 @@ def make_figure(task: FigureTask):
             handles = [Line2D([], [], color="black", lw=2.0,
                               label="measured" if task.meta.get("measured") else
                               "truth (simulated)")]
-            pe_all = []
-            for i, (label, total) in enumerate(task.methods):
-                color, ls = PALETTE[i % len(PALETTE)], STYLES[i % len(STYLES)]
-                name = f"{label}: total error {_pct(total)}"
-                if label not in s:
-                    handles.append(Line2D([], [], color=color, ls=ls, lw=1.6, label=name))
-                    continue
-                y = np.asarray(s[label], dtype=float)
-                off = bool(np.any(y > top) or np.any(y < bottom))
-                if off:
-                    peak = float(np.nanmax(y)) / float(np.nanmax(truth))
-                    name += f", off scale (peak {peak:.2g}× the truth's)"
-                a1.plot(x, y, color=color, ls=ls, lw=1.6, zorder=4 - 0.1 * i)
-                ex = _exits(y, top, gap=max(1, y.size // 25))
-                if ex.size:
-                    a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,
-                            color=color, clip_on=False, zorder=6)
-                handles.append(Line2D([], [], color=color, ls=ls, lw=1.6,
-                                      marker="^" if off else None, ms=8, label=name))
-                pe = np.asarray(s.get(label + "__pe", np.full(t.shape, np.nan)), dtype=float)
-                pe = np.where(pe > 0, pe, np.nan)
-                pe_all.append(pe)
-                a2.plot(x, pe, color=color, ls=ls, lw=1.4)
+            pe_all = _plot_methods(task, x, truth, (bottom, top), a1, a2, handles)
             a1.set_ylim(bottom, top)
             a1.set_ylabel("Norm ‖w(t)‖, in")
             a1.grid(True, alpha=0.3)
             a2.set_yscale("log")
-            finite = np.concatenate([p[np.isfinite(p)] for p in pe_all]) if pe_all else []
+            finite = (np.concatenate([p[np.isfinite(p)] for p in pe_all]) if pe_all
+                      else np.empty(0))
             if len(finite):
                 a2.set_ylim(max(float(np.min(finite)), 1e-3) / 2, float(np.max(finite)) * 2)
             a2.set_ylabel("Eq. 4.2 error, %")
             a2.set_xlabel(f"Time, {unit}")
             a2.grid(True, which="major", alpha=0.3)
             a1.set_xlim(x[0], x[-1])
-            for te, desc in task.events:
-                if not x[0] <= scale * te <= x[-1]:
-                    continue
-                for ax in (a1, a2):
-                    ax.axvline(scale * te, color="0.3", ls=(0, (4, 3)), lw=1.2, zorder=1)
-                what = desc.split(":")[0].strip() or "event"
-                a2.annotate(f"{what} (t = {_num(te * scale)} {unit})",
-                            xy=(scale * te, 0.0), xycoords=("data", "axes fraction"),
-                            xytext=(5, 5), textcoords="offset points", ha="left",
-                            va="bottom", fontsize=10.5, color="0.2", zorder=7,
-                            bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7",
-                                  "alpha": 0.9})
-            ncol = _legend_columns([h.get_label() for h in handles])
-            rows = -(-len(handles) // ncol)
-            head = 0.14 + 0.3 * len(title) + 0.06 + 0.25 * len(sub) + 0.29 * rows + 0.1
-            # (inches above the axes: margin, title, subtitle, legend rows)
-            height = 4.9 + head
-            fig.set_size_inches(SIZE[0], height)
-            y = 1 - 0.14 / height
-            fig.suptitle("\n".join(title), fontsize=14, fontweight="bold", y=y, va="top",
-                         linespacing=1.2)
-            y -= (0.3 * len(title) + 0.06) / height
-            if sub:
-                fig.text(0.5, y, "\n".join(sub), ha="center", va="top", fontsize=12,
-                         color="0.15", linespacing=1.25)
-                y -= 0.25 * len(sub) / height
-            fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, y),
-                       ncol=ncol, frameon=False, handlelength=2.6, columnspacing=1.6,
-                       borderaxespad=0.0)
-            fig.align_ylabels([a1, a2])
-            fig.subplots_adjust(left=0.11, right=0.975, top=1 - head / height,
-                                bottom=0.6 / height, hspace=0.07)
+            _mark_events(task.events, x, scale, unit, a1, a2)
+            _lay_out(fig, task, handles, a1, a2)
         except BaseException:
             plt.close(fig)
             raise
     return fig
+
+
+def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> list:
+    """Each method's ‖ŵ(t)‖ on ``a1`` (a marker where it leaves the scale) and its Eq. 4.2
+    error on ``a2``; appends the legend handles; returns the error curves."""
+    from matplotlib.lines import Line2D
+
+    s = task.series
+    bottom, top = limits
+    pe_all = []
+    for i, (label, total) in enumerate(task.methods):
+        color, ls = PALETTE[i % len(PALETTE)], STYLES[i % len(STYLES)]
+        name = f"{label}: total error {_pct(total)}"
+        if label not in s:
+            handles.append(Line2D([], [], color=color, ls=ls, lw=1.6, label=name))
+            continue
+        y = np.asarray(s[label], dtype=float)
+        off = bool(np.any(y > top) or np.any(y < bottom))
+        if off:
+            peak = float(np.nanmax(y)) / float(np.nanmax(truth))
+            name += f", off scale (peak {peak:.2g}× the truth's)"
+        a1.plot(x, y, color=color, ls=ls, lw=1.6, zorder=4 - 0.1 * i)
+        ex = _exits(y, top, gap=max(1, y.size // 25))
+        if ex.size:
+            a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,
+                    color=color, clip_on=False, zorder=6)
+        handles.append(Line2D([], [], color=color, ls=ls, lw=1.6,
+                              marker="^" if off else None, ms=8, label=name))
+        pe = np.asarray(s.get(label + "__pe", np.full(x.shape, np.nan)), dtype=float)
+        pe = np.where(pe > 0, pe, np.nan)
+        pe_all.append(pe)
+        a2.plot(x, pe, color=color, ls=ls, lw=1.4)
+    return pe_all
+
+
+def _mark_events(events, x, scale: float, unit: str, a1, a2) -> None:
+    """A dashed line on both axes and a label on ``a2`` at each structure event in view."""
+    for te, desc in events:
+        if not x[0] <= scale * te <= x[-1]:
+            continue
+        for ax in (a1, a2):
+            ax.axvline(scale * te, color="0.3", ls=(0, (4, 3)), lw=1.2, zorder=1)
+        what = desc.split(":")[0].strip() or "event"
+        a2.annotate(f"{what} (t = {_num(te * scale)} {unit})",
+                    xy=(scale * te, 0.0), xycoords=("data", "axes fraction"),
+                    xytext=(5, 5), textcoords="offset points", ha="left",
+                    va="bottom", fontsize=10.5, color="0.2", zorder=7,
+                    bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7",
+                          "alpha": 0.9})
+
+
+def _lay_out(fig, task: FigureTask, handles: list, a1, a2) -> None:
+    """Title, subtitle and legend above the axes; the figure grows by their height."""
+    sub = textwrap.wrap(task.subtitle, 92) if task.subtitle else []
+    title = textwrap.wrap(task.title, 68) or [""]
+    ncol = _legend_columns([h.get_label() for h in handles])
+    rows = -(-len(handles) // ncol)
+    head = 0.14 + 0.3 * len(title) + 0.06 + 0.25 * len(sub) + 0.29 * rows + 0.1
+    # (inches above the axes: margin, title, subtitle, legend rows)
+    height = 4.9 + head
+    fig.set_size_inches(SIZE[0], height)
+    y = 1 - 0.14 / height
+    fig.suptitle("\n".join(title), fontsize=14, fontweight="bold", y=y, va="top",
+                 linespacing=1.2)
+    y -= (0.3 * len(title) + 0.06) / height
+    if sub:
+        fig.text(0.5, y, "\n".join(sub), ha="center", va="top", fontsize=12,
+                 color="0.15", linespacing=1.25)
+        y -= 0.25 * len(sub) / height
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, y),
+               ncol=ncol, frameon=False, handlelength=2.6, columnspacing=1.6,
+               borderaxespad=0.0)
+    fig.align_ylabels([a1, a2])
+    fig.subplots_adjust(left=0.11, right=0.975, top=1 - head / height,
+                        bottom=0.6 / height, hspace=0.07)
 
 
 def draw_figure(task: FigureTask) -> str | None:

@@ -396,17 +396,34 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
     figures = figures or {}
     prov = provenance(command)
     n_figs = sum(len(v) for v in figures.values())
+    toc, sections = _scenario_sections(df, scenarios, figures, figure_format)
+    fmt_note = ("" if figure_format is None else
+                f" The figure files are in <code>figures/*.{_e(figure_format)}</code> beside "
+                "this page; the page embeds them.")
+    return _page(study=study, prov=prov, stat_html=_stats(df, evaluated, n_figs), toc=toc,
+                 sections=sections, fmt_note=fmt_note,
+                 findings=_findings(evaluated, remarks, claims_path), fits=_fits_table(fits))
+
+
+def _stats(df, evaluated, n_figs: int) -> str:
+    """The counts at the top of the page (scenarios, rows, figures, claims, failures)."""
     n_ok = None if evaluated is None else sum(e["verdict"] == "reproduced" for e in evaluated)
-    stats = [(len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
-             (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
+    stats: list[tuple[object, str]] = [
+        (len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
+        (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
     if evaluated is not None:
         stats.append((f"{n_ok} / {len(evaluated)}", "claims reproduced"))
     n_failed = int((df["status"] != "ok").sum()) if len(df) else 0
     if n_failed:
         stats.append((n_failed, "rows with a failed method or twin"))
-    stat_html = "".join(f'<div class="stat"><b>{_e(v)}</b><span>{_e(t)}</span></div>'
-                        for v, t in stats)
+    return "".join(f'<div class="stat"><b>{_e(v)}</b><span>{_e(t)}</span></div>'
+                   for v, t in stats)
 
+
+def _scenario_sections(df, scenarios: dict, figures: dict,
+                       figure_format: str | None) -> tuple[list[str], list[str]]:
+    """The table of contents' links and one section per scenario (title, source,
+    description, its rows, its figures)."""
     toc = ['<a href="#results">Results</a>']
     sections = []
     for name, sub in df.groupby("scenario", sort=False):
@@ -425,12 +442,15 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
     toc += ['<a href="#findings">Findings</a>', '<a href="#fits">Fit diagnostics</a>',
             '<a href="#decomposition">Error decomposition</a>',
             '<a href="#provenance">Provenance</a>']
+    return toc, sections
+
+
+def _page(*, study: str, prov: dict, stat_html: str, toc: list[str], sections: list[str],
+          fmt_note: str, findings: str, fits: str) -> str:
+    """The whole page around its parts."""
 
     prov_html = "".join(f"<dt>{_e(k)}</dt><dd>{'<code>' + _e(v) + '</code>' if k in ('commit', 'command') else _e(v)}</dd>"  # noqa: E501
                         for k, v in prov.items())
-    fmt_note = ("" if figure_format is None else
-                f" The figure files are in <code>figures/*.{_e(figure_format)}</code> beside "
-                "this page; the page embeds them.")
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -463,12 +483,12 @@ of ‖W‖<sub>F</sub> of the target; "—" marks a component that is undefined 
 {_legend()}
 {''.join(sections)}
 <h2 id="findings">Findings</h2>
-{_findings(evaluated, remarks, claims_path)}
+{findings}
 <h2 id="fits">Fit diagnostics</h2>
 <p>What each reported method's fit measured about itself (<code>fits.csv</code>): mode count,
 fit residual, condition numbers and the deconvolution solver's amplification, growth,
 regularization and iterations.</p>
-{_fits_table(fits)}
+{fits}
 <h2 id="decomposition">Error decomposition</h2>
 {text_to_html(metrics.__doc__ or "")}
 <h2 id="provenance">Provenance</h2>

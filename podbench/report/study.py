@@ -216,7 +216,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                          f"{', '.join(FIGURE_FORMATS)}, got {figure_format!r}")
     df = summary_table(results)
     fits = fits_table(results)
-    evaluated, remarks = None, []
+    evaluated = None
+    remarks: list = []
     with replace_dir(out_dir) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
         (tmp / "summary.md").write_text(summary_markdown(df, scenarios), encoding="utf-8",

@@ -276,43 +276,12 @@ def cantilever_beam(
 
     EI = bending_stiffness(E, width, depth)
     rho_A = rho * width * depth
-    ke, me = beam_element_matrices(EI, rho_A, length / n)
-
-    nd = 2 * (n + 1)  # before clamping
-    rows, cols, kv, mv = [], [], [], []
-    local_r, local_c = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
-    for e in range(n):
-        rows.append((2 * e + local_r).ravel())
-        cols.append((2 * e + local_c).ravel())
-        kv.append(ke.ravel())
-        mv.append(me.ravel())
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    K = sp.csr_matrix((np.concatenate(kv), (rows, cols)), shape=(nd, nd))[2:, 2:]
-    M = sp.csr_matrix((np.concatenate(mv), (rows, cols)), shape=(nd, nd))[2:, 2:]
-    # exact symmetry (summation order can leave 1-ulp differences)
-    K = ((K + K.T) * 0.5).tocsr()
-    M = ((M + M.T) * 0.5).tocsr()
+    K, M = _assemble_clamped(*beam_element_matrices(EI, rho_A, length / n), n)
 
     tip = 2 * (n - 1)
-    n_dofs = 2 * n
-    C = None
-    if tip_dashpot is not None:
-        c = check_positive(tip_dashpot, "tip_dashpot", allow_zero=True)
-        C = sp.csr_matrix(([c], ([tip], [tip])), shape=(n_dofs, n_dofs))
-    variable_mass = None
-    if tip_mass is not None:
-        if not callable(tip_mass):
-            raise InputError(f"Parameter `tip_mass`: expected a callable m(t), got {tip_mass!r}")
-        variable_mass = VariableMass(
-            dof=tip, law=tip_mass,
-            description=f"tip point mass moving with the tip w DOF: {tip_mass}",
-        )
-    nonlinear = ()
-    if tip_k3 is not None:
-        nonlinear = (CubicSpring(dof=tip, k3=check_positive(tip_k3, "tip_k3", allow_zero=True)),)
-    if tip_band is not None:
-        nonlinear = nonlinear + (_tip_band(tip, tip_band),)
-
+    C = _tip_dashpot_matrix(tip, 2 * n, tip_dashpot)
+    variable_mass = _tip_variable_mass(tip, tip_mass)
+    nonlinear = _tip_springs(tip, tip_k3, tip_band)
     if modal_damping is not None:
         Cm = sp.csr_matrix(modal_damping_matrix(M, K, modal_damping))
         C = Cm if C is None else (C + Cm).tocsr()
@@ -332,23 +301,84 @@ def cantilever_beam(
         "length": length,
         "density": rho,
         "n_elements": n,
+        **_tip_metadata(tip_k3, tip_dashpot, nonlinear, modal_damping),
     }
-    if tip_k3 is not None:
-        metadata["k3"] = float(tip_k3)
-    if tip_dashpot is not None:
-        metadata["tip_dashpot"] = float(tip_dashpot)
-    if tip_band is not None:
-        band = nonlinear[-1]
-        metadata["tip_band"] = {"k": band.k, "side": band.side, "slack": band.slack,
-                                "prestretch": band.prestretch, "twin": band.twin}
-    if modal_damping is not None:
-        metadata["modal_damping"] = (float(modal_damping) if np.ndim(modal_damping) == 0
-                                     else [float(z) for z in modal_damping])
     return Structure(
         name=name, M=M, K=K, C=C, sensor_dofs=sensor_dofs, variable_mass=variable_mass,
         nonlinear=nonlinear, sensor_positions=x, sensor_labels=sensor_labels,
         dof_labels=dof_labels, description=description, source=source, metadata=metadata,
     )
+
+
+def _assemble_clamped(ke: np.ndarray, me: np.ndarray, n: int) -> tuple[sp.csr_matrix,
+                                                                         sp.csr_matrix]:
+    """``K``, ``M`` of ``n`` equal elements, node ``e`` joined to ``e + 1``, the root node's
+    two DOFs (clamped) removed; symmetrized exactly (summation order can leave 1-ulp
+    differences)."""
+    nd = 2 * (n + 1)  # before clamping
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    kv: list[np.ndarray] = []
+    mv: list[np.ndarray] = []
+    local_r, local_c = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    for e in range(n):
+        rows.append((2 * e + local_r).ravel())
+        cols.append((2 * e + local_c).ravel())
+        kv.append(ke.ravel())
+        mv.append(me.ravel())
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    K = sp.csr_matrix((np.concatenate(kv), (r, c)), shape=(nd, nd))[2:, 2:]
+    M = sp.csr_matrix((np.concatenate(mv), (r, c)), shape=(nd, nd))[2:, 2:]
+    return ((K + K.T) * 0.5).tocsr(), ((M + M.T) * 0.5).tocsr()
+
+
+def _tip_dashpot_matrix(tip: int, n_dofs: int, tip_dashpot: float | None) -> sp.csr_matrix | None:
+    """``C`` of a grounded dashpot (lbf·s/in) on the tip ``w`` DOF (None without one)."""
+    if tip_dashpot is None:
+        return None
+    c = check_positive(tip_dashpot, "tip_dashpot", allow_zero=True)
+    return sp.csr_matrix(([c], ([tip], [tip])), shape=(n_dofs, n_dofs))
+
+
+def _tip_variable_mass(tip: int, tip_mass) -> VariableMass | None:
+    """The tip point mass ``m(t)`` moving with the tip ``w`` DOF (None without one)."""
+    if tip_mass is None:
+        return None
+    if not callable(tip_mass):
+        raise InputError(f"Parameter `tip_mass`: expected a callable m(t), got {tip_mass!r}")
+    return VariableMass(
+        dof=tip, law=tip_mass,
+        description=f"tip point mass moving with the tip w DOF: {tip_mass}",
+    )
+
+
+def _tip_springs(tip: int, tip_k3: float | None,
+                 tip_band: dict | None) -> tuple[CubicSpring | OneSidedSpring, ...]:
+    """The grounded nonlinear tip springs: cubic ``k3 w³``, then the §5.2 band."""
+    nonlinear: tuple[CubicSpring | OneSidedSpring, ...] = ()
+    if tip_k3 is not None:
+        nonlinear = (CubicSpring(dof=tip, k3=check_positive(tip_k3, "tip_k3", allow_zero=True)),)
+    if tip_band is not None:
+        nonlinear = nonlinear + (_tip_band(tip, tip_band),)
+    return nonlinear
+
+
+def _tip_metadata(tip_k3: float | None, tip_dashpot: float | None,
+                  springs: tuple[CubicSpring | OneSidedSpring, ...], modal_damping) -> dict:
+    """The tip elements and damping recorded in ``metadata`` (``springs``: the band last)."""
+    metadata: dict[str, object] = {}
+    if tip_k3 is not None:
+        metadata["k3"] = float(tip_k3)
+    if tip_dashpot is not None:
+        metadata["tip_dashpot"] = float(tip_dashpot)
+    band = springs[-1] if springs else None
+    if isinstance(band, OneSidedSpring):
+        metadata["tip_band"] = {"k": band.k, "side": band.side, "slack": band.slack,
+                                "prestretch": band.prestretch, "twin": band.twin}
+    if modal_damping is not None:
+        metadata["modal_damping"] = (float(modal_damping) if np.ndim(modal_damping) == 0
+                                     else [float(z) for z in modal_damping])
+    return metadata
 
 
 _SIDES = {"positive": 1, "negative": -1, 1: 1, -1: -1}

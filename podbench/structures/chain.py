@@ -124,29 +124,64 @@ def chain(
         raise InputError(f"Parameter `mass_coupling`: |μ| must be below 0.5 to keep M "
                          f"positive definite, got {mu!r}")
 
-    # tridiagonal K: spring i (i ≥ 1) joins masses i−1 and i, spring 0 grounds mass 0
+    K = _stiffness(k, n, boundary)
+    M = _mass(m, mu)
+    C = _rayleigh(rayleigh, M, K)
+    pots = _check_dashpots(dashpots, n)
+    if pots:
+        C = _add_dashpots(C, pots, n)
+    if C is not None:
+        C = C.tocsr()
+        C.eliminate_zeros()
+
+    sensors = _sensor_dofs(sensors, n)
+    return Structure(
+        name=name, M=M, K=K, C=C, sensor_dofs=sensors,
+        sensor_positions=sensors + 1.0, sensor_labels=tuple(f"mass{i}" for i in sensors),
+        dof_labels=tuple(f"mass{i}" for i in range(n)), description=description,
+        source=source,
+        metadata={"masses": m, "springs": k, "mass_coupling": mu, "boundary": boundary,
+                  "rayleigh": rayleigh, "dashpots": [tuple(d) for d in dashpots]},
+    )
+
+
+def _stiffness(k: np.ndarray, n: int, boundary: str) -> sp.csr_matrix:
+    """Tridiagonal ``K``: spring ``i`` (i ≥ 1) joins masses i−1 and i, spring 0 grounds mass 0
+    (and spring ``n`` grounds mass n−1 in a fixed-fixed chain)."""
     diag = k[:n].copy()
     diag[:-1] += k[1:n]
     if boundary == "fixed-fixed":
         diag[-1] += k[n]
     off = -k[1:n]
-    K = sp.diags([off, diag, off], [-1, 0, 1], shape=(n, n), format="csr")
-    M = sp.diags(m, 0, shape=(n, n), format="csr")
+    return sp.diags([off, diag, off], [-1, 0, 1], shape=(n, n), format="csr")
+
+
+def _mass(m: np.ndarray, mu: float) -> sp.csr_matrix:
+    """``M = D^½ (I + μ T) D^½``, ``D = diag(m)`` (diagonal when μ = 0 or n = 1)."""
+    n = m.size
     if mu and n > 1:
         sq = np.sqrt(m)
         coupling = mu * sq[:-1] * sq[1:]
-        M = sp.diags([coupling, m, coupling], [-1, 0, 1], shape=(n, n), format="csr")
+        return sp.diags([coupling, m, coupling], [-1, 0, 1], shape=(n, n), format="csr")
+    return sp.diags(m, 0, shape=(n, n), format="csr")
 
-    C = None
-    if rayleigh is not None:
-        try:
-            alpha, beta = rayleigh
-        except (TypeError, ValueError):
-            raise InputError(f"Parameter `rayleigh`: expected (alpha, beta), got {rayleigh!r}"
-                             ) from None
-        alpha = check_positive(alpha, "rayleigh alpha", allow_zero=True)
-        beta = check_positive(beta, "rayleigh beta", allow_zero=True)
-        C = (alpha * M + beta * K).tocsr()
+
+def _rayleigh(rayleigh, M: sp.csr_matrix, K: sp.csr_matrix) -> sp.csr_matrix | None:
+    """``C = α M + β K`` (None without ``rayleigh``)."""
+    if rayleigh is None:
+        return None
+    try:
+        alpha, beta = rayleigh
+    except (TypeError, ValueError):
+        raise InputError(f"Parameter `rayleigh`: expected (alpha, beta), got {rayleigh!r}"
+                         ) from None
+    alpha = check_positive(alpha, "rayleigh alpha", allow_zero=True)
+    beta = check_positive(beta, "rayleigh beta", allow_zero=True)
+    return (alpha * M + beta * K).tocsr()
+
+
+def _check_dashpots(dashpots, n: int) -> list[tuple]:
+    """``(i, c)`` or ``(i, j, c)`` with ``0 <= i, j < n``, ``i != j`` and ``c >= 0``."""
     pots = []
     for d in dashpots:
         d = tuple(d)
@@ -161,43 +196,33 @@ def chain(
             raise InputError(f"Parameter `dashpots`: a dashpot joins two different masses, "
                              f"got {d!r}")
         pots.append((*(int(i) for i in dofs), c))
-    if pots:
-        # added one at a time onto the Rayleigh part, in the given order (as a dense
-        # C[i, j] += c would), then put in place of the entries they touch
-        acc: dict[tuple[int, int], float] = {}
+    return pots
 
-        def add(i: int, j: int, x: float) -> None:
-            if (i, j) not in acc:
-                acc[(i, j)] = 0.0 if C is None else float(C[i, j])
-            acc[(i, j)] += x
 
-        for *dofs, c in pots:
-            i = dofs[0]
-            add(i, i, c)
-            if len(dofs) == 2:
-                j = dofs[1]
-                add(j, j, c)
-                add(i, j, -c)
-                add(j, i, -c)
-        base = sp.coo_matrix((n, n)) if C is None else C.tocoo()
-        keys = np.array(list(acc), dtype=np.int64)
-        keep = ~np.isin(base.row.astype(np.int64) * n + base.col, keys[:, 0] * n + keys[:, 1])
-        C = sp.csr_matrix(
-            (np.concatenate([base.data[keep], list(acc.values())]),
-             (np.concatenate([base.row[keep], keys[:, 0]]),
-              np.concatenate([base.col[keep], keys[:, 1]]))),
-            shape=(n, n),
-        )
-    if C is not None:
-        C = C.tocsr()
-        C.eliminate_zeros()
+def _add_dashpots(C: sp.csr_matrix | None, pots: list[tuple], n: int) -> sp.csr_matrix:
+    """``C`` with the dashpots added one at a time onto the Rayleigh part, in the given order
+    (as a dense ``C[i, j] += c`` would), then put in place of the entries they touch."""
+    acc: dict[tuple[int, int], float] = {}
 
-    sensors = _sensor_dofs(sensors, n)
-    return Structure(
-        name=name, M=M, K=K, C=C, sensor_dofs=sensors,
-        sensor_positions=sensors + 1.0, sensor_labels=tuple(f"mass{i}" for i in sensors),
-        dof_labels=tuple(f"mass{i}" for i in range(n)), description=description,
-        source=source,
-        metadata={"masses": m, "springs": k, "mass_coupling": mu, "boundary": boundary,
-                  "rayleigh": rayleigh, "dashpots": [tuple(d) for d in dashpots]},
+    def add(i: int, j: int, x: float) -> None:
+        if (i, j) not in acc:
+            acc[(i, j)] = 0.0 if C is None else float(C[i, j])
+        acc[(i, j)] += x
+
+    for *dofs, c in pots:
+        i = dofs[0]
+        add(i, i, c)
+        if len(dofs) == 2:
+            j = dofs[1]
+            add(j, j, c)
+            add(i, j, -c)
+            add(j, i, -c)
+    base = sp.coo_matrix((n, n)) if C is None else C.tocoo()
+    keys = np.array(list(acc), dtype=np.int64)
+    keep = ~np.isin(base.row.astype(np.int64) * n + base.col, keys[:, 0] * n + keys[:, 1])
+    return sp.csr_matrix(
+        (np.concatenate([base.data[keep], list(acc.values())]),
+         (np.concatenate([base.row[keep], keys[:, 0]]),
+          np.concatenate([base.col[keep], keys[:, 1]]))),
+        shape=(n, n),
     )

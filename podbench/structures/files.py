@@ -39,10 +39,12 @@ from __future__ import annotations
 
 import inspect
 import os
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
+from typing import Any
 
 from podbench.core.resources import bundled_structures
 from podbench.core.userimport import UserImportError, import_module_or_file
@@ -68,9 +70,9 @@ from podbench.structures.spec import Table, fail
 from podbench.structures.structure import Structure
 from podbench.structures.truss import TubeSection, satellite_truss
 
-try:
+if sys.version_info >= (3, 11):
     import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 __all__ = [
@@ -262,7 +264,7 @@ def _with_overrides(spec: dict, overrides: dict, shown: str) -> dict:
     out = copy.deepcopy(spec)
     for dotted, value in overrides.items():
         keys = str(dotted).split(".")
-        node = out
+        node: Any = out  # a table, until a key leads to a value or to nothing
         for k in keys[:-1]:
             node = node.get(k) if isinstance(node, dict) else None
             if not isinstance(node, dict):
@@ -362,9 +364,34 @@ def _density(t: Table) -> float:
 # ---------------------------------------------------------------------------- cantilever_beam
 @register_kind("cantilever_beam")
 def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
-    b = top.table("beam", required=True)
-    kw = dict(
-        length=b.number("length", positive=True),
+    """``[beam]`` and the optional ``[damping]``, ``[tip_mass]``, ``[tip_spring]``,
+    ``[tip_dashpot]``, ``[tip_band]`` → :func:`~podbench.structures.beam.cantilever_beam`."""
+    kw = _beam_fields(top.table("beam", required=True))
+    beam = {k: kw[k] for k in ("length", "width", "depth")}
+    dm = top.table("damping")
+    if dm is not None:
+        kw["modal_damping"] = _modal_damping_field(dm, 2 * kw["n_elements"])
+    tm = top.table("tip_mass")
+    if tm is not None:
+        kw["tip_mass"] = _tip_mass_field(tm, beam, kw["density"])
+    ts = top.table("tip_spring")
+    if ts is not None:
+        kw["tip_k3"] = _tip_spring_field(ts, beam, kw["E"])
+    td = top.table("tip_dashpot")
+    if td is not None:
+        kw["tip_dashpot"] = td.number("c", nonnegative=True)
+        td.close()
+    tb = top.table("tip_band")
+    if tb is not None:
+        kw["tip_band"] = _tip_band_field(tb)
+    return cantilever_beam(name=ctx.name, **kw)
+
+
+def _beam_fields(b: Table) -> dict[str, Any]:
+    """``[beam]``: geometry (in), E (psi), density, element count and the sensor positions."""
+    length = b.number("length", positive=True)
+    kw: dict[str, Any] = dict(
+        length=length,
         width=b.number("width", positive=True),
         depth=b.number("depth", positive=True),
         E=b.number("E", positive=True),
@@ -374,81 +401,79 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
     sensors = b.numbers("sensors", None, nonnegative=True)
     if sensors is not None:
         try:
-            sensor_nodes(sensors, kw["length"], kw["n_elements"])
+            sensor_nodes(sensors, length, kw["n_elements"])
         except InputError as exc:
             b.fail("sensors", str(exc).removeprefix("Parameter `sensors`: "))
         kw["sensors"] = sensors
     b.close()
-    beam = {k: kw[k] for k in ("length", "width", "depth")}
+    return kw
 
-    dm = top.table("damping")
-    if dm is not None:
-        z = dm.numbers("modal_ratio", nonnegative=True, scalar_ok=True)
-        n_dofs = 2 * kw["n_elements"]
-        for i, zi in enumerate([z] if isinstance(z, float) else z):
-            if not zi < 1.0:
-                dm.fail("modal_ratio" if isinstance(z, float) else f"modal_ratio[{i}]",
-                        f"expected a damping ratio in [0, 1), got {zi!r}")
-        if isinstance(z, list) and len(z) > n_dofs:
-            dm.fail("modal_ratio", f"{len(z)} ratios for a model of {n_dofs} modes")
-        if n_dofs > MODAL_DAMPING_MAX_DOFS:
-            dm.fail("modal_ratio", f"modal damping builds a dense {n_dofs} x {n_dofs} matrix; "
-                                   f"at most {MODAL_DAMPING_MAX_DOFS} DOFs are supported")
-        dm.string("source", "", nonempty=False)
-        dm.close()
-        kw["modal_damping"] = z
 
-    tm = top.table("tip_mass")
-    if tm is not None:
-        law = tm.string("law", choices=("constant", "sine", "linear"))
-        scale = tm.string("scale", "absolute", choices=("absolute", "beam_mass"))
-        if law == "constant":
-            params = {"value": tm.number("value", nonnegative=True)}
-        elif law == "sine":
-            mean = tm.number("mean", nonnegative=True)
-            amp = tm.number("amplitude")
-            if abs(amp) > mean:
-                tm.fail("amplitude", f"|amplitude| = {abs(amp)!r} exceeds mean = {mean!r}: "
-                                     "the mass would become negative")
-            params = {"mean": mean, "amplitude": amp,
-                      "period": tm.number("period", positive=True),
-                      "phase": tm.number("phase", 0.0)}
-        else:
-            params = {"initial": tm.number("initial", nonnegative=True),
-                      "final": tm.number("final", nonnegative=True),
-                      "duration": tm.number("duration", positive=True)}
-        tm.close()
-        kw["tip_mass"] = tip_mass_law(law, scale=scale, density=kw["density"], **beam,
-                                      **params)
+def _modal_damping_field(dm: Table, n_dofs: int) -> list[float] | float:
+    """``[damping] modal_ratio``: one ratio, or one per mode, each in [0, 1)."""
+    z = dm.numbers("modal_ratio", nonnegative=True, scalar_ok=True)
+    for i, zi in enumerate([z] if isinstance(z, float) else z):
+        if not zi < 1.0:
+            dm.fail("modal_ratio" if isinstance(z, float) else f"modal_ratio[{i}]",
+                    f"expected a damping ratio in [0, 1), got {zi!r}")
+    if isinstance(z, list) and len(z) > n_dofs:
+        dm.fail("modal_ratio", f"{len(z)} ratios for a model of {n_dofs} modes")
+    if n_dofs > MODAL_DAMPING_MAX_DOFS:
+        dm.fail("modal_ratio", f"modal damping builds a dense {n_dofs} x {n_dofs} matrix; "
+                               f"at most {MODAL_DAMPING_MAX_DOFS} DOFs are supported")
+    dm.string("source", "", nonempty=False)
+    dm.close()
+    return z
 
-    ts = top.table("tip_spring")
-    if ts is not None:
-        key = ts.exclusive("k3", "k3_match_linear_at")
-        if key == "k3":
-            kw["tip_k3"] = ts.number("k3", nonnegative=True)
-        else:
-            w_ref = ts.number("k3_match_linear_at", positive=True)
-            kw["tip_k3"] = k3_matching_linear(tip_stiffness(E=kw["E"], **beam), w_ref)
-        ts.close()
 
-    td = top.table("tip_dashpot")
-    if td is not None:
-        kw["tip_dashpot"] = td.number("c", nonnegative=True)
-        td.close()
+def _tip_mass_field(tm: Table, beam: dict[str, float], density: float):
+    """``[tip_mass]``: the law ``m(t)`` (constant, sine or linear; absolute or beam masses)."""
+    law = tm.string("law", choices=("constant", "sine", "linear"))
+    scale = tm.string("scale", "absolute", choices=("absolute", "beam_mass"))
+    params: dict[str, float]
+    if law == "constant":
+        params = {"value": tm.number("value", nonnegative=True)}
+    elif law == "sine":
+        mean = tm.number("mean", nonnegative=True)
+        amp = tm.number("amplitude")
+        if abs(amp) > mean:
+            tm.fail("amplitude", f"|amplitude| = {abs(amp)!r} exceeds mean = {mean!r}: "
+                                 "the mass would become negative")
+        params = {"mean": mean, "amplitude": amp,
+                  "period": tm.number("period", positive=True),
+                  "phase": tm.number("phase", 0.0)}
+    else:
+        params = {"initial": tm.number("initial", nonnegative=True),
+                  "final": tm.number("final", nonnegative=True),
+                  "duration": tm.number("duration", positive=True)}
+    tm.close()
+    return tip_mass_law(law, scale=scale, density=density, **beam, **params)
 
-    tb = top.table("tip_band")
-    if tb is not None:
-        band = {"k": tb.number("k", nonnegative=True),
-                "side": tb.string("side", choices=("positive", "negative")),
-                "slack": tb.number("slack", 0.0, nonnegative=True),
-                "prestretch": tb.number("prestretch", 0.0, nonnegative=True),
-                "twin": tb.string("twin", "tangent", choices=("tangent", "free", "two_sided"))}
-        if band["slack"] > 0 and band["prestretch"] > 0:
-            tb.fail("prestretch", f"both `slack` ({band['slack']!r} in) and `prestretch` "
-                                  f"({band['prestretch']!r} in) are non-zero; at most one may be")
-        tb.close()
-        kw["tip_band"] = band
-    return cantilever_beam(name=ctx.name, **kw)
+
+def _tip_spring_field(ts: Table, beam: dict[str, float], E: float) -> float:
+    """``[tip_spring]``: ``k3`` (lbf/in³), or the k3 matching the tip stiffness at a deflection."""
+    key = ts.exclusive("k3", "k3_match_linear_at")
+    if key == "k3":
+        k3 = ts.number("k3", nonnegative=True)
+    else:
+        w_ref = ts.number("k3_match_linear_at", positive=True)
+        k3 = k3_matching_linear(tip_stiffness(E=E, **beam), w_ref)
+    ts.close()
+    return k3
+
+
+def _tip_band_field(tb: Table) -> dict[str, Any]:
+    """``[tip_band]``: the §5.2 rubber band (stiffness, side, slack or prestretch, twin)."""
+    band = {"k": tb.number("k", nonnegative=True),
+            "side": tb.string("side", choices=("positive", "negative")),
+            "slack": tb.number("slack", 0.0, nonnegative=True),
+            "prestretch": tb.number("prestretch", 0.0, nonnegative=True),
+            "twin": tb.string("twin", "tangent", choices=("tangent", "free", "two_sided"))}
+    if band["slack"] > 0 and band["prestretch"] > 0:
+        tb.fail("prestretch", f"both `slack` ({band['slack']!r} in) and `prestretch` "
+                              f"({band['prestretch']!r} in) are non-zero; at most one may be")
+    tb.close()
+    return band
 
 
 # ---------------------------------------------------------------------------- satellite_truss
@@ -467,7 +492,7 @@ def _tube(t: Table, key: str):
 def _satellite_truss(top: Table, ctx: SpecContext) -> Structure:
 
     t = top.table("truss", required=True)
-    kw = dict(
+    kw: dict[str, Any] = dict(
         n_elements=t.integer("n_elements", positive=True),
         bay_length=t.number("bay_length", positive=True),
         side=t.number("side", positive=True),
@@ -538,48 +563,18 @@ def _chain(top: Table, ctx: SpecContext) -> Structure:
 
 
 # ---------------------------------------------------------------------------- matrices
+#: A matrix read from a file: (where, for messages; the file as written; the matrix).
+_ReadMatrix = tuple[str, str, Any]
+
+
 @register_kind("matrices")
 def _matrices(top: Table, ctx: SpecContext) -> Structure:
-
+    """``[matrices]``: M, K (and C) from one .npz/.mat ``file`` or one file per matrix, the
+    sensors, then the checks (symmetric, M positive definite, K and C semi-definite)."""
     t = top.table("matrices", required=True)
     form = t.exclusive("file", "M")
     rtol = t.number("symmetry_rtol", 1e-10, positive=True)
-
-    def resolve(key):
-        rel = t.string(key)
-        path = (ctx.base_dir / rel).resolve()
-        if not path.is_file():
-            t.fail(key, f'no such file "{path}"')
-        return rel, path
-
-    mats = {}
-    if form == "file":
-        rel, path = resolve("file")
-        if path.suffix.lower() not in (".npz", ".mat"):
-            t.fail("file", f'expected a .npz or .mat file holding M, K (and C), got "{rel}"')
-        try:
-            arrays = read_arrays(path)
-        except InputError as exc:
-            t.fail("file", str(exc))
-        for key in arrays:
-            if key not in ("M", "K", "C"):
-                t.fail("file", f'"{rel}" holds an unexpected array "{key}" (expected M, K '
-                               "and optionally C)")
-        for key in ("M", "K"):
-            if key not in arrays:
-                t.fail("file", f'"{rel}" holds no matrix "{key}" (it holds {sorted(arrays)})')
-        mats = {k: (f"field `{t.field('file')}`: matrix {k} in \"{rel}\"", rel, arrays[k])
-                for k in arrays}
-    else:
-        for key in ("M", "K", "C"):
-            if key == "C" and not t.has("C"):
-                continue
-            rel, path = resolve(key)
-            try:
-                mats[key] = (f"field `{t.field(key)}` (\"{rel}\")", rel, read_matrix(path))
-            except InputError as exc:
-                t.fail(key, str(exc))
-
+    mats = _matrix_archive(t, ctx) if form == "file" else _matrix_files(t, ctx)
     sd = t.raw("sensor_dofs")
     if isinstance(sd, str):
         if sd != "all":
@@ -590,8 +585,60 @@ def _matrices(top: Table, ctx: SpecContext) -> Structure:
     positions = t.numbers("sensor_positions", None)
     t.close()
 
+    checked = _checked_matrices(mats, rtol, ctx)
+    _check_sensor_fields(t, checked["M"].shape[0], sd, labels, positions)
+    files = {k: mats[k][1] for k in mats}
+    return from_matrices(name=ctx.name, M=checked["M"], K=checked["K"], C=checked.get("C"),
+                         sensor_dofs=sd, dof_labels=labels, sensor_positions=positions,
+                         symmetry_rtol=rtol, metadata={"matrix_sources": files})
 
-    checked = {}
+
+def _matrix_path(t: Table, ctx: SpecContext, key: str) -> tuple[str, Path]:
+    """The file named by field ``key`` (relative to the structure file), checked to exist."""
+    rel = t.string(key)
+    path = (ctx.base_dir / rel).resolve()
+    if not path.is_file():
+        t.fail(key, f'no such file "{path}"')
+    return rel, path
+
+
+def _matrix_archive(t: Table, ctx: SpecContext) -> dict[str, _ReadMatrix]:
+    """``file = "x.npz"`` (or .mat): one archive holding M, K and optionally C."""
+    rel, path = _matrix_path(t, ctx, "file")
+    if path.suffix.lower() not in (".npz", ".mat"):
+        t.fail("file", f'expected a .npz or .mat file holding M, K (and C), got "{rel}"')
+    try:
+        arrays = read_arrays(path)
+    except InputError as exc:
+        t.fail("file", str(exc))
+    for key in arrays:
+        if key not in ("M", "K", "C"):
+            t.fail("file", f'"{rel}" holds an unexpected array "{key}" (expected M, K '
+                           "and optionally C)")
+    for key in ("M", "K"):
+        if key not in arrays:
+            t.fail("file", f'"{rel}" holds no matrix "{key}" (it holds {sorted(arrays)})')
+    return {k: (f"field `{t.field('file')}`: matrix {k} in \"{rel}\"", rel, arrays[k])
+            for k in arrays}
+
+
+def _matrix_files(t: Table, ctx: SpecContext) -> dict[str, _ReadMatrix]:
+    """``M = "m.mtx"``, ``K = ...`` (and ``C``): one file per matrix."""
+    mats: dict[str, _ReadMatrix] = {}
+    for key in ("M", "K", "C"):
+        if key == "C" and not t.has("C"):
+            continue
+        rel, path = _matrix_path(t, ctx, key)
+        try:
+            mats[key] = (f"field `{t.field(key)}` (\"{rel}\")", rel, read_matrix(path))
+        except InputError as exc:
+            t.fail(key, str(exc))
+    return mats
+
+
+def _checked_matrices(mats: dict[str, _ReadMatrix], rtol: float, ctx: SpecContext) -> dict:
+    """M (symmetric positive definite), then K and C (positive semi-definite, M's size)."""
+    checked: dict[str, Any] = {}
     for key in ("M", "K", "C"):
         if key in mats:
             where, _, A = mats[key]
@@ -602,19 +649,20 @@ def _matrices(top: Table, ctx: SpecContext) -> Structure:
                                             positive_semidefinite=(key != "M"))
             except InputError as exc:
                 fail(ctx.file, None, str(exc))
-    n = checked["M"].shape[0]
+    return checked
+
+
+def _check_sensor_fields(t: Table, n: int, sd: str | list[int], labels: list[str],
+                         positions: list[float] | float | None) -> None:
+    """``sensor_dofs``, ``dof_labels`` and ``sensor_positions`` against the n DOFs of M."""
     if not isinstance(sd, str) and max(sd) >= n:
         t.fail("sensor_dofs", f"DOF {max(sd)} outside [-1, {n - 1}] (M is {n} x {n})")
     if labels and len(labels) != n:
         t.fail("dof_labels", f"expected {n} labels (M is {n} x {n}), got {len(labels)}")
     n_sensors = n if isinstance(sd, str) else len(sd)
-    if positions is not None and len(positions) != n_sensors:
+    if isinstance(positions, list) and len(positions) != n_sensors:
         t.fail("sensor_positions", f"expected {n_sensors} values (one per sensor), got "
                                    f"{len(positions)}")
-    files = {k: mats[k][1] for k in mats}
-    return from_matrices(name=ctx.name, M=checked["M"], K=checked["K"], C=checked.get("C"),
-                         sensor_dofs=sd, dof_labels=labels, sensor_positions=positions,
-                         symmetry_rtol=rtol, metadata={"matrix_sources": files})
 
 
 # ---------------------------------------------------------------------------- python
@@ -624,6 +672,8 @@ _RESULT_KEYS = ("M", "K", "C", "sensor_dofs", "sensor_positions", "sensor_labels
 
 @register_kind("python")
 def _python(top: Table, ctx: SpecContext) -> Structure:
+    """``builder = "module:function"`` called with ``[parameters]``; it returns a Structure
+    or a dict of matrices (:func:`~podbench.structures.matrices.from_matrices`)."""
     target = top.string("builder")
     if target.count(":") != 1 or not all(target.split(":")):
         top.fail("builder", f'expected "module:function", got "{target}"')
@@ -634,6 +684,21 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
     if params is not None:
         params.accept_all()  # the builder's signature checks them below
 
+    func = _builder_function(top, ctx, module_name, func_name, rel)
+    _check_builder_parameters(top, params, target, func, kwargs)
+    try:
+        result = func(**kwargs)
+    except InputError:
+        raise
+    except Exception as exc:
+        top.fail("builder", f"{target} raised {type(exc).__name__}: {exc}")
+    return _builder_structure(top, ctx, target, result)
+
+
+def _builder_function(top: Table, ctx: SpecContext, module_name: str, func_name: str,
+                      rel: str | None) -> Callable[..., Any]:
+    """The builder function: from the file ``path`` if given, else the module (importable or
+    next to the structure file, :func:`~podbench.core.userimport.import_module_or_file`)."""
     if rel is not None:
         if not rel.endswith(".py"):
             top.fail("path", f'expected a Python file "name.py", got "{rel}"')
@@ -650,29 +715,32 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
     func = getattr(module, func_name, None)
     if not callable(func):
         top.fail("builder", f'module "{module_name}" has no function "{func_name}"')
+    return func
+
+
+def _check_builder_parameters(top: Table, params: Table | None, target: str,
+                              func: Callable[..., Any], kwargs: dict[str, Any]) -> None:
+    """Every ``[parameters]`` entry must be a parameter of the builder, and bind to it."""
     try:
         sig = inspect.signature(func)
     except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
-        sig = None
-    if sig is not None:
-        accepted = [p.name for p in sig.parameters.values()
-                    if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
-        if not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
-            for key in kwargs:
-                if key not in accepted:
-                    params.fail(key, f"not a parameter of {target} (its parameters: "
-                                     f"{', '.join(accepted) or 'none'})")
-        try:
-            sig.bind(**kwargs)
-        except TypeError as exc:
-            top.fail("parameters", f"do not match {target}: {exc}")
+        return
+    accepted = [p.name for p in sig.parameters.values()
+                if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    if params is not None and not any(p.kind == p.VAR_KEYWORD
+                                      for p in sig.parameters.values()):
+        for key in kwargs:
+            if key not in accepted:
+                params.fail(key, f"not a parameter of {target} (its parameters: "
+                                 f"{', '.join(accepted) or 'none'})")
     try:
-        result = func(**kwargs)
-    except InputError:
-        raise
-    except Exception as exc:
-        top.fail("builder", f"{target} raised {type(exc).__name__}: {exc}")
+        sig.bind(**kwargs)
+    except TypeError as exc:
+        top.fail("parameters", f"do not match {target}: {exc}")
 
+
+def _builder_structure(top: Table, ctx: SpecContext, target: str, result) -> Structure:
+    """The builder's result: a checked Structure, or a dict of M, K (C, sensors, ...)."""
     if isinstance(result, Structure):
         try:
             check_structure_matrices(result, f"{target} returned a Structure with")
@@ -694,4 +762,3 @@ def _python(top: Table, ctx: SpecContext) -> Structure:
     kw.setdefault("sensor_dofs", "all")
     kw["where"] = f"{target} returned"
     return from_matrices(name=ctx.name, **kw)
-

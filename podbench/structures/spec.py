@@ -13,6 +13,7 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+from typing import Literal, NoReturn, overload
 
 from podbench.errors import StructureFileError
 
@@ -27,7 +28,7 @@ class _Missing:
 MISSING = _Missing()
 
 
-def fail(file: str, field: str | None, message: str):
+def fail(file: str, field: str | None, message: str) -> NoReturn:
     """Raise the :class:`StructureFileError` for ``field`` of ``file``."""
     where = f"{file}: field `{field}`: " if field else f"{file}: "
     raise StructureFileError(where + message)
@@ -90,7 +91,7 @@ class Table:
         """Dotted name of ``key`` in this table."""
         return f"{self.prefix}.{key}" if self.prefix else key
 
-    def fail(self, key: str | None, message: str):
+    def fail(self, key: str | None, message: str) -> NoReturn:
         fail(self.file, self.field(key) if key is not None else (self.prefix or None), message)
 
     def has(self, key: str) -> bool:
@@ -212,6 +213,12 @@ class Table:
         return list(value)
 
     # ------------------------------------------------------------------ sub-tables
+    @overload
+    def table(self, key: str, *, required: Literal[True]) -> Table: ...
+
+    @overload
+    def table(self, key: str, *, required: bool = False) -> Table | None: ...
+
     def table(self, key: str, *, required: bool = False) -> Table | None:
         """The sub-table ``key`` (``None`` if absent and not required)."""
         value, present = self._get(key, MISSING if required else None)
@@ -257,7 +264,7 @@ class Table:
             return
         key = unknown[0]
         known = sorted(self._used)
-        hint = difflib.get_close_matches(key, known, n=1)
-        hint = f"; did you mean `{hint[0]}`?" if hint else ""
+        close = difflib.get_close_matches(key, known, n=1)
+        hint = f"; did you mean `{close[0]}`?" if close else ""
         where = f"[{self.prefix}]" if self.prefix else "the top level"
         self.fail(key, f"unknown field{hint} (fields of {where}: {', '.join(known) or 'none'})")

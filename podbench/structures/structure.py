@@ -475,12 +475,12 @@ class Structure:
         return replace(self, name=f"{self.name}[linear twin]", nonlinear=(), K=K)
 
     def __repr__(self) -> str:
-        kind = []
+        traits = []
         if not self.is_time_invariant:
-            kind.append("time-varying")
+            traits.append("time-varying")
         if not self.is_linear:
-            kind.append("nonlinear")
-        kind = ", ".join(kind) or "linear time-invariant"
+            traits.append("nonlinear")
+        kind = ", ".join(traits) or "linear time-invariant"
         return (
             f"Structure({self.name!r}: {self.n_dofs} DOFs, {self.n_sensors} sensors, {kind})"
         )

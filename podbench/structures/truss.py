@@ -391,59 +391,22 @@ def satellite_truss(
         bay_length=bay_length, side=side, E=E, density=rho, longeron=longeron, batten=batten,
         diagonal=diagonal, diagonal_pattern=diagonal_pattern)
     n_faces = 2 * n + 1
-    n_coord = 3 * n_faces
     free = _free_coordinates(n, supports)
     P = sp.csr_matrix((np.ones(free.size), (np.arange(free.size), free)),
-                      shape=(free.size, n_coord))
-
-    def assemble(blocks_for):
-        rows, cols, vals = [], [], []
-        for e, blk in blocks_for:
-            idx = np.arange(6 * e, 6 * e + 9)
-            r, c = np.meshgrid(idx, idx, indexing="ij")
-            rows.append(r.ravel())
-            cols.append(c.ravel())
-            vals.append(blk.ravel())
-        A = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(n_coord, n_coord))
-        return (P @ A @ P.T).tocsr()
-
-    K = assemble((e, Ke) for e in range(n))
-    M = assemble((e, Me) for e in range(n))
+                      shape=(free.size, 3 * n_faces))
+    K = _assemble_constrained(((e, Ke) for e in range(n)), P)
+    M = _assemble_constrained(((e, Me) for e in range(n)), P)
     K = ((K + K.T) * 0.5).tocsr()
     M = ((M + M.T) * 0.5).tocsr()
 
-    events = ()
+    events: tuple[StiffnessEvent, ...] = ()
     removed: tuple[int, ...] = ()
     if fracture_element is not None:
-        if isinstance(fracture_element, bool) or not isinstance(
-                fracture_element, (int, np.integer)) or not 1 <= fracture_element <= n:
-            raise InputError(f"Parameter `fracture_element`: expected an integer in [1, {n}], "
-                             f"got {fracture_element!r}")
-        fracture_time = check_positive(fracture_time, "fracture_time", allow_zero=True)
-        e = int(fracture_element) - 1
-        dK = assemble([(e, Ke)])
-        dK = (-(dK + dK.T) * 0.5).tocsr()
-        if fracture_model == "stiffness_only":
-            events = (StiffnessEvent(
-                time=fracture_time, delta_K=dK,
-                description=f"element {fracture_element} breaks: its stiffness is removed "
-                            "(its mass stays)"),)
-        else:
-            dM = assemble([(e, Me)])
-            dM = (-(dM + dM.T) * 0.5).tocsr()
-            # faces held by this element only: its middle face, and an end face of the truss
-            own = {2 * e + 1} | ({0} if e == 0 else set()) | ({n_faces - 1} if e == n - 1
-                                                                 else set())
-            removed = tuple(int(k) for k in np.flatnonzero(np.isin(free // 3, sorted(own))))
-            events = (StiffnessEvent(
-                time=fracture_time, delta_K=dK, delta_M=dM, removed_dofs=removed,
-                description=f"element {fracture_element} breaks off and disappears: its "
-                            f"stiffness and mass are removed and DOFs {list(removed)} (faces "
-                            f"{sorted(own)}) leave the model"),)
+        event = _fracture_event(fracture_element, fracture_time, fracture_model, Ke, Me, P,
+                                free, n)
+        events, removed = (event,), event.removed_dofs
 
-    b = float(bay_length)
-    face_x = np.arange(n_faces) * b
+    face_x = np.arange(n_faces) * float(bay_length)
     dof_labels = tuple(f"face{c // 3}.{COORDINATES[c % 3]}" for c in free)
     _, T = _joint_geometry(float(side))
     metadata = {
@@ -460,7 +423,7 @@ def satellite_truss(
         "element_M": Me,
         "y_top": -T["top"][0, 2],
         "y_bottom": -T["bot-"][0, 2],
-        "bay_length": b,
+        "bay_length": float(bay_length),
         "side": float(side),
         "density": rho,
         "diagonal_pattern": diagonal_pattern,
@@ -471,3 +434,53 @@ def satellite_truss(
         sensor_positions=face_x[free // 3], sensor_labels=dof_labels, dof_labels=dof_labels,
         description=description, source=source, metadata=metadata,
     )
+
+
+def _assemble_constrained(blocks, P: sp.csr_matrix) -> sp.csr_matrix:
+    """``P A Pᵀ``: the 9 × 9 element blocks ``(e, block)`` added at coordinates
+    ``6e … 6e + 8`` (element ``e`` spans faces ``2e … 2e + 2``), then restricted to the free
+    coordinates by the selection matrix ``P`` (free × all coordinates)."""
+    n_coord = P.shape[1]
+    rows, cols, vals = [], [], []
+    for e, blk in blocks:
+        idx = np.arange(6 * e, 6 * e + 9)
+        r, c = np.meshgrid(idx, idx, indexing="ij")
+        rows.append(r.ravel())
+        cols.append(c.ravel())
+        vals.append(blk.ravel())
+    A = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(n_coord, n_coord))
+    return (P @ A @ P.T).tocsr()
+
+
+def _fracture_event(fracture_element, fracture_time, model: str, Ke: np.ndarray,
+                    Me: np.ndarray, P: sp.csr_matrix, free: np.ndarray, n: int) -> StiffnessEvent:
+    """The :class:`StiffnessEvent` of element ``fracture_element`` (1-based, checked) breaking
+    at ``fracture_time`` (s): ``delta_K = −K_e``; with ``model = "element"`` also
+    ``delta_M = −M_e`` and the DOFs of the faces only this element holds removed (see the
+    module docstring)."""
+    if isinstance(fracture_element, bool) or not isinstance(
+            fracture_element, (int, np.integer)) or not 1 <= fracture_element <= n:
+        raise InputError(f"Parameter `fracture_element`: expected an integer in [1, {n}], "
+                         f"got {fracture_element!r}")
+    time = check_positive(fracture_time, "fracture_time", allow_zero=True)
+    element = int(fracture_element)
+    e = element - 1
+    dK = _assemble_constrained([(e, Ke)], P)
+    dK = (-(dK + dK.T) * 0.5).tocsr()
+    if model == "stiffness_only":
+        return StiffnessEvent(
+            time=time, delta_K=dK,
+            description=f"element {element} breaks: its stiffness is removed "
+                        "(its mass stays)")
+    dM = _assemble_constrained([(e, Me)], P)
+    dM = (-(dM + dM.T) * 0.5).tocsr()
+    # faces held by this element only: its middle face, and an end face of the truss
+    n_faces = 2 * n + 1
+    own = {2 * e + 1} | ({0} if e == 0 else set()) | ({n_faces - 1} if e == n - 1 else set())
+    removed = tuple(int(k) for k in np.flatnonzero(np.isin(free // 3, sorted(own))))
+    return StiffnessEvent(
+        time=time, delta_K=dK, delta_M=dM, removed_dofs=removed,
+        description=f"element {element} breaks off and disappears: its "
+                    f"stiffness and mass are removed and DOFs {list(removed)} (faces "
+                    f"{sorted(own)}) leave the model")

@@ -79,7 +79,7 @@ class Bound:
 
 def parse_bounds(top) -> list[Bound]:
     """The ``[[bounds]]`` tables of a claims file (``top``: its :class:`Table`)."""
-    out = []
+    out: list[Bound] = []
     for t in top.tables("bounds", []):
         b = Bound(structure=t.string("structure"),
                   measure=t.string("measure", choices=tuple(MEASURES)),

@@ -28,7 +28,8 @@ import re
 
 from podbench.core.userimport import UserImportError, import_object
 from podbench.errors import InputError, PodbenchError
-from podbench.sysid.deconvolution import make_solver
+from podbench.study.hints import did_you_mean
+from podbench.sysid.deconvolution import available_solvers, get_solver, make_solver
 from podbench.sysid.methods import BUILTIN_METHODS, Superposition
 
 __all__ = ["method_class", "build_estimator", "check_method_entry", "training_records",
@@ -53,8 +54,9 @@ def method_class(method: str, base_dir=None) -> type:
         return BUILTIN_METHODS[method]
     if not is_user_method(method):
         raise InputError(
-            f'unknown method "{method}"; built-in methods: {", ".join(BUILTIN_METHODS)}, '
-            'superposition, or "module:Class" / "file.py:Class" for a method of your own'
+            f'unknown method "{method}"{did_you_mean(method, [*BUILTIN_METHODS, "superposition"])} '
+            f'(built-in methods: {", ".join(BUILTIN_METHODS)}, '
+            'superposition, or "module:Class" / "file.py:Class" for a method of your own)'
         )
     cls = import_object(method, base_dir)
     if not inspect.isclass(cls) or not all(callable(getattr(cls, a, None))
@@ -85,6 +87,24 @@ def _resolve_user_solver(options: dict, base_dir) -> dict:
     return out
 
 
+def solver_hint(name) -> str:
+    """``; did you mean 'ls'?`` for a misspelt built-in solver name, else ""."""
+    if not isinstance(name, str) or ":" in name or name in available_solvers():
+        return ""
+    return did_you_mean(name, available_solvers())
+
+
+def solver_options_hint(solver, options) -> str:
+    """``; did you mean 'max_iter'?`` for the first key of ``options`` that is not an option
+    of the built-in solver ``solver``, else ""."""
+    if not (isinstance(solver, str) and solver in available_solvers()
+            and isinstance(options, dict)):
+        return ""
+    names = get_solver(solver)._get_param_names()
+    unknown = [k for k in options if k not in names]
+    return did_you_mean(unknown[0], names) if unknown else ""
+
+
 def build_estimator(spec, method_of, base_dir=None):
     """A fresh, unfitted estimator for a method entry.
 
@@ -109,7 +129,8 @@ def build_estimator(spec, method_of, base_dir=None):
         for key in options:
             if key not in names:
                 raise InputError(
-                    f"Parameter `{key}`: not an option of {cls.__name__} (its options: "
+                    f"Parameter `{key}`: not an option of {cls.__name__}"
+                    f"{did_you_mean(key, names)} (its options: "
                     f"{', '.join(names) or 'none'})"
                 )
     options = _resolve_user_solver(options, base_dir)
@@ -148,6 +169,10 @@ def check_method_entry(spec, method_of, base_dir=None) -> tuple[str, str] | None
         if name == "n_modes" and spec.n_modes is not None and "n_modes" not in spec.options:
             return "n_modes", msg
         if name is not None and name in spec.options:
+            if name == "solver":
+                msg += solver_hint(spec.options["solver"])
+            elif name == "solver_options":
+                msg += solver_options_hint(spec.options.get("solver"), solver_options)
             return f"options.{name}", msg
         if isinstance(solver_options, dict) and name in solver_options:
             return f"options.solver_options.{name}", msg

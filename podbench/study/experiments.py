@@ -93,7 +93,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import tomllib
 
 from podbench.core.atomic import replace_dir
 from podbench.core.response import Response
@@ -108,7 +107,7 @@ from podbench.core.threads import single_blas_thread
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import excitation_from_dict
 from podbench.structures import load_structure
-from podbench.study.scenarios import EXPERIMENT_FILE, read_excitation
+from podbench.study.scenarios import EXPERIMENT_FILE, read_excitation, read_study_file
 from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
 PRECISIONS = ("float32", "float64")
@@ -164,12 +163,7 @@ def load_experiment(path) -> Experiment:
     if path.is_dir():
         path = path / EXPERIMENT_FILE
     shown = str(path)
-    if not path.is_file():
-        raise ScenarioFileError(f"{shown}: no such experiment file")
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
+    _, doc = read_study_file(path, shown, "experiment")
     try:
         top = Table(doc, file=shown)
         e = top.table("experiment", required=True)
@@ -184,58 +178,11 @@ def load_experiment(path) -> Experiment:
         strikes0 = e.string("strikes", "one", choices=STRIKES)
         record0 = e.string("force_record", "first", choices=FORCE_RECORDS)
         e.close()
-        tests = {}
+        tests: dict[str, TestCampaign] = {}
         tt = top.table("tests", required=True)
         for tname in list(tt.data):
-            t = tt.table(tname, required=True)
-            structure = t.string("structure")
-            n = t.integer("n_samples", minimum=2, maximum=10_000_000)
-            dt = t.number("dt", positive=True)
-            if t.has("cases_from"):
-                src = t.string("cases_from")
-                if src not in tests:
-                    t.fail("cases_from", f'"{src}" is not a test defined above this one '
-                                         f"(known: {', '.join(tests) or 'none'})")
-                if t.has("cases"):
-                    t.fail("cases", "give either `cases` or `cases_from`, not both")
-                cases = dict(tests[src].cases)
-            else:
-                ct = t.table("cases", required=True)
-                cases = {}
-                for cname in list(ct.data):
-                    c = ct.table(cname, required=True)
-                    force = read_excitation(c, "force", many=True)
-                    if not force:
-                        c.fail("force", "expected a force table or an array of force tables "
-                                        "(a test starts at rest and is struck)")
-                    c.string("description", "", nonempty=False)
-                    c.close()
-                    cases[cname] = force
-                ct.close()
-                if not cases:
-                    t.fail("cases", "expected at least one case")
-            overrides = t.raw("set", {})
-            if not isinstance(overrides, dict):
-                t.fail("set", f"expected a table of dotted structure fields, got {overrides!r}")
-            own = _levels(t, None)
-            strikes = t.string("strikes", strikes0, choices=STRIKES)
-            record = t.string("force_record", record0, choices=FORCE_RECORDS)
-            scatter = t.number("amplitude_scatter", 0.0, nonnegative=True)
-            if not scatter < 0.5:
-                t.fail("amplitude_scatter", f"expected a relative scatter below 0.5, got "
-                                            f"{scatter!r}")
-            jitter = t.number("hit_jitter", 0.0, nonnegative=True)
-            if strikes == "one":
-                given = {"amplitude_scatter": scatter > 0, "hit_jitter": jitter > 0,
-                         "force_record": t.has("force_record")}
-                for key, bad in given.items():
-                    if bad:
-                        t.fail(key, 'needs strikes = "per_sensor" (one strike per sensor '
-                                    'row); with strikes = "one" every sensor sees one strike')
-            t.close()
-            tests[tname] = TestCampaign(tname, structure, n, dt, cases, dict(overrides),
-                                        None if own is None else tuple(own), strikes, record,
-                                        scatter, jitter)
+            tests[tname] = _parse_test(tt.table(tname, required=True), tname, tests,
+                                       strikes0, record0)
         tt.close()
         if not tests:
             top.fail("tests", "expected at least one [tests.<name>] table")
@@ -243,6 +190,64 @@ def load_experiment(path) -> Experiment:
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
     return Experiment(name, path.resolve(), tuple(levels), seed, tuple(on), precision, tests)
+
+
+def _parse_test(t: Table, tname: str, tests: dict, strikes0: str, record0: str) -> TestCampaign:
+    """One ``[tests.<name>]`` table (``tests``: those above it, for ``cases_from``);
+    ``strikes0`` and ``record0`` are the experiment's defaults."""
+    structure = t.string("structure")
+    n = t.integer("n_samples", minimum=2, maximum=10_000_000)
+    dt = t.number("dt", positive=True)
+    cases = _test_cases(t, tests)
+    overrides = t.raw("set", {})
+    if not isinstance(overrides, dict):
+        t.fail("set", f"expected a table of dotted structure fields, got {overrides!r}")
+    own = _levels(t, None)
+    strikes = t.string("strikes", strikes0, choices=STRIKES)
+    record = t.string("force_record", record0, choices=FORCE_RECORDS)
+    scatter = t.number("amplitude_scatter", 0.0, nonnegative=True)
+    if not scatter < 0.5:
+        t.fail("amplitude_scatter", f"expected a relative scatter below 0.5, got "
+                                    f"{scatter!r}")
+    jitter = t.number("hit_jitter", 0.0, nonnegative=True)
+    if strikes == "one":
+        given = {"amplitude_scatter": scatter > 0, "hit_jitter": jitter > 0,
+                 "force_record": t.has("force_record")}
+        for key, bad in given.items():
+            if bad:
+                t.fail(key, 'needs strikes = "per_sensor" (one strike per sensor '
+                            'row); with strikes = "one" every sensor sees one strike')
+    t.close()
+    return TestCampaign(tname, structure, n, dt, cases, dict(overrides),
+                        None if own is None else tuple(own), strikes, record, scatter, jitter)
+
+
+def _test_cases(t: Table, tests: dict) -> dict:
+    """A test's cases: its ``[tests.<name>.cases]`` (force tables), or ``cases_from`` a test
+    above it."""
+    if t.has("cases_from"):
+        src = t.string("cases_from")
+        if src not in tests:
+            t.fail("cases_from", f'"{src}" is not a test defined above this one '
+                                 f"(known: {', '.join(tests) or 'none'})")
+        if t.has("cases"):
+            t.fail("cases", "give either `cases` or `cases_from`, not both")
+        return dict(tests[src].cases)
+    ct = t.table("cases", required=True)
+    cases = {}
+    for cname in list(ct.data):
+        c = ct.table(cname, required=True)
+        force = read_excitation(c, "force", many=True)
+        if not force:
+            c.fail("force", "expected a force table or an array of force tables "
+                            "(a test starts at rest and is struck)")
+        c.string("description", "", nonempty=False)
+        c.close()
+        cases[cname] = force
+    ct.close()
+    if not cases:
+        t.fail("cases", "expected at least one case")
+    return cases
 
 
 def _levels(t: Table, default):

@@ -9,7 +9,8 @@ from pathlib import Path
 
 from podbench.core.resources import display_path
 from podbench.errors import ScenarioFileError, StructureFileError, UnknownNameError
-from podbench.structures import load_structure
+from podbench.structures import list_structures, load_structure
+from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import Scenario
 
 MEASURED = "measured"
@@ -49,7 +50,8 @@ def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.str
             return load_structure(base_entry, search_path=_structure_search(scenario),
                                   overrides=variant.set, name=entry)
         except UnknownNameError as exc:
-            raise ScenarioFileError(f"{shown}: field `variants.{entry}.structure`: {exc}") \
+            hint = did_you_mean(variant.structure, list_structures(_structure_search(scenario)))
+            raise ScenarioFileError(f"{shown}: field `variants.{entry}.structure`: {exc}{hint}") \
                 from None
         except StructureFileError as exc:
             raise ScenarioFileError(f"{shown}: field `variants.{entry}.set`: {exc}") from None
@@ -58,7 +60,10 @@ def resolve_structure(entry: str, scenario: Scenario, field: str = "scenario.str
     if entry.endswith(".toml") and not os.path.isfile(entry):
         raise ScenarioFileError(f"{display_path(scenario.path)}: field `{field}`: {entry}: no such "
                                 "structure file")
+    search = _structure_search(scenario)
     try:
-        return load_structure(entry, search_path=_structure_search(scenario))
+        return load_structure(entry, search_path=search)
     except UnknownNameError as exc:
-        raise ScenarioFileError(f"{display_path(scenario.path)}: field `{field}`: {exc}") from None
+        hint = did_you_mean(entry, [*list_structures(search), *scenario.variants])
+        raise ScenarioFileError(f"{display_path(scenario.path)}: field `{field}`: {exc}{hint}") \
+            from None

@@ -84,15 +84,27 @@ import hashlib
 import inspect
 import json
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-import tomllib
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 from podbench.core.resources import display_path as _display
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import MISSING, Table
-from podbench.study.estimators import check_method_entry, method_class, option_names
+from podbench.study.estimators import (
+    check_method_entry,
+    method_class,
+    option_names,
+    solver_hint,
+    solver_options_hint,
+)
+from podbench.study.hints import did_you_mean
 from podbench.sysid.conditioning import DETREND_KINDS, Conditioning
 from podbench.sysid.deconvolution import make_solver
 from podbench.sysid.methods import BUILTIN_METHODS as _METHOD_CLASSES
@@ -158,7 +170,7 @@ class Case:
 
     def spec(self) -> dict:
         """A JSON-able description (used in cache keys)."""
-        out = {
+        out: dict[str, object] = {
             "initial_displacement": self.initial_displacement,
             "initial_velocity": self.initial_velocity,
             "force": list(self.force),
@@ -298,21 +310,33 @@ def load_scenario(path, *, _stack: tuple = ()) -> Scenario:
     """
     path = Path(path)
     shown = _display(path)
+    raw, doc = read_study_file(path, shown, "scenario")
+    try:
+        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest(), _stack)
+    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
+        raise ScenarioFileError(str(exc)) from None
+
+
+def read_study_file(path: Path, shown: str, what: str) -> tuple[bytes, dict]:
+    """The bytes of a study's TOML file (a scenario, an experiment) and its parsed table.
+
+    Raises
+    ------
+    ScenarioFileError
+        ``<shown>: no such <what> file``, a TOML syntax error, text that is not UTF-8, a file
+        that cannot be read.
+    """
     if not path.is_file():
-        raise ScenarioFileError(f"{shown}: no such scenario file")
+        raise ScenarioFileError(f"{shown}: no such {what} file")
     try:
         raw = path.read_bytes()
-        doc = tomllib.loads(raw.decode("utf-8"))
+        return raw, tomllib.loads(raw.decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioFileError(f"{shown}: not UTF-8 text ({exc})") from None
     except OSError as exc:
         raise ScenarioFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
-    try:
-        return _parse(doc, path, shown, hashlib.sha256(raw).hexdigest(), _stack)
-    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
-        raise ScenarioFileError(str(exc)) from None
 
 
 def _load_base(sc: Table, path: Path, rel: str, stack: tuple) -> Scenario:
@@ -336,6 +360,34 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
         sc.fail("name", f'"{name}" does not match the file name "{path.name}"')
     base_rel = sc.string("base", None)
     base = None if base_rel is None else _load_base(sc, path, base_rel, stack)
+    head = _parse_header(sc, base)
+    variants = {**(base.variants if base is not None else {}),
+                **_parse_variants(top, head["structures"])}
+    if base is not None:
+        digest = hashlib.sha256((digest + base.digest).encode("ascii")).hexdigest()
+    cases = _parse_cases(top, base)
+    for i, tname in enumerate(head["targets"]):
+        _check_case(sc, f"targets[{i}]", tname, cases)
+    methods = _parse_methods(top, base, cases)
+    _check_method_labels(top, methods)
+    _check_method_options(top, methods, path.parent)
+    sweep_t = top.table("sweep")
+    sweep = (base.sweep if base is not None else None) if sweep_t is None \
+        else _parse_sweep(sweep_t, path.parent)
+    cond_t = top.table("conditioning")
+    conditioning = (base.conditioning if base is not None else None) if cond_t is None \
+        else _parse_conditioning(cond_t)
+    top.close()
+    return Scenario(
+        name=name, **head, cases=cases, methods=tuple(methods), path=path.resolve(),
+        digest=digest, sweep=sweep, variants=variants,
+        base=None if base is None else base.path, conditioning=conditioning,
+    )
+
+
+def _parse_header(sc: Table, base: Scenario | None) -> dict[str, Any]:
+    """The fields of the ``[scenario]`` table after ``name`` and ``base`` (a field left out
+    is inherited from ``base``), checked; closes the table."""
 
     def inherited(attr):
         return MISSING if base is None else getattr(base, attr)
@@ -358,46 +410,54 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
     if not targets:
         sc.fail("targets", "expected at least one target case")
     sc.close()
-    variants = {**(base.variants if base is not None else {}), **_parse_variants(top, structures)}
-    if base is not None:
-        digest = hashlib.sha256((digest + base.digest).encode("ascii")).hexdigest()
+    return {"title": title, "source": source, "description": description.strip(),
+            "structures": tuple(structures), "n_samples": n_samples, "dt": dt,
+            "engine": engine, "targets": tuple(targets)}
 
+
+def _parse_cases(top: Table, base: Scenario | None) -> dict[str, Case]:
+    """The ``[cases.<name>]`` tables, added to (or replacing) those of ``base``."""
     cases_t = top.table("cases", required=base is None)
     cases = {} if base is None else dict(base.cases)
-    for cname in list(cases_t.data if cases_t is not None else ()):
-        ct = cases_t.table(cname, required=True)
-        force = read_excitation(ct, "force", many=True)
-        case = Case(
-            name=cname,
-            initial_displacement=read_excitation(ct, "initial_displacement", many=False),
-            initial_velocity=read_excitation(ct, "initial_velocity", many=False),
-            force=force,
-            description=ct.string("description", "", nonempty=False),
-            force_fields=tuple(f"force[{i}]" if isinstance(ct.data["force"], list) else "force"
-                               for i in range(len(force))),
-            file=ct.string("file", None),
-        )
-        excited = not (case.initial_displacement is None and case.initial_velocity is None
-                       and not case.force)
-        if case.file is not None and excited:
-            ct.fail("file", "a case is either a measured record (`file`) or excitations "
-                            "(" + ", ".join(_EXCITATION_KEYS) + "), not both")
-        if case.file is None and not excited:
-            ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS)
-                    + " (or a measured record: `file`)")
-        ct.close()
-        cases[cname] = case
     if cases_t is not None:
+        for cname in list(cases_t.data):
+            cases[cname] = _parse_case(cases_t.table(cname, required=True), cname)
         cases_t.close()
+    return cases
 
-    def check_case(t: Table, key: str, cname: str):
-        if cname not in cases:
-            t.fail(key, f'unknown case "{cname}"; the file defines: {", ".join(cases)}')
 
-    for i, tname in enumerate(targets):
-        check_case(sc, f"targets[{i}]", tname)
+def _parse_case(ct: Table, cname: str) -> Case:
+    force = read_excitation(ct, "force", many=True)
+    case = Case(
+        name=cname,
+        initial_displacement=read_excitation(ct, "initial_displacement", many=False),
+        initial_velocity=read_excitation(ct, "initial_velocity", many=False),
+        force=force,
+        description=ct.string("description", "", nonempty=False),
+        force_fields=tuple(f"force[{i}]" if isinstance(ct.data["force"], list) else "force"
+                           for i in range(len(force))),
+        file=ct.string("file", None),
+    )
+    excited = not (case.initial_displacement is None and case.initial_velocity is None
+                   and not case.force)
+    if case.file is not None and excited:
+        ct.fail("file", "a case is either a measured record (`file`) or excitations "
+                        "(" + ", ".join(_EXCITATION_KEYS) + "), not both")
+    if case.file is None and not excited:
+        ct.fail(None, "a case needs at least one of " + ", ".join(_EXCITATION_KEYS)
+                + " (or a measured record: `file`)")
+    ct.close()
+    return case
 
-    methods = []
+
+def _check_case(t: Table, key: str, cname: str, cases: dict) -> None:
+    if cname not in cases:
+        t.fail(key, f'unknown case "{cname}"; the file defines: {", ".join(cases)}')
+
+
+def _parse_methods(top: Table, base: Scenario | None, cases: dict) -> list[MethodSpec]:
+    """The ``[[methods]]`` entries, or those of ``base`` (their cases checked against ours)."""
+    methods: list[MethodSpec] = []
     mtables = top.tables("methods", [] if base is not None else MISSING)
     if not mtables and base is None:
         top.fail("methods", "expected at least one [[methods]] entry")
@@ -405,33 +465,43 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
         methods = list(base.methods)
         for i, m in enumerate(methods):
             for j, c in enumerate(m.train):
-                check_case(top, f"methods[{i}].train[{j}] (inherited)", c)
+                _check_case(top, f"methods[{i}].train[{j}] (inherited)", c, cases)
     for mt in mtables:
-        label = mt.string("label")
-        method = mt.string("method")
-        if method not in BUILTIN_METHODS and ":" not in method:
-            mt.fail("method", f'unknown method "{method}"; built-in methods: '
-                              f'{", ".join(BUILTIN_METHODS)}, or "module:Class" / '
-                              f'"file.py:Class" for a method of your own')
-        parts = ()
-        if method == "superposition":
-            parts = tuple(mt.strings("parts"))
-            train = ()
-        else:
-            train = tuple(mt.strings("train"))
-            if not train:
-                mt.fail("train", "expected at least one training case")
-            for j, c in enumerate(train):
-                check_case(mt, f"train[{j}]", c)
-        n_modes = mt.integer("n_modes", None, minimum=1)
-        options = mt.raw("options", {})
-        if not isinstance(options, dict):
-            mt.fail("options", f"expected a table of keyword arguments, got {options!r}")
-        twin = mt.string("twin", None)
-        report = mt.boolean("report", True)
-        mt.close()
-        methods.append(MethodSpec(label=label, method=method, train=train, n_modes=n_modes,
-                                  options=dict(options), twin=twin, report=report, parts=parts))
+        methods.append(_parse_method(mt, cases))
+    return methods
+
+
+def _parse_method(mt: Table, cases: dict) -> MethodSpec:
+    label = mt.string("label")
+    method = mt.string("method")
+    if method not in BUILTIN_METHODS and ":" not in method:
+        mt.fail("method", f'unknown method "{method}"{did_you_mean(method, BUILTIN_METHODS)} '
+                          f'(built-in methods: {", ".join(BUILTIN_METHODS)}, or "module:Class" '
+                          f'/ "file.py:Class" for a method of your own)')
+    parts: tuple[str, ...] = ()
+    if method == "superposition":
+        parts = tuple(mt.strings("parts"))
+        train: tuple[str, ...] = ()
+    else:
+        train = tuple(mt.strings("train"))
+        if not train:
+            mt.fail("train", "expected at least one training case")
+        for j, c in enumerate(train):
+            _check_case(mt, f"train[{j}]", c, cases)
+    n_modes = mt.integer("n_modes", None, minimum=1)
+    options = mt.raw("options", {})
+    if not isinstance(options, dict):
+        mt.fail("options", f"expected a table of keyword arguments, got {options!r}")
+    twin = mt.string("twin", None)
+    report = mt.boolean("report", True)
+    mt.close()
+    return MethodSpec(label=label, method=method, train=train, n_modes=n_modes,
+                      options=dict(options), twin=twin, report=report, parts=parts)
+
+
+def _check_method_labels(top: Table, methods: list[MethodSpec]) -> None:
+    """Labels unique; every twin and part an existing label (a part not a superposition);
+    at least one reported method."""
     labels = [m.label for m in methods]
     for i, m in enumerate(methods):
         if m.label in labels[:i]:
@@ -452,21 +522,6 @@ def _parse(doc: dict, path: Path, shown: str, digest: str, stack: tuple = ()) ->
                                                 "parts instead")
     if not any(m.report for m in methods):
         top.fail("methods", "every method has report = false: nothing would be tabulated")
-    _check_method_options(top, methods, path.parent)
-    sweep_t = top.table("sweep")
-    sweep = (base.sweep if base is not None else None) if sweep_t is None \
-        else _parse_sweep(sweep_t, path.parent)
-    cond_t = top.table("conditioning")
-    conditioning = (base.conditioning if base is not None else None) if cond_t is None \
-        else _parse_conditioning(cond_t)
-    top.close()
-    return Scenario(
-        name=name, title=title, source=source, description=description.strip(),
-        structures=tuple(structures), n_samples=n_samples, dt=dt, engine=engine,
-        targets=tuple(targets), cases=cases, methods=tuple(methods), path=path.resolve(),
-        digest=digest, sweep=sweep, variants=variants,
-        base=None if base is None else base.path, conditioning=conditioning,
-    )
 
 
 def _parse_variants(top: Table, structures) -> dict:
@@ -525,26 +580,15 @@ def _unique(t: Table, key: str, values) -> None:
 
 def _parse_sweep(t: Table, folder: Path) -> Sweep:
 
-    if "snr_db" in t.data:
-        if "noise" in t.data:
-            t.fail("snr_db", "give the noise levels either as `noise` or as `snr_db`, not both")
-        snr = t.numbers("snr_db", None)
-        if not snr:
-            t.fail("snr_db", "expected a non-empty array of SNRs in dB")
-        _unique(t, "snr_db", snr)
-        if any(not math.isfinite(x) for x in snr):
-            t.fail("snr_db", f"expected finite numbers of dB, got {snr}")
-        noise = tuple(level_from_snr_db(x) for x in snr)
-    else:
-        noise = tuple(t.numbers("noise", [0.0], nonnegative=True))
+    noise = _sweep_noise(t)
     _unique(t, "noise", noise)
     noise_model = t.string("noise_model", "per_channel", choices=NOISE_MODELS)
     force_offset = t.number("force_offset", 0.0)
     force_drift = t.number("force_drift", 0.0)
-    n_modes = t.integers("n_modes", None, minimum=1)
-    if n_modes is not None:
-        _unique(t, "n_modes", n_modes)
-        n_modes = tuple(n_modes)
+    modes = t.integers("n_modes", None, minimum=1)
+    if modes is not None:
+        _unique(t, "n_modes", modes)
+    n_modes = None if modes is None else tuple(modes)
     seeds = tuple(t.integers("seeds", [0], minimum=0))
     _unique(t, "seeds", seeds)
     noise_on = t.strings("noise_on", ["W", "F"])
@@ -556,38 +600,61 @@ def _parse_sweep(t: Table, folder: Path) -> Sweep:
                                      f'{", ".join(NOISE_QUANTITIES)}')
     _unique(t, "noise_on", noise_on)
     coupled_train = t.string("coupled_train", "first", choices=COUPLED_TRAIN)
-    solvers = None
-    raw = t.raw("solvers", None)
-    if raw is not None:
-        if not isinstance(raw, list) or not raw:
-            t.fail("solvers", f"expected a non-empty array of solver names or tables, got {raw!r}")
-        solvers = []
-        for i, item in enumerate(raw):
-            where = f"solvers[{i}]"
-            if isinstance(item, str):
-                name, options, label = item, {}, item
-            elif isinstance(item, dict):
-                st = Table(item, file=t.file, prefix=t.field(where))
-                name = st.string("solver")
-                options = st.raw("options", {})
-                if not isinstance(options, dict):
-                    st.fail("options", f"expected a table of solver keyword options, got "
-                                       f"{options!r}")
-                label = st.string("label", name)
-                st.close()
-            else:
-                t.fail(where, f"expected a solver name or a table with `solver`, got {item!r}")
-            try:  # bound to the solver's constructor now, before any simulation
-                make_solver(name, options, base_dir=folder)
-            except InputError as exc:
-                t.fail(where, " ".join(str(exc).split()))
-            solvers.append(SolverChoice(label=label, solver=name, options=dict(options)))
-        _unique(t, "solvers (labels)", [c.label for c in solvers])
-        solvers = tuple(solvers)
+    solvers = _sweep_solvers(t, folder)
     t.close()
     return Sweep(noise=noise, n_modes=n_modes, seeds=seeds, solvers=solvers,
                  noise_on=tuple(noise_on), coupled_train=coupled_train,
                  noise_model=noise_model, force_offset=force_offset, force_drift=force_drift)
+
+
+def _sweep_noise(t: Table) -> tuple[float, ...]:
+    """The noise levels of a ``[sweep]`` table: ``noise``, or ``snr_db`` converted."""
+    if "snr_db" not in t.data:
+        return tuple(t.numbers("noise", [0.0], nonnegative=True))
+    if "noise" in t.data:
+        t.fail("snr_db", "give the noise levels either as `noise` or as `snr_db`, not both")
+    snr = t.numbers("snr_db", None)
+    if not snr:
+        t.fail("snr_db", "expected a non-empty array of SNRs in dB")
+    _unique(t, "snr_db", snr)
+    if any(not math.isfinite(x) for x in snr):
+        t.fail("snr_db", f"expected finite numbers of dB, got {snr}")
+    return tuple(level_from_snr_db(x) for x in snr)
+
+
+def _sweep_solvers(t: Table, folder: Path) -> tuple[SolverChoice, ...] | None:
+    """``sweep.solvers``: names or ``{solver, options, label}`` tables, each bound to its
+    solver's constructor now, before any simulation; None when the table has none."""
+    raw = t.raw("solvers", None)
+    if raw is None:
+        return None
+    if not isinstance(raw, list) or not raw:
+        t.fail("solvers", f"expected a non-empty array of solver names or tables, got {raw!r}")
+    solvers = [_solver_choice(t, f"solvers[{i}]", item, folder) for i, item in enumerate(raw)]
+    _unique(t, "solvers (labels)", [c.label for c in solvers])
+    return tuple(solvers)
+
+
+def _solver_choice(t: Table, where: str, item, folder: Path) -> SolverChoice:
+    if isinstance(item, str):
+        name, options, label = item, {}, item
+    elif isinstance(item, dict):
+        st = Table(item, file=t.file, prefix=t.field(where))
+        name = st.string("solver")
+        options = st.raw("options", {})
+        if not isinstance(options, dict):
+            st.fail("options", f"expected a table of solver keyword options, got "
+                               f"{options!r}")
+        label = st.string("label", name)
+        st.close()
+    else:
+        t.fail(where, f"expected a solver name or a table with `solver`, got {item!r}")
+    try:  # bound to the solver's constructor now, before any simulation
+        make_solver(name, options, base_dir=folder)
+    except InputError as exc:
+        t.fail(where, " ".join(str(exc).split()) + solver_hint(name)
+               + solver_options_hint(name, options))
+    return SolverChoice(label=label, solver=name, options=dict(options))
 
 
 def _parse_conditioning(t: Table):

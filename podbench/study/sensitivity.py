@@ -81,11 +81,11 @@ def sensitivity_verdicts(claims, scenarios: dict, table, bounds=()) -> list[dict
             structure = variants[0].structure
             bound = bound_for(bounds, structure)
             if bound is not None:
-                key = (name, structure)
-                if key not in measured:
-                    measured[key] = evaluate_bounds(bound, sc, [v.name for v in variants])
+                bkey = (name, structure)
+                if bkey not in measured:
+                    measured[bkey] = evaluate_bounds(bound, sc, [v.name for v in variants])
                 for p in points:
-                    p["measure"] = measured[key]["points"][p["variant"]]
+                    p["measure"] = measured[bkey]["points"][p["variant"]]
             out.append({"claim": c, "scenario": name, "structure": structure,
                         "parameter": _parameter(variants[0])[0], "bound": bound,
                         "reference": measured[(name, structure)]["reference"]

@@ -8,10 +8,14 @@ scenario folder of methods and targets: :func:`substructuring_file` recognizes i
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import tomllib
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 from podbench.errors import ScenarioFileError
 

@@ -8,6 +8,8 @@ from conftest import CHAIN_FORCED, CHAIN_FREE
 from podbench import api, cli
 from podbench.report import study as report
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 @pytest.fixture
 def study(write_scenario, tmp_path, monkeypatch):

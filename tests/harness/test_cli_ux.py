@@ -167,6 +167,10 @@ def test_progress_plain_lines_off_a_terminal_and_nothing_when_quiet(study, capsy
         "simulating and fitting: 2/2"]
     assert "drawing figures: 2/2" in cap.err and "\r" not in cap.err
     assert "elapsed" not in cap.out  # progress never goes to stdout
+    # the first line says what runs, the last where the report is
+    assert lines[0] == ("podbench: running 2 scenarios (2 units of structure × scenario); "
+                        "then figures and report.html")
+    assert cap.out.splitlines()[-1] == f"report: {Path('results') / 'my_study' / 'report.html'}"
     assert cli.main(["run", "my_study", "--no-cache", "--quiet"]) == 0
     quiet = capsys.readouterr()
     assert quiet.err == ""

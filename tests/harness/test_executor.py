@@ -8,6 +8,8 @@ import pytest
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.executor import execute
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _square(x):
     time.sleep(0.05 * (x % 3))  # finish out of order

@@ -81,11 +81,14 @@ def _run_cli(path, tmp_path, capsys, *extra):
 
 @pytest.mark.parametrize("replace, field, needle", [
     (('method = "ML"\n', 'method = "ML"\noptions = { solverr = "ls" }\n'),
-     "methods[1].options.solverr", "not an option of MultipleLoad (its options: n_modes, solver"),
+     "methods[1].options.solverr",
+     "not an option of MultipleLoad; did you mean 'solver'? (its options: n_modes, solver"),
     (('method = "SL"\n', 'method = "SL"\noptions = { energy = 2.0 }\n'),
      "methods[0].options.energy", "must be in (0, 1]"),
     (('method = "ML"\n', 'method = "ML"\noptions = { solver = "wiener" }\n'),
      "methods[1].options.solver", "unknown solver 'wiener'"),
+    (('method = "ML"\n', 'method = "ML"\noptions = { solver = "tsl" }\n'),
+     "methods[1].options.solver", "unknown solver 'tsl'"),
     (('method = "ML"\n',
       'method = "ML"\noptions = { solver = "cgls", solver_options = { regg = 1 } }\n'),
      "methods[1].options.solver_options", "unknown option 'regg'"),
@@ -97,7 +100,7 @@ def _run_cli(path, tmp_path, capsys, *extra):
     (('method = "SL"\n', 'method = "mine.py:Nope"\n'),
      "methods[0].method", 'has no "Nope"'),
     (('method = "SL"\n', 'method = "SLL"\n'),
-     "methods[0].method", 'unknown method "SLL"'),
+     "methods[0].method", 'unknown method "SLL"; did you mean \'SL\'?'),
     (('n_modes = 5\n', 'n_modes = 0\n'), "methods[0].n_modes", "expected an integer >= 1"),
 ])
 def test_bad_method_entries_fail_at_load_on_one_line(chain, tmp_path, capsys, replace, field,

@@ -24,6 +24,8 @@ from podbench.core.resources import bundled_scenarios
 from podbench.harness.runner import NoiseSpec, run_unit
 from podbench.study.scenarios import SolverChoice
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 SCENARIO = bundled_scenarios() / "sweeps" / "beam_forced_noise.toml"
 OLD = "per_entry_rms"  # the model these numbers were measured with (module docstring)
 GRID = (3e-4, 1e-3, 3e-3, 1e-2, 3e-2)

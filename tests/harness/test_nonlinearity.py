@@ -17,6 +17,8 @@ from podbench.harness.nonlinearity import (
 )
 from podbench.structures.files import load_structure
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 T = 0.1
 W = 2 * np.pi / T
 t = np.arange(0, 2.3, 1e-4)

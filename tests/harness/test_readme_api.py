@@ -7,7 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from podbench import api as pb_api
 from podbench import cli
+
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 
@@ -63,3 +66,18 @@ def test_run_refuses_what_the_cli_refuses_with_the_same_line(tmp_path, monkeypat
     assert "did you mean 'chapter4'?" in capsys.readouterr().err
     with pytest.raises(pb.errors.InputError, match="Parameter `study`"):
         pb.run(42)
+
+
+def test_the_first_line_of_a_run_names_the_sensitivity_units_it_adds():
+    """`podbench run` (Chapter 4) also runs the claims' sensitivity study: it says so, with
+    the number of units, before any work."""
+    from podbench.study.claims import load_claims_file
+
+    paths, files = pb_api.resolve_study("chapter4")
+    scenarios = pb_api.load_scenarios(files)
+    claims = pb_api._claims_path(paths)
+    line = pb_api._announcement(files, scenarios, load_claims_file(claims), claims, True)
+    assert line == ("podbench: running 7 scenarios (15 units of structure × scenario); then "
+                    "the claims' sensitivity study (44 units of scenarios/sensitivity, for "
+                    "FINDINGS' verdicts over the unstated parameters); then figures and "
+                    "report.html")

@@ -26,6 +26,8 @@ from podbench.report.figures import FigureTask, describe_case, draw_figure, make
 from podbench.report.html import text_to_html
 from podbench.study.scenarios import Case
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 CLAIMS = """
 [[claims]]
 id = "chain-mds-exact"
@@ -363,3 +365,12 @@ def test_fits_table_writes_noise_floor_estimates_to_two_digits():
     lines = table_csv(fits_table([unit])).splitlines()
     assert lines[1].endswith(",1.9e-06") and lines[2].endswith(",1.9e-06")
     assert lines[3].endswith(",")
+
+
+def test_tables_write_a_negative_zero_as_zero_and_six_digits():
+    import pandas as pd
+
+    from podbench.harness.tables import table_csv
+
+    df = pd.DataFrame({"a": [-0.0, 1.23456789, -1e-300 * 0], "n": [1, 2, 3], "s": ["x", "y", "z"]})
+    assert table_csv(df) == "a,n,s\n0,1,x\n1.23457,2,y\n0,3,z\n"

@@ -13,6 +13,8 @@ from podbench.harness.metrics import TWIN_RTOL
 from podbench.harness.runner import run_study, run_unit
 from podbench.harness.tables import summary_table
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _rows(res):
     return {(r["structure"], r["method"], r["target"]): r for u in res for r in u.rows}

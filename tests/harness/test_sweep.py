@@ -19,6 +19,8 @@ from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep
 from podbench.report.sweep import sweep_markdown
 from podbench.study.scenarios import apply_overrides, load_scenario
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 ROOT = Path(__file__).resolve().parents[2]
 NUMERIC = ["n_modes", "total_error", "projection_error", "diagonalization_error",
            "linearization_error", "residual_error", "subspace_error", "norm_pe_median",

@@ -15,6 +15,8 @@ from podbench.study.resolve import resolve_structure
 from podbench.study.scenarios import load_scenario
 from podbench.sysid.methods.free import MDS
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 MAIN = bundled_scenarios() / "chapter4" / "truss_free_velocity.toml"
 ONE_STEP = (bundled_scenarios() / "chapter4_variants"
             / "truss_free_velocity__impulse_one_step.toml")

@@ -17,6 +17,8 @@ from ._contract import MethodContract
 from ._truth import eigenmodes, newmark, pulse, rel_err
 from .test_free_methods import _random_system
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _sl_case():
     fc = forced_case("coupled")

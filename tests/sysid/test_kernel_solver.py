@@ -17,6 +17,8 @@ from podbench.errors import InputError
 from podbench.sysid import deconvolution as dc
 from podbench.sysid.deconvolution.kernel import _apply_S, _apply_St, _factor, _scales
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _chain(n=40, k=2, noise=0.0, seed=0, dt=0.01):
     """k load cases, k modes, decaying oscillating kernels, noise relative to std(B)."""

@@ -16,6 +16,8 @@ from podbench.sysid.pod import snapshot_svd
 from ._cases import D, forced_case, free_case
 from ._truth import coupled_chain, newmark, pulse, rel_err, smooth_load
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _forced_records(case):
     return [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]

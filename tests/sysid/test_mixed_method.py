@@ -16,6 +16,8 @@ from ._cases import D, mixed_case
 from ._contract import MethodContract
 from ._truth import eigenmodes, ideal_chain, newmark, pulse, rel_err
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _mr_case(scaling="ratio"):
     mc = mixed_case("coupled")

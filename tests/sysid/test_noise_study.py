@@ -7,6 +7,8 @@ import pytest
 
 from . import noise_study as ns
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def test_truncation_keeps_sl_bounded_where_pinv_blows_up():
     """SL, ideal chain, k = 2, 5 % noise on W and F, seed 3.

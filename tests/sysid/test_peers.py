@@ -18,6 +18,8 @@ from ._cases import D, forced_case
 from ._contract import MethodContract
 from ._truth import rel_err
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _records(k=None):
     fc = forced_case("coupled")

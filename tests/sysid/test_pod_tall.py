@@ -11,8 +11,11 @@ from __future__ import annotations
 import tracemalloc
 
 import numpy as np
+import pytest
 
 from podbench.sysid.pod import method_of_snapshots, pod, snapshot_svd
+
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
 
 def _tall(m, n, r, decay, seed):

@@ -17,6 +17,8 @@ import sklearn.base
 from podbench.errors import InputError
 from podbench.sysid import deconvolution as dc
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _state_space(order=6, k=2, r=2, seed=0):
     """A stable real system of ``order`` states (complex pole pairs of radius 0.93–0.98)."""

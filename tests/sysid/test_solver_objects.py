@@ -20,6 +20,8 @@ import sklearn.base
 from podbench.errors import ConvergenceError, DimensionError, InputError, UnknownNameError
 from podbench.sysid import deconvolution as dc
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 SOLVERS = {
     "ls": dc.LeastSquares,
     "tls": dc.TruncatedTLS,

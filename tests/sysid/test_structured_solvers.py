@@ -29,6 +29,8 @@ from podbench.sysid.methods import MixedResponse, MultipleLoad, SingleLoad
 from ._cases import D, forced_case, mixed_case
 from ._truth import eigenmodes, newmark, pulse, rel_err
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 STRUCTURED = ("block", "fft", "cgls")
 
 

@@ -19,6 +19,8 @@ from podbench.sysid.deconvolution.subspace import subspace_factor, subspace_pole
 
 from .test_realization_solver import _records, _state_space
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _random_input_records(A, B, C, D, n=300, n_cases=2, dt=0.01, seed=1):
     """Records from rest under white-noise forces (persistently exciting), by the state

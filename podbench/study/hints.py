@@ -1,0 +1,17 @@
+"""The "did you mean …" hint of an unknown name (a study, structure, method, solver or
+option), shared by the readers and the API so that every such error reads alike."""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+
+def did_you_mean(name: object, choices: Iterable) -> str:
+    """``; did you mean 'SL'?`` for the closest of ``choices`` to ``name`` (letter case
+    aside: ``sl`` finds ``SL``), or ""."""
+    by_lower: dict[str, str] = {}
+    for c in map(str, choices):
+        by_lower.setdefault(c.lower(), c)
+    close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=1, cutoff=0.6)
+    return f"; did you mean {by_lower[close[0]]!r}?" if close else ""
