@@ -3,9 +3,12 @@
 import math
 
 import pandas as pd
+import pytest
 
 import podbench
 from podbench.study.substructuring import load_substructuring, substructuring_file
+
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
 STUDY = """
 [substructuring]

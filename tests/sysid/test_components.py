@@ -5,6 +5,8 @@ import pytest
 
 from podbench.sysid.components import identify_kernel, identify_lagged, temporal_basis
 
+pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
+
 
 def _ss_response(A, B, C, D, g):
     x = np.zeros(A.shape[0])
