@@ -47,15 +47,18 @@ from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
 from podbench.harness.runner import plan, response_counts, run_study
+from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
 from podbench.report.figures import make_figure
 from podbench.report.study import figure_tasks, write_study
+from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
+from podbench.study.substructuring import load_substructuring, substructuring_file
 from podbench.sysid.deconvolution import available_solvers
 
 __all__ = ["run", "StudyResult", "predict", "regress", "sweep", "experiment", "resolve_study",
@@ -312,6 +315,9 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     paths, files = resolve_study(study)
     out = Path(out) if out is not None else default_out(paths)
     output_folder(out, "--out", "summary.csv")
+    if substructuring_file(files) is not None:  # Chapter 6: a study with its own runner
+        return _run_substructuring(substructuring_file(files), out, figures, figure_format,
+                                   quiet, command or f"podbench.run({study!r})")
     scenarios = load_scenarios(files)
     _refuse_partial_over(out, scenarios, "--out")
     claims = _claims_path(paths)
@@ -394,6 +400,22 @@ def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=No
     return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
                          n_modes=n_modes, coverage=coverage, input_units=input_units,
                          output_units=output_units, units=units)
+
+
+def _run_substructuring(path, out: Path, figures: bool, figure_format: str, quiet: bool,
+                        command: str) -> StudyResult:
+    """The substructuring study (:mod:`podbench.harness.substructuring`): same output folder
+    rules as every study, its own table (``summary.csv``), ``FINDINGS.md`` and figures."""
+    study_plan = load_substructuring(path)
+    t0 = time.perf_counter()
+    rows, truths = run_substructuring(
+        study_plan, progress=None if quiet else (lambda msg: print(msg, file=sys.stderr)))
+    seconds = time.perf_counter() - t0
+    df, drawn = write_substructuring(rows, truths, out, dt=study_plan.dt, figures=figures,
+                                     figure_format=figure_format, command=command)
+    return StudyResult(out=out, summary=df, fits=pd.DataFrame(), claims=None, figures=drawn,
+                       scenarios={study_plan.name: study_plan}, seconds=seconds,
+                       simulated=len(study_plan.components), cached=0)
 
 
 # ---------------------------------------------------------------------------- regress

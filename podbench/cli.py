@@ -25,6 +25,7 @@ from podbench.errors import InputError, PodbenchError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
+from podbench.study.substructuring import substructuring_file
 from podbench.sysid.deconvolution import available_solvers
 from podbench.sysid.methods import BUILTIN_METHODS
 
@@ -362,7 +363,8 @@ def cmd_run(args) -> int:
         for folder in dict.fromkeys(Path(p).resolve().parent for p in parts):
             print(f"part of the study in {display_path(folder)}: written to {out}/, "
                   f"{api.DEFAULT_RESULTS / folder.name}/ left as it was")
-    print(f"report: {out / 'report.html'}")
+    if (out / "report.html").is_file():  # the studies with their own runner write none
+        print(f"report: {out / 'report.html'}")
     return 0
 
 
@@ -395,6 +397,9 @@ def _list_scenarios(folder: Path, indent: str) -> None:
 
     for f in sorted(folder.glob("*.toml")):
         if f.name in NOT_SCENARIOS:
+            continue
+        if substructuring_file([f]) is not None:  # Chapter 6: a study with its own runner
+            print(f"{indent}{f.stem}: Chapter 6 substructuring study (its own runner)")
             continue
         try:
             sc = load_scenario(f)

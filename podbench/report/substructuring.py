@@ -1,0 +1,213 @@
+"""Writes the substructuring study's results: ``summary.csv`` (one row per coupled run),
+``FINDINGS.md`` (medians over the noise seeds against the issue's targets, the Chapter 6
+sentences) and ``figures/`` (the coupled tip displacement against the truth). Renders the
+runner's rows; computes only medians.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from podbench.core.atomic import atomic_write_text
+
+__all__ = ["write_substructuring", "medians"]
+
+SUMMARY_COLUMNS = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise",
+                   "seed", "total_error", "diverged_at_step", "time_ratio", "growth",
+                   "record_error", "outcome", "detail", "status"]
+GROUP = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise"]
+
+QUOTES = [
+    "\"in many cases a finite element model is available before a structure is ever built "
+    "… it may be profitable to define certain components experimentally and incorporate "
+    "them into the finite element model\"",
+    "\"If the component is time-varying or nonlinear, it may be simpler to construct an "
+    "experimental model using these methods than to build a finite element model of the "
+    "component.\"",
+    "\"a two-step analysis, i.e. by simulating the response of the finite element portion of "
+    "the model, translating it into inputs for the experimental component, and using the "
+    "predicted outputs as inputs for the finite element model at the following time step\"",
+]
+
+
+def medians(df: pd.DataFrame) -> pd.DataFrame:
+    """Median error (NaN if any seed diverged), worst growth, median time ratio, seeds and
+    divergences per configuration."""
+    def agg(g):
+        err = g.total_error.to_numpy(dtype=float)
+        return pd.Series({
+            "median_error": float(np.median(err)) if np.all(np.isfinite(err)) else np.nan,
+            "max_error": float(np.max(err)) if np.all(np.isfinite(err)) else np.nan,
+            "seeds": len(g), "diverged": int(np.sum(~np.isfinite(err))),
+            "first_divergence": float(np.nanmin(g.diverged_at_step))
+            if np.any(np.isfinite(g.diverged_at_step)) else np.nan,
+            "max_growth": float(np.max(g.growth)),
+            "median_record_error": float(np.median(g.record_error))
+            if np.all(np.isfinite(g.record_error)) else np.nan,
+            "time_ratio": float(np.median(g.time_ratio))})
+    return df.groupby(GROUP, sort=False, dropna=False).apply(agg, include_groups=False
+                                                             ).reset_index()
+
+
+def _fmt(x, spec=".3g") -> str:
+    if isinstance(x, float) and not np.isfinite(x):
+        return "—"
+    return format(x, spec) if isinstance(x, float) else str(x)
+
+
+def _table(med: pd.DataFrame) -> str:
+    head = ("| component | scheme | kernel | records | n_records | noise | median error | "
+            "seeds (diverged) | first divergence | max growth | time ratio | "
+            "500-sample error |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in med.itertuples():
+        div = "" if not np.isfinite(r.first_divergence) else f"step {int(r.first_divergence)}"
+        lines.append(f"| {r.component} | {r.scheme} | {r.kernel} | {r.records or '—'} | "
+                     f"{r.n_records} | {r.noise:g} | {_fmt(r.median_error)} | {int(r.seeds)} "
+                     f"({int(r.diverged)}) | {div} | {r.max_growth:.8g} | "
+                     f"{_fmt(r.time_ratio, '.2f')} | {_fmt(r.median_record_error)} |")
+    return head + "\n".join(lines) + "\n"
+
+
+def _pick(med, **kw):
+    m = med
+    for k, v in kw.items():
+        m = m[m[k] == v]
+    return m
+
+
+def _targets(med: pd.DataFrame) -> str:
+    out = ["| target | reached |", "|---|---|"]
+    ex = _pick(med, kernel="exact", scheme="implicit")
+    out.append(f"| exact kernels ≤ 1e-10, every component | "
+               f"{', '.join(f'{r.component} {r.median_error:.2e}' for r in ex.itertuples())} |")
+    for lev, goal in ((0.01, "3 %"), (0.05, "10 %")):
+        h = _pick(med, component="chain_heavy", kernel="lti", records="acceleration",
+                  scheme="implicit", noise=lev)
+        val = "; ".join(f"{_fmt(r.median_error)} ({int(r.diverged)}/{int(r.seeds)} seeds "
+                        f"diverge within 20 × 500 steps, first at step "
+                        f"{_fmt(r.first_divergence, '.0f')}; over the 500-sample record: "
+                        f"median {_fmt(r.median_record_error)})" for r in h.itertuples())
+        out.append(f"| heavy chain, acceleration records, {lev:.0%} noise ≤ {goal} | {val} |")
+    for lev, goal in ((0.01, "1 %"), (0.05, "5 %")):
+        t = _pick(med, component="tip_mass", kernel="ltv", scheme="implicit", noise=lev)
+        val = ", ".join(f"{int(r.n_records)} records: {_fmt(r.median_error)}"
+                        for r in t.itertuples())
+        out.append(f"| ltv_beam rebuilt (identified LTV tip), {lev:.0%} ≤ {goal}, ≤ 50 records "
+                   f"| {val} |")
+    ok = med[(med.scheme == "implicit") & np.isfinite(med.median_error)]
+    out.append(f"| time_ratio ≤ 1.5 (implicit) | median {np.median(ok.time_ratio):.2f}, "
+               f"max {np.max(ok.time_ratio):.2f} |")
+    d = _pick(med, records="displacement", scheme="implicit")
+    val = ", ".join(f"{r.component} {r.noise:.0%}: {_fmt(r.median_error)} "
+                    f"({int(r.diverged)}/{int(r.seeds)} diverged, first at step "
+                    f"{_fmt(r.first_divergence, '.0f')}, growth up to {r.max_growth:.4g})"
+                    for r in d.itertuples())
+    out.append(f"| displacement records: stable at 1 % (stretch) | {val or 'not run'} |")
+    return "\n".join(out) + "\n"
+
+
+def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
+    refused = df[df.outcome == "refused"]
+    ref = refused.detail.iloc[0] if len(refused) else "(none refused)"
+    lines = [
+        "# Substructuring (Chapter 6): identified components coupled to a finite-element "
+        "model", "",
+        f"Generated by `{command}`. Parent `lti_beam`, load 500 lbf × 0.5 ms at 16 in, "
+        "n = 500, dt = 1e-4 s; truth = Newmark on the assembled system; error = "
+        "‖Y − Y_true‖_F / ‖Y_true‖_F over the beam's sensors; medians over the noise seeds "
+        "(NaN/— where any seed diverged: never a number from a diverged run).", "",
+        "## What Chapter 6 proposes", ""]
+    lines += [f"> {q}" for q in QUOTES]
+    lines += ["", "## Targets (issue 25) against what was reached", "", _targets(med),
+              "## Remarks", "",
+              "- The implicit interface solve (the component's lag-0 kernel inside the "
+              "parent's Newmark step) reproduces Newmark on the assembled system to round-off "
+              "with the exact kernels, and its growth factor is the assembled system's "
+              "(1 to round-off, undamped beam): tests/dynamics/test_coupling.py.",
+              "- The dissertation's two-step (component force from the previous step) is "
+              "stable only while the component's interface mass 1/H[0] stays below the "
+              "parent's per-step interface mass 1/(BᵀS⁻¹B) (5.8e-4 lbf·s²/in at the tip at "
+              "dt = 1e-4 s). Where the growth factor exceeds 1 podbench refuses it, e.g.:",
+              f"  `{ref}`",
+              "  The table's `first divergence` column is where the unchecked run leaves "
+              "10× the truth's peak (runs continue unloaded to 20 × 500 steps).",
+              "- Interface mass is not the whole limit: the light chain (interface mass "
+              "8.4e-5, 7× below the parent's) still makes the two-step grow (factor 1.037, "
+              "through its stiffness and the one-step lag), slowly enough that a 500-sample "
+              "record looks fine and the run leaves 10× the truth's peak only near step "
+              "1200: the growth-factor check, not the record, is what refuses it.",
+              "- `max growth` above 1 for an identified kernel with the implicit scheme: an "
+              "identified kernel need not be passive, so the coupled step can grow slowly "
+              "even where the 500-sample error is small (the `500-sample error` column); the "
+              "heavy chain's identified kernels do this at 1 % and 5 % noise, and those "
+              "runs count as diverged. Making an identified kernel passive before coupling "
+              "is not done yet.",
+              "- Time-varying tip mass: the kernel is expanded over Legendre polynomials of "
+              "the time at which the force acts and a few lags (both by hold-out over the "
+              "records), solved by podbench's dense least squares; the number of unknowns no "
+              "longer grows with the kernel's length, hence few records.", "",
+              "## Medians", "", _table(med)]
+    return "\n".join(lines)
+
+
+def _figures(rows, truths, out: Path, dt: float, fmt: str) -> list[Path]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    drawn = []
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    for comp, Yt in truths.items():
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        t = np.arange(Yt.shape[1]) * dt * 1e3
+        ax.plot(t, Yt[-1], "k", lw=2.5, label="truth (assembled Newmark)")
+        shown = set()
+        for r in rows:
+            key = (r["scheme"], r["kernel"], r.get("records", ""), r.get("noise", 0.0))
+            if r["component"] != comp or "Y" not in r or key in shown or r.get("seed", 0):
+                continue
+            if r["kernel"] not in ("none", "exact") and r["noise"] not in (0.01,):
+                continue
+            shown.add(key)
+            ax.plot(t, r["Y"][-1], lw=1, label=f"{r['scheme']}, {r['kernel']} "
+                    f"{r.get('records', '')} {r['noise']:.0%} (n_rec {r['n_records']})")
+        ax.set_xlabel("t (ms)")
+        ax.set_ylabel("tip displacement (in)")
+        ax.set_title(f"lti_beam + {comp}")
+        ax.legend(fontsize=6)
+        fig.tight_layout()
+        path = out / "figures" / f"substructuring_{comp}.{fmt}"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        drawn.append(path)
+    return drawn
+
+
+def write_substructuring(rows, truths, out, *, dt: float, figures: bool = True,
+                         figure_format: str = "png", command: str = "podbench run "
+                         "substructuring") -> tuple[pd.DataFrame, list[Path]]:
+    """Write summary.csv, FINDINGS.md and the figures; return the summary and the figures."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    # outcome: ok | refused (two-step, growth factor > 1) | diverged | failed; status (the
+    # column `podbench run` checks): "failed" only where a kernel could not be coupled at all
+    df = pd.DataFrame([{**{k: r.get(k, "") for k in SUMMARY_COLUMNS},
+                        "outcome": r.get("status", ""),
+                        "status": "failed" if r.get("status") == "failed" else "ok"}
+                       for r in rows])
+    for c in ("total_error", "diverged_at_step", "time_ratio", "growth", "noise",
+              "record_error"):
+        df[c] = pd.to_numeric(df[c], errors="coerce")
+    atomic_write_text(out / "summary.csv", df.to_csv(index=False, float_format="%.6g",
+                                                     lineterminator="\n"))
+    med = medians(df)
+    atomic_write_text(out / "medians.csv", med.to_csv(index=False, float_format="%.6g",
+                                                      lineterminator="\n"))
+    atomic_write_text(out / "FINDINGS.md", _findings(df, med, command))
+    drawn = _figures(rows, truths, out, dt, figure_format) if figures else []
+    return df, drawn

@@ -1,0 +1,124 @@
+"""The substructuring study file (Chapter 6): ``scenarios/substructuring/substructuring.toml``.
+
+A study folder whose one TOML file has a top-level ``[substructuring]`` table is not a
+scenario folder of methods and targets: :func:`substructuring_file` recognizes it and
+:func:`load_substructuring` reads it into a :class:`SubstructuringPlan` (pure data), which
+:mod:`podbench.harness.substructuring` runs.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+from podbench.errors import ScenarioFileError
+
+__all__ = ["SubstructuringPlan", "ComponentEntry", "substructuring_file", "load_substructuring",
+           "TABLE"]
+
+TABLE = "substructuring"
+
+
+@dataclass(frozen=True)
+class ComponentEntry:
+    """A component: a structure file (scaled), attached by its DOF ``component_dof`` to the
+    parent's interface DOF, or the time-varying tip mass of a structure (``tip_mass``)."""
+
+    name: str
+    structure: str
+    scale: float = 1.0
+    component_dof: int = 0
+    tip_mass: bool = False
+
+
+@dataclass(frozen=True)
+class SubstructuringPlan:
+    name: str
+    path: Path
+    parent: str
+    interface_dof: int
+    dt: float
+    n_samples: int
+    load: dict
+    noise: tuple
+    seeds: tuple
+    horizon: int
+    divergence: float
+    components: tuple
+    identification: dict = field(default_factory=dict)
+
+
+def _read(path: Path) -> dict:
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ScenarioFileError(f"{path}: cannot be read ({exc})") from None
+
+
+def substructuring_file(files) -> Path | None:
+    """The substructuring study file among ``files`` (a single TOML file with a
+    ``[substructuring]`` table), or None."""
+    files = [Path(f) for f in files]
+    if len(files) != 1 or files[0].suffix != ".toml":
+        return None
+    try:
+        text = files[0].read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):  # the scenario reader reports it, in one line
+        return None
+    if f"[{TABLE}]" not in text:
+        return None
+    try:
+        return files[0] if TABLE in tomllib.loads(text) else None
+    except tomllib.TOMLDecodeError:
+        return None
+
+
+def _get(d: dict, key: str, kind, path: Path, default=None):
+    if key not in d:
+        if default is None:
+            raise ScenarioFileError(f"{path}: {TABLE}.{key} is missing")
+        return default
+    v = d[key]
+    if kind is float and isinstance(v, int) and not isinstance(v, bool):
+        v = float(v)
+    if not isinstance(v, kind) or isinstance(v, bool):
+        raise ScenarioFileError(f"{path}: {TABLE}.{key} must be {kind.__name__}, got {v!r}")
+    return v
+
+
+def load_substructuring(path) -> SubstructuringPlan:
+    """Read and check a substructuring study file."""
+    path = Path(path)
+    raw = _read(path).get(TABLE)
+    if not isinstance(raw, dict):
+        raise ScenarioFileError(f"{path}: no [{TABLE}] table")
+    comps = []
+    for i, c in enumerate(raw.get("components", [])):
+        if not isinstance(c, dict) or "name" not in c or "structure" not in c:
+            raise ScenarioFileError(f"{path}: {TABLE}.components[{i}] needs a name and a "
+                                    "structure")
+        comps.append(ComponentEntry(name=str(c["name"]), structure=str(c["structure"]),
+                                    scale=float(c.get("scale", 1.0)),
+                                    component_dof=int(c.get("component_dof", 0)),
+                                    tip_mass=bool(c.get("tip_mass", False))))
+    if not comps:
+        raise ScenarioFileError(f"{path}: {TABLE}.components is empty")
+    noise = tuple(float(x) for x in _get(raw, "noise", list, path))
+    if any(x < 0 for x in noise):
+        raise ScenarioFileError(f"{path}: {TABLE}.noise levels must be >= 0")
+    return SubstructuringPlan(
+        name=path.parent.name, path=path,
+        parent=_get(raw, "parent", str, path), interface_dof=_get(raw, "interface_dof", int, path),
+        dt=_get(raw, "dt", float, path), n_samples=_get(raw, "n_samples", int, path),
+        load=_get(raw, "load", dict, path), noise=noise,
+        seeds=tuple(int(s) for s in _get(raw, "seeds", list, path)),
+        horizon=_get(raw, "horizon", int, path, 1),
+        divergence=_get(raw, "divergence", float, path, 10.0),
+        components=tuple(comps), identification=dict(raw.get("identification", {})))
