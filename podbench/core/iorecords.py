@@ -243,7 +243,7 @@ class IORecord:
 def unit_system_of(rec: IORecord) -> str:
     """The unit system of a record; InputError naming the record when it mixes systems."""
     try:
-        return unit_system(rec.input_units, rec.output_units)
+        return unit_system(str(rec.input_units), str(rec.output_units))
     except InputError as exc:
         raise InputError(f"{rec.name}: fields `input_units`, `output_units`: {exc}") from None
 
@@ -259,7 +259,9 @@ def convert(rec: IORecord, system: str) -> IORecord:
         new = _SYSTEM_UNIT[(q, system)]
         factor = UNITS[q][unit][1] / UNITS[q][new][1]
         out[side] = (None if arr is None else arr * factor, new)
-    return replace(rec, u=out["input"][0], y=out["output"][0], input_units=out["input"][1],
+    u = out["input"][0]
+    assert u is not None  # a record always has its inputs
+    return replace(rec, u=u, y=out["output"][0], input_units=out["input"][1],
                    output_units=out["output"][1])
 
 

@@ -153,6 +153,7 @@ def tc_fit(A: np.ndarray, B: np.ndarray, c: np.ndarray, n_obs: int, n_in: int, d
             nll = float(n_obs * np.sum(np.log(quad / n_obs)) + r * np.sum(np.log1p(s / gam)))
             if best is None or nll < best[0]:
                 best = (nll, tau, g_rel, R, V, s, W, gam)
+    assert best is not None  # the grid is never empty
     nll, tau, g_rel, R, V, s, W, gam = best
     theta = R @ (V @ (W / (s + gam)[:, None]))
     return theta, {"tau": tau, "gamma": g_rel, "neg_log_likelihood": nll}

@@ -85,6 +85,8 @@ def _channel_grams(rec: IORecord, n_lags: int, first: int):
         if f == first and L >= n_lags:
             k = n_lags * rec.n_inputs
             return g[0][:k, :k], g[1][:k], g[2]
+    if rec.y is None:
+        raise InputError(f"{rec.name}: field `outputs`: a training record needs its outputs")
     A, B, _ = record_grams(rec.u, rec.y, n_lags, first)
     g = (A, B, rec.y @ rec.y.T)
     cache[(n_lags, first)] = g
@@ -146,6 +148,11 @@ def _whiten(grams, R):
 
 class IOMethod(PODMethod):
     excitation_kind = "io"
+    # hyperparameters of the subclasses, and fitted state (declared for type checkers)
+    feedthrough: bool | str
+    lag_grid: tuple
+    reference_: IORecord
+    info_: dict
 
     def required_fields(self) -> tuple[str, ...]:
         return ("u", "y", "dt")
@@ -241,7 +248,7 @@ class IOMethod(PODMethod):
     @property
     def diagnostics_(self) -> dict:
         self._check_is_fitted()
-        out = {"n_modes": int(self.n_modes_)}
+        out: dict = {"n_modes": int(self.n_modes_)}
         out.update({k: v for k, v in self.info_.items() if isinstance(v, (int, float, str))})
         return out
 
@@ -402,7 +409,7 @@ class SingleLoadIO(MultipleLoadIO):
         if not r.collocated:
             raise InputError(
                 f"SL: {r.name}: the inputs ({r.input_quantity} at channels "
-                f"{', '.join(r.input_channels)}) are not forces at the output channels "
+                f"{', '.join(r.input_channels or ())}) are not forces at the output channels "
                 f"({', '.join(r.output_channels or ())}); SL's diagonal assumption pairs each "
                 "POM with its own modal force u_iᵀF, which base or ground inputs do not have. "
                 "Use ML (the full kernel from the measured inputs)")

@@ -48,6 +48,9 @@ def _padded(recs, U):
 class IOPeer(IOMethod):
     coupled = False
 
+    def _respond_io(self, u: np.ndarray) -> np.ndarray:  # each peer's own model
+        raise NotImplementedError
+
     def _basis(self, recs):
         Y = np.hstack([r.y for r in recs])
         Uall, s, _ = np.linalg.svd(Y, full_matrices=False)
