@@ -13,11 +13,25 @@ FLOAT_FORMAT = "%.6g"
 """Six significant digits: far above the run-to-run noise of the errors, and stable."""
 
 
+#: ``error_estimate`` (a prediction's own estimate of its total error, the band's scale) is
+#: written to three significant digits: it is an estimate (scored within a factor of 2), and
+#: its sixth digit differs between OpenBLAS kernels (measured on Chapter 4: up to 1.2e-5
+#: relative, Haswell against SkylakeX kernels), which would make the table depend on the CPU.
+ESTIMATE_DIGITS = 3
+
+
+def _significant(v: float, digits: int) -> float:
+    return float(f"{v:.{digits}g}") if np.isfinite(v) else v
+
+
 def summary_table(results) -> pd.DataFrame:
     """All rows of the unit results, in the runner's deterministic order."""
     rows = [r for u in results for r in u.rows]
     df = pd.DataFrame(rows, columns=list(COLUMNS))
     df["n_modes"] = df["n_modes"].astype(int)
+    if "error_estimate" in df and pd.api.types.is_numeric_dtype(df["error_estimate"]):
+        df["error_estimate"] = df["error_estimate"].map(
+            lambda v: _significant(v, ESTIMATE_DIGITS))
     return df
 
 

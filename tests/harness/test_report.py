@@ -377,3 +377,18 @@ def test_tables_write_a_negative_zero_as_zero_and_six_digits():
 
     df = pd.DataFrame({"a": [-0.0, 1.23456789, -1e-300 * 0], "n": [1, 2, 3], "s": ["x", "y", "z"]})
     assert table_csv(df) == "a,n,s\n0,1,x\n1.23457,2,y\n0,3,z\n"
+
+
+def test_the_summary_writes_error_estimates_to_three_digits():
+    """A prediction's error estimate moves in its sixth digit between BLAS kernels: the
+    table states it to three significant digits."""
+    from types import SimpleNamespace
+
+    from podbench.harness.runner import COLUMNS
+    from podbench.harness.tables import summary_table
+
+    row = dict.fromkeys(COLUMNS, 0.0) | {"scenario": "s", "structure": "b", "method": "ML",
+                                         "target": "t", "n_modes": 3, "status": "ok",
+                                         "error_estimate": 0.0115516}
+    df = summary_table([SimpleNamespace(rows=[row, row | {"error_estimate": 0.0115515}])])
+    assert df["error_estimate"].tolist() == [0.0116, 0.0116]
