@@ -35,6 +35,11 @@ def structure_class(name: str) -> str:
     return _CLASSES.get(name, name)
 
 
+_BAND_SCALES = ("interval_score", "constant_interval_score", "relative_half_width")
+"""Columns that scale with the band's width, whose sixth digit moves between OpenBLAS
+kernels (measured on Chapter 4's MR bands: up to 2e-5 relative): written to three digits."""
+
+
 def calibration_rows(df: pd.DataFrame, stats: list, scenarios: dict) -> pd.DataFrame:
     """One row per prediction with a band: the table's keys, class, training noise, errors,
     coverage and sharpness."""
@@ -51,6 +56,8 @@ def calibration_rows(df: pd.DataFrame, stats: list, scenarios: dict) -> pd.DataF
         for c in ("interval_score", "constant_interval_score", "relative_half_width"):
             out[c] = float("nan")
         out["source"] = ""
+    for c in _BAND_SCALES:  # the band's scale, stated to three digits (as error_estimate)
+        out[c] = out[c].map(lambda v: float(f"{v:.3g}") if np.isfinite(v) else v)
     out = out[np.isfinite(out["coverage"].astype(float))]
     out.insert(2, "class", [structure_class(s) for s in out["structure"]])
     out.insert(3, "training_noise", [
