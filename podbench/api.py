@@ -51,6 +51,7 @@ from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
 from podbench.report.figures import make_figure
+from podbench.report.painter_street import write_study as write_painter_street
 from podbench.report.study import figure_tasks, write_study
 from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
@@ -379,12 +380,10 @@ def _run_painter_street(out, figures: bool, quiet: bool) -> StudyResult:
     t0 = time.perf_counter()
     res = painter_street.run_study(
         progress=None if quiet else (lambda m: print(f"painter_street: {m}", file=sys.stderr)))
-    if not figures:
-        res["no_figures"] = True
-    painter_street.write_study(res, out)
+    drawn = write_painter_street(res, out, figures=figures)
     summary = pd.read_csv(out / "summary.csv")
     return StudyResult(out=out, summary=summary, fits=pd.read_csv(out / "fits.csv"),
-                       claims=None, figures=sorted((out / "figures").glob("*.png")),
+                       claims=None, figures=drawn,
                        scenarios={painter_street.STUDY: "leave-one-event-out"},
                        seconds=time.perf_counter() - t0, simulated=0, cached=0)
 
