@@ -25,7 +25,6 @@ from podbench.errors import InputError, PodbenchError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
-from podbench.study.substructuring import substructuring_file
 from podbench.sysid.deconvolution import available_solvers
 from podbench.sysid.methods import BUILTIN_METHODS
 
@@ -355,8 +354,9 @@ def cmd_run(args) -> int:
         print(f"claims: {n_ok} of {len(res.claims)} reproduced -> {out}/FINDINGS.md")
     failed = df[df.status != "ok"]
     if len(failed):
+        see = "summary.md" if (out / "summary.md").is_file() else "summary.csv"
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
-              "(see summary.md)")
+              f"(see {see})")
     paths, _ = api.resolve_study(args.paths)
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:
@@ -398,10 +398,12 @@ def _list_scenarios(folder: Path, indent: str) -> None:
     for f in sorted(folder.glob("*.toml")):
         if f.name in NOT_SCENARIOS:
             continue
-        if substructuring_file([f]) is not None:  # Chapter 6: a study with its own runner
-            print(f"{indent}{f.stem}: Chapter 6 substructuring study (its own runner)")
-            continue
         try:
+            own = api.own_study([f])
+            if own is not None:  # a study file naming its own runner
+                title = own.title or api.RUNNERS[own.runner].title
+                print(f"{indent}{f.stem}: {title} [its own runner: {own.runner}]")
+                continue
             sc = load_scenario(f)
         except PodbenchError as exc:
             print(f"{indent}{f.stem}: (unreadable: {_one_line(exc, 200)})")
@@ -451,8 +453,12 @@ def cmd_list(args) -> int:
             _list_scenarios(d, "  ")
     for name, d in bundled_studies().items():
         cmd = "sweep" if name == SWEEPS_STUDY else "run"
-        print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
-              f"podbench {cmd} {name}, or {name}/<scenario> for one):")
+        if _own_runner(d):
+            print(f"study bundled with podbench: {name} ({display_path(d)}; podbench run "
+                  f"{name}):")
+        else:
+            print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
+                  f"podbench {cmd} {name}, or {name}/<scenario> for one):")
         _list_scenarios(d, "  ")
     print("methods:")
     for name, cls in BUILTIN_METHODS.items():
@@ -463,7 +469,19 @@ def cmd_list(args) -> int:
     print("  superposition (sum of other methods; MR's coupled twin)")
     print("  module:Class or file.py:Class (your own; see podbench.methods.PODMethod)")
     print("deconvolution solvers: " + ", ".join(available_solvers()))
+    print("study runners (a study file's [study] runner = \"<name>\"):")
+    for name, runner in api.RUNNERS.items():
+        print(f"  {name}: {runner.title}")
     return 0
+
+
+def _own_runner(folder: Path) -> bool:
+    """Whether a study folder is one study file with its own runner."""
+    files = [f for f in folder.glob("*.toml") if f.name not in NOT_SCENARIOS]
+    try:
+        return len(files) == 1 and api.own_study(files) is not None
+    except PodbenchError:
+        return False
 
 
 def _twin_name(est) -> str:

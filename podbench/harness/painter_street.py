@@ -16,7 +16,8 @@ the peers' hold-out rule), never on the held-out event.
 
 Harness layer: it runs the methods on the data (the methods see only records) and returns
 the numbers; :mod:`podbench.report.painter_street` writes the tables, FINDINGS.md and the
-figures.
+figures, and ``scenarios/painter_street/painter_street.toml`` names this runner
+(``[study] runner = "painter_street"``, :data:`podbench.api.RUNNERS`).
 """
 
 from __future__ import annotations
