@@ -1,4 +1,4 @@
-"""Command line: ``podbench run | regress | sweep | list | experiment | predict``.
+"""Command line: ``podbench run | regress | sweep | list | experiment | predict | methods``.
 
 Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
 missing path, a malformed scenario/structure/claims file, an unknown name, a bad option, an
@@ -21,12 +21,14 @@ from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
 from podbench.core.resources import SWEEPS_STUDY, bundled_structures, bundled_studies, display_path
 from podbench.core.version import __version__
 from podbench.core.warnfmt import one_line_warnings
-from podbench.errors import InputError, PodbenchError
+from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
+from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 from podbench.sysid.deconvolution import available_solvers
 from podbench.sysid.methods import BUILTIN_METHODS
+from podbench.sysid.paramdocs import entries, parameter_help
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
@@ -82,7 +84,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list):
+    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list,
+                _add_methods):
         add(sub)
     return p
 
@@ -318,6 +321,53 @@ def _add_list(sub) -> None:
                                     "comes from, the built-in methods and the deconvolution "
                                     "solvers.")
     _add_debug(ls)
+
+
+def _add_methods(sub) -> None:
+    """``podbench methods``."""
+    m = _command(
+        sub, "methods", "the methods' and solvers' parameters: what each admits, default, "
+                        "meaning",
+        "Show the parameters of the built-in identification methods and deconvolution "
+        "solvers, as a scenario file's [[methods]] options (and solver_options) give them: "
+        "for each its name, its default, what it admits and what it does. Generated from "
+        "the declarations every check uses (podbench/sysid/params.py: the classes' "
+        "_parameter_constraints, constructor defaults and docstrings), so what is shown is "
+        "what a scenario file is checked against. Without NAME: every method and solver, "
+        "each parameter's first sentence; with NAME: the whole description.",
+        """Examples:
+  podbench methods                 # every method and solver, briefly
+  podbench methods ML tls          # the multiple-load method and the TLS solver in full
+""")
+    m.add_argument("names", nargs="*", metavar="NAME",
+                   help="a method as a scenario names it (" + ", ".join(
+                       n for n in entries() if n not in available_solvers())
+                   + ") or a solver (" + ", ".join(available_solvers()) + ")")
+    _add_debug(m)
+
+
+def _entry_name(name: str) -> str:
+    """The :func:`entries` name ``name`` means (a class name or another letter case is
+    accepted when it is unambiguous)."""
+    known = entries()
+    if name in known:
+        return name
+    found = [k for k, cls in known.items() if name.lower() in (cls.__name__.lower(), k.lower())]
+    if len(found) == 1:
+        return found[0]
+    raise UnknownNameError(f"{name}: not a built-in method or solver"
+                           f"{did_you_mean(name, known)} (podbench methods lists them)")
+
+
+def cmd_methods(args) -> int:
+    names = [_entry_name(n) for n in args.names]  # every name checked before printing
+    if not names:
+        print("Parameters of the built-in methods and deconvolution solvers, as a scenario's\n"
+              "[[methods]] options give them (podbench methods NAME: the whole description).\n")
+    for name in names or entries():
+        print(parameter_help(name, full=bool(names)))
+        print()
+    return 0
 
 
 def _plural(n: int, word: str, plural: str | None = None) -> str:
@@ -585,13 +635,16 @@ def main(argv=None) -> int:
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list, "experiment": cmd_experiment,
-                "predict": cmd_predict}[args.command](args)
+                "predict": cmd_predict, "methods": cmd_methods}[args.command](args)
     except PodbenchError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout stopped (podbench list | head): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except MemoryError as exc:
         print(f"{prog}: error: out of memory ({_one_line(exc, 300) or 'MemoryError'}); reduce "
               "n_samples, the structures or --jobs", file=sys.stderr)

@@ -260,6 +260,8 @@ class MDS(_FreeMethod):
     Parameters
     ----------
     excitation : {"displacement", "velocity"}
+        Kind of initial condition of every data set (``w0`` or ``v0``), used for training
+        and prediction.
     n_modes : int, optional
         ``k``; default the number of data sets (or ``basis.shape[1]``). Must not exceed the
         number of data sets.
