@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import csv
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -89,11 +90,13 @@ def events_table(folder=None) -> dict[str, dict]:
         return {Path(r["file"]).stem: r for r in csv.DictReader(fh)}
 
 
-@dataclass(frozen=True)
-class Config:
+class Config(NamedTuple):
+    """One configuration of the study: the ``inputs`` ("three" or "ground"), the method's
+    ``label``, ``make()`` giving the unfitted estimator and the ``note`` of summary.csv."""
+
     inputs: str
     label: str
-    make: object
+    make: Callable[[], Any]
     note: str = ""
 
 

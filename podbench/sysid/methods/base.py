@@ -234,10 +234,12 @@ class PODMethod(ParamsMixin):
                     )
         return recs
 
-    def _records_or_none(self, records, **beside) -> list[Record] | None:
-        """The training records (:meth:`_training_records`) when ``fit`` got the record form
-        (a record or a sequence of records; then none of the array-form arguments
+    def _fit_records(self, records, **beside) -> list[Record] | None:
+        """``fit``'s first step: the hyperparameters checked (:meth:`_validate_params`),
+        then the training records (:meth:`_training_records`) when ``fit`` got the record
+        form (a record or a sequence of records; then none of the array-form arguments
         ``beside`` may be given too), else None (the array form)."""
+        self._validate_params()
         if not is_record_input(records):
             return None
         for name, value in beside.items():
