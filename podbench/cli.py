@@ -318,8 +318,10 @@ def _add_list(sub) -> None:
                         description="List the structures and scenarios bundled with podbench "
                                     "and those of the current folder (./structures, "
                                     "PODBENCH_STRUCTURES, ./scenarios), each with where it "
-                                    "comes from, the built-in methods and the deconvolution "
-                                    "solvers.")
+                                    "comes from, the built-in methods, the deconvolution "
+                                    "solvers and the runners a study file may name "
+                                    "([study] runner). podbench methods shows the methods' "
+                                    "and solvers' parameters.")
     _add_debug(ls)
 
 
