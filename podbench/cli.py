@@ -275,8 +275,10 @@ def _add_predict(sub) -> None:
             "Fit METHOD on the --train record files and predict every --target file: "
             "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
             "holds outputs, units) and OUT/<target stem>.npz with the prediction W_hat "
-            "(n_out × n). Records: input/output files (inputs, outputs, dt, "
-            "input_channels, output_channels, input_units, output_units) or W/F files. "
+            "(n_out × n). Records: input/output files (.npz/.mat with inputs, outputs, dt, "
+            "input_channels, output_channels, input_units, output_units; CSV with columns "
+            "t [s], u:<channel> [unit], y:<channel> [unit]; UFF 58 with one dataset per "
+            "channel, ID line 1 u:<channel> or y:<channel>) or W/F files. "
             "Every file is checked before any fitting; OUT is written whole or not at all.",
             width=88),
         epilog="""

@@ -7,7 +7,8 @@ its ``units``, ``output_channels`` and ``dt``. ``OUT`` is built beside its place
 in whole: nothing half-written is left.
 
 Records: input/output files (``inputs``, ``outputs``, ``dt``, channels, units:
-:mod:`podbench.core.iorecords`) or today's displacement/force files (``W``, ``F``:
+:mod:`podbench.core.iorecords`; ``.npz``, ``.mat``, CSV or UFF 58, layouts in
+:mod:`podbench.core.iofiles`) or today's displacement/force files (``W``, ``F``:
 :mod:`podbench.measured`, in and lbf). Every file is read and checked against the first
 training file (``dt``, channels, quantities, units, NaN/Inf, length) before any fitting;
 the first problem is one line naming the file and the field.
@@ -25,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.core.iofiles import is_io_layout
 from podbench.core.iorecords import IORecord, check_records, convert, from_record, read_io_record
 from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
@@ -43,12 +45,17 @@ records, else plain), ``ls`` (plain least squares), ``tc`` (TC prior). Any other
 ``block``, ``cgls``) is a deconvolution solver on the kernel over the whole record."""
 
 
-def read_any(path, *, input_units=None, output_units=None, system=None) -> IORecord:
-    """An input/output record from a file (input/output layout or W/F layout)."""
+def read_any(path, *, input_units=None, output_units=None, system=None,
+             default_output_units=None) -> IORecord:
+    """An input/output record from a file (input/output layout or W/F layout; ``.npz``,
+    ``.mat``, CSV, UFF 58). ``default_output_units``: the unit of a target without outputs."""
     path = Path(path)
-    if path.suffix.lower() in (".npz", ".mat") and _has(path, "inputs"):
+    suffix = path.suffix.lower()
+    if ((suffix in (".npz", ".mat") and _has(path, "inputs"))
+            or (suffix in (".csv", ".uff", ".unv") and is_io_layout(path))):
         return read_io_record(path, input_units=input_units, output_units=output_units,
-                              require_outputs=False, system=system)
+                              require_outputs=False, system=system,
+                              default_output_units=default_output_units)
 
     rec = from_record(read_record(path), name=path.name)
     return convert(rec, system) if system else rec
@@ -115,7 +122,7 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
                          "predictions are named after it)")
     kw = dict(input_units=input_units, output_units=output_units, system=units)
     tr = [read_any(p, **kw) for p in train]
-    tg = [read_any(p, **kw) for p in targets]
+    tg = [read_any(p, **kw, default_output_units=tr[0].output_units) for p in targets]
     est = make_method(method, solver=solver, n_modes=n_modes, n_train=len(tr))
     min_samples = 2
     if getattr(est, "n_lags", None) == "auto":
