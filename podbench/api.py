@@ -392,8 +392,9 @@ def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=No
             coverage=None, input_units=None, output_units=None, units=None) -> list[dict]:
     """Fit ``method`` on the ``train`` record files and predict every ``target`` file, as
     ``podbench predict``: ``out/errors.csv`` (target, method, total_error) and
-    ``out/<target stem>.npz`` with ``W_hat``. Every file is checked before any fitting;
-    ``out`` is written whole or not at all. Returns the rows of errors.csv."""
+    ``out/<target stem>.npz`` with ``W_hat`` (with ``coverage``: ``lower``, ``upper`` in the
+    ``.npz``, ``error_estimate`` and ``coverage`` in errors.csv). Every file is checked before
+    any fitting; ``out`` is written whole or not at all. Returns the rows of errors.csv."""
     out = output_folder(out, "--out", "errors.csv")
     return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
                          n_modes=n_modes, coverage=coverage, input_units=input_units,

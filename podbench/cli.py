@@ -277,15 +277,21 @@ def _add_predict(sub) -> None:
             "Fit METHOD on the --train record files and predict every --target file: "
             "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
             "holds outputs, units) and OUT/<target stem>.npz with the prediction W_hat "
-            "(n_out × n). Records: input/output files (inputs, outputs, dt, "
-            "input_channels, output_channels, input_units, output_units) or W/F files. "
-            "Every file is checked before any fitting; OUT is written whole or not at all.",
+            "(n_out × n). Records: input/output files (.npz/.mat with inputs, outputs, dt, "
+            "input_channels, output_channels, input_units, output_units; CSV with columns "
+            "t [s], u:<channel> [unit], y:<channel> [unit]; UFF 58 with one dataset per "
+            "channel, ID line 1 u:<channel> or y:<channel>) or W/F files. "
+            "With --coverage, each prediction gets a band (lower, upper) and an error "
+            "estimate. Every file is checked before any fitting; OUT is written whole or not "
+            "at all.",
             width=88),
         epilog="""
 Examples:
   podbench predict --method ML --train a.npz b.npz c.npz --target x.npz --out pred/
   podbench predict --method FIR-LS --train ev*.npz --target new.npz --out pred/ \
       --input-units m/s^2 --output-units m/s^2     # files without unit variables
+  podbench predict --method ML --train a.csv b.csv c.csv --target x.csv --out pred/ \
+      --coverage 0.9                               # 90 % bands: lower, upper in x.npz
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     pr.add_argument("--method", required=True,
                     help="ML, FIR-LS, ERA, DMDc, OpInf (SL, MR: refused where they do not "
@@ -301,7 +307,10 @@ Examples:
                          "the whole record (records of one length)")
     pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
     pr.add_argument("--coverage", type=float, default=None, metavar="P",
-                    help="prediction band coverage (not available yet: refused)")
+                    help="prediction band coverage in (0, 1), e.g. 0.9: adds lower and "
+                         "upper to every OUT/<target stem>.npz and error_estimate, coverage "
+                         "to errors.csv; calibrated by leave-one-record-out over the "
+                         "training records (at least 3)")
     pr.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
                     help="convert every record to this unit system when it is read")
     pr.add_argument("--input-units", default=None, metavar="UNIT",
@@ -387,7 +396,10 @@ def cmd_predict(args) -> int:
                        input_units=args.input_units, output_units=args.output_units,
                        units=args.units)
     for r in rows:
-        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}")
+        band = (f", error_estimate {r['error_estimate']}, coverage "
+                f"{r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
+        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
+              f"{band}")
     print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")
     return 0
 
