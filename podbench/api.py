@@ -40,6 +40,7 @@ from podbench.core.resources import (
     resolve_bundled,
 )
 from podbench.errors import InputError, UnknownNameError
+from podbench.harness.base_excited import run_study as run_base_excited
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import run_checks
 from podbench.harness.painter_street import run_study as run_painter_street
@@ -50,6 +51,7 @@ from podbench.harness.runner import plan, response_counts, run_study
 from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
+from podbench.report.base_excited import write_study as write_base_excited
 from podbench.report.figures import make_figure
 from podbench.report.painter_street import write_study as write_painter_street
 from podbench.report.study import figure_tasks, write_study
@@ -309,7 +311,8 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     study : str, path or list of them, optional
         A bundled study or scenario name, a folder or scenario file (default: the bundled
         Chapter 4 study). A study file whose ``[study]`` table names a runner of
-        :data:`RUNNERS` (``painter_street``, ``substructuring``) is run by that runner.
+        :data:`RUNNERS` (``painter_street``, ``substructuring``, ``base_excited``) is run
+        by that runner.
     out : path, optional
         The output folder (default ``results/<study>``); it must be new, empty or a previous
         podbench output, and is replaced only when the run is complete.
@@ -437,6 +440,17 @@ def _run_painter_street(study: OwnStudy, out: Path, options: RunnerOptions) -> S
                        scenarios={plan.name: plan}, seconds=0.0, simulated=0, cached=0)
 
 
+def _run_base_excited(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyResult:
+    """The base-excited study (:mod:`podbench.harness.base_excited`): beams and truss shaken
+    at the base, acceleration and strain outputs in SI."""
+    res = run_base_excited(study.path, progress=options.say, keep_series=options.figures)
+    write_base_excited(res, out, figures=options.figures)
+    drawn = sorted((out / "figures").glob("*.png")) if options.figures else []
+    return StudyResult(out=out, summary=pd.read_csv(out / "summary.csv"),
+                       fits=pd.read_csv(out / "fits.csv"), claims=None, figures=drawn,
+                       scenarios={"base_excited": study}, seconds=0.0, simulated=0, cached=0)
+
+
 def _run_substructuring(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyResult:
     """The substructuring study of Chapter 6 (:mod:`podbench.harness.substructuring`): its
     own table (``summary.csv``, ``medians.csv``), ``FINDINGS.md`` and figures."""
@@ -455,6 +469,8 @@ RUNNERS: dict[str, Runner] = {
                              "(the Painter Street Overpass)", _run_painter_street),
     "substructuring": Runner("Chapter 6: identified components coupled to a finite-element "
                              "model", _run_substructuring),
+    "base_excited": Runner("beams and truss shaken at the base: acceleration and strain "
+                           "outputs (SI)", _run_base_excited),
 }
 """The runners a study file may name (``[study] runner = "<name>"``). A new study that is
 not scenarios of methods and targets adds its runner here (docs/ARCHITECTURE.md)."""

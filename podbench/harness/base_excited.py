@@ -1,6 +1,6 @@
 """The base-excited study: Chapter-4-style identification of structures shaken at the base.
 
-Study file (``scenarios/base_excited/study/base_excited.toml``, a ``[base_excitation]`` table):
+Study file (``scenarios/base_excited/base_excited.toml``, a ``[base_excitation]`` table):
 structures (each with ``dt`` s, ``n_samples``, the resultant ``resultant`` lbf of the
 Chapter 4 pulse, the pulse length ``pulse`` s, and the strain channels), the training and
 target base motions, the outputs. For every structure and output quantity, the records are
@@ -93,7 +93,7 @@ class BaseStudy:
 
 def study_file() -> Path:
     """The bundled study file."""
-    return bundled_scenarios() / STUDY / "study" / f"{STUDY}.toml"
+    return bundled_scenarios() / STUDY / f"{STUDY}.toml"
 
 
 def _need(where: str, table: dict, key: str, kind):
