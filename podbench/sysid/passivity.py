@@ -65,6 +65,9 @@ CHECK = 16
 """The check grid is this many times finer than the constraint grid."""
 ITERATIONS = 30
 """Refinements of the constraint grid at most."""
+ON_CIRCLE = 1e-9
+"""A pole within this of the unit circle counts as on it (an identified pole pulled onto the
+circle lands at ``|λ| = 1 ± 1e-16``, on either side depending on the BLAS kernel)."""
 TOL = 1e-10
 """A violation below ``TOL ×`` the kernel's peak frequency response counts as none."""
 
@@ -146,9 +149,12 @@ def passivity_margin(realization, quantity: str = "acceleration", *, n_grid: int
     """The smallest eigenvalue of the passivity condition over a fine grid (module
     docstring), relative to the kernel's peak frequency response, and the ``ω``
     (rad/sample) where it occurs (``0`` or ``π`` for the pole condition). Negative: not
-    passive."""
+    passive; ``−inf``: a pole on (within :data:`ON_CIRCLE`) or outside the unit circle,
+    where the condition cannot be evaluated; within ``±TOL`` it is reported as 0 (the
+    round-off of a lossless or exactly passive kernel, which would otherwise print
+    differently on another BLAS kernel)."""
     A, B, C, D = _check(realization, quantity)
-    if A.shape[0] and np.max(np.abs(np.linalg.eigvals(A))) >= 1.0:
+    if A.shape[0] and np.max(np.abs(np.linalg.eigvals(A))) >= 1.0 - ON_CIRCLE:
         return -np.inf, float("nan")
     modal = _Modal(A, B)
     w = _grid(modal.lam, n_grid)
@@ -156,8 +162,10 @@ def passivity_margin(realization, quantity: str = "acceleration", *, n_grid: int
     scale = _peak(modal, C, D, w)
     i = int(np.argmin(lw))
     if l0[0] < lw[i]:
-        return float(l0[0] / scale), 0.0 if quantity == "acceleration" else float(np.pi)
-    return float(lw[i] / scale), float(w[i])
+        m, at = float(l0[0] / scale), 0.0 if quantity == "acceleration" else float(np.pi)
+    else:
+        m, at = float(lw[i] / scale), float(w[i])
+    return (0.0 if abs(m) < TOL else m), at  # within ±TOL: round-off of a passive kernel
 
 
 def _peak(modal, C, D, w) -> float:
