@@ -77,7 +77,8 @@ class PassivityResult:
     """The passive realization ``(A, B, C, D)`` and ``info``: ``margin_before`` and
     ``margin_after`` (the smallest eigenvalue of the condition's Hermitian matrix over the
     check grid, relative to the kernel's peak response: negative = a violation),
-    ``kernel_change`` (‖ΔH‖/‖H‖ over the lags), ``poles_moved``, ``iterations``."""
+    ``kernel_change`` (‖ΔH‖/‖H‖ over the lags; 0 below ``TOL``, round-off), ``poles_moved``,
+    ``iterations``."""
 
     realization: tuple
     info: dict = field(default_factory=dict)
@@ -309,6 +310,7 @@ def enforce_passivity(realization, quantity: str = "acceleration", *, n_lags: in
     after = passivity_margin((A2, B, Cn, Dn), quantity)[0]
     Hn = np.einsum("rj,kjp->krp", th, Z)
     change = float(np.linalg.norm(Hn - Hk) / (np.linalg.norm(Hk) or 1.0))
+    change = 0.0 if change < TOL else change  # round-off of an unchanged kernel
     return PassivityResult((A2, B, Cn, Dn), {"margin_before": before, "margin_after": after,
                                             "kernel_change": change, "poles_moved": moved,
                                             "iterations": it})
