@@ -58,6 +58,9 @@ def test_reduced_study_runs_through_podbench_run(tmp_path):
 
 
 HEAVY = """
+[study]
+runner = "substructuring"
+
 [substructuring]
 parent = "lti_beam"
 interface_dof = 46
