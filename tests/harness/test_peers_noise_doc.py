@@ -33,4 +33,4 @@ def test_the_docs_table_is_the_sweeps_median_over_targets_and_seeds():
                     for lv in levels]
         assert cells == expected, (structure, method)
         seen.add((structure, method))
-    assert seen == set(zip(df.structure, df.method))  # every row of the sweep is in the docs
+    assert seen == set(zip(df.structure, df.method, strict=True))  # every sweep row is in the docs
