@@ -34,3 +34,37 @@ def test_the_docs_table_is_the_sweeps_median_over_targets_and_seeds():
         assert cells == expected, (structure, method)
         seen.add((structure, method))
     assert seen == set(zip(df.structure, df.method, strict=True))  # every sweep row is in the docs
+
+
+BEAMS = {"LTI": "lti_beam", "LTV": "ltv_beam", "NL": "nl_beam"}
+TARGETS = ("load5", "load5_half_sine", "double_hit_20")
+
+
+def _peers_rows(text: str):
+    """Rows ``| LTI | ERA (order 24) | 0.0274 | 0.0037 | 0.0139 |`` of a peers table."""
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 5 and cells[0] in BEAMS and re.fullmatch(r"[0-9.]+", cells[2]):
+            yield BEAMS[cells[0]], cells[1], cells[2:]
+
+
+def _close(printed: str, value: float) -> bool:
+    decimals = len(printed.split(".")[1]) if "." in printed else 0
+    return abs(float(printed) - value) <= 0.5 * 10 ** -decimals + 1e-12
+
+
+def test_the_readme_and_docs_peers_tables_are_results_peers():
+    """README's and docs/peers.md's tables of the peers study state results/peers's
+    total errors (to the digits they print)."""
+    df = pd.read_csv(ROOT / "results" / "peers" / "summary.csv").set_index(
+        ["structure", "method", "target"])
+    n = 0
+    for doc in ("README.md", "docs/peers.md"):
+        for structure, label, cells in _peers_rows((ROOT / doc).read_text(encoding="utf-8")):
+            method = label if (structure, label, TARGETS[0]) in df.index else \
+                re.sub(r"\s*\(.*\)$", "", label)
+            for target, printed in zip(TARGETS, cells, strict=True):
+                value = float(df.loc[(structure, method, target), "total_error"])
+                assert _close(printed, value), (doc, structure, label, target, printed, value)
+            n += 1
+    assert n >= 24  # 12 rows in each
