@@ -113,13 +113,13 @@ def _regressors(Ys, Us, lags: int):
 
 
 #: Relative singular-value cut of OKID's least squares (Eq. 1): directions of the regressor
-#: below 1e-10 of its largest singular value are dropped. NumPy's default cut (machine epsilon
+#: below 1e-8 of its largest singular value are dropped. NumPy's default cut (machine epsilon
 #: times the larger dimension, ~1e-13 here) keeps directions that carry only round-off; the
 #: observer recursion (Eq. 2) amplifies them, so that the Hankel singular values moved by 3 %
 #: and the chosen order from 12 to 19 (NL beam, peers study) between two OpenBLAS kernels, and
-#: under a 1e-15 relative perturbation of the records. At 1e-10 the same perturbations move
-#: neither (tests/sysid/test_peers.py).
-OKID_RCOND = 1e-10
+#: under a 1e-15 relative perturbation of the records. The rule: round-off (1e-16 relative)
+#: amplified by at most 1/rcond stays two digits below the tables' sixth significant digit.
+OKID_RCOND = 1e-8
 
 
 def okid_markov(Ys, Us, lags: int, n_markov: int, rcond: float = OKID_RCOND):
@@ -195,7 +195,7 @@ class ERA(PeerMethod):
         Fraction of each training record held out by the order rule (0.25).
     rcond : float
         Relative singular-value cut of OKID's least squares (Eq. 1; default
-        :data:`OKID_RCOND` = 1e-10): smaller singular values carry round-off only, which the
+        :data:`OKID_RCOND` = 1e-8): smaller singular values carry round-off only, which the
         observer recursion amplifies (the order rule's choice then depends on the BLAS
         kernel).
     excitation : {"forced", "displacement", "velocity"}
