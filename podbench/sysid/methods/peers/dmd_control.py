@@ -32,6 +32,13 @@ from podbench.sysid.params import Interval
 
 __all__ = ["DMDc"]
 
+#: Relative singular-value cut of ``Ω = [Z; V]`` when ``svd_rank_omega`` is None (the
+#: default): the rank passed to PyDMD is the number of singular values above 1e-8 of the
+#: largest. Without a cut (−1) the pseudo-inverse of Ω kept round-off directions, and the
+#: hold-out errors of the full-rank candidate moved by up to a factor 4 between two OpenBLAS
+#: kernels (peers study); the same rule as ERA's cut (round-off stays below the tables' digits).
+OMEGA_RCOND = 1e-8
+
 #: PyDMD's rank: an int >= -1 (0: optimal hard threshold, -1: none) or an energy fraction.
 _PYDMD_RANK: list = [Interval("integer", -1), Interval("number", 0, 1, closed="neither")]
 
@@ -52,8 +59,10 @@ class DMDc(PeerMethod):
         (default): chosen by the hold-out rule over ``r = 1 … d·k`` (identify from the first
         ``1 − holdout`` of every training record, simulate every training record from rest,
         the smallest ``r`` within 1 % of the best error over the last ``holdout``).
-    svd_rank_omega : int or float
-        PyDMD's ``svd_rank_omega`` (truncation of ``Ω = [Z; V]``; −1: none).
+    svd_rank_omega : int or float, optional
+        PyDMD's ``svd_rank_omega`` (truncation of ``Ω = [Z; V]``; −1: none). None
+        (default): the singular values of Ω above :data:`OMEGA_RCOND` = 1e-8 of the largest
+        (those below carry round-off only).
     holdout : float
         Fraction of each training record held out by the rank rule (0.25).
 
@@ -72,10 +81,10 @@ class DMDc(PeerMethod):
     abbreviation = "DMDc"
     _requires = ("pydmd", "DMDc", "PyDMD")
     _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
-                              "svd_rank": [None, *_PYDMD_RANK], "svd_rank_omega": _PYDMD_RANK,
+                              "svd_rank": [None, *_PYDMD_RANK], "svd_rank_omega": [None, *_PYDMD_RANK],
                               "holdout": HOLDOUT}
 
-    def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=-1,
+    def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=None,
                  holdout=0.25):
         self.n_modes = n_modes
         self.delays = delays
@@ -89,8 +98,11 @@ class DMDc(PeerMethod):
         X = np.hstack(list(Z[:, :, :-1]))
         Y = np.hstack(list(Z[:, :, 1:]))
         I = np.hstack(list(V[:, :, :-1]))  # noqa: E741 - PyDMD's name for the inputs
-        op = dmdc.DMDBUnknownOperator(svd_rank=rank, svd_rank_omega=self.svd_rank_omega,
-                                      tlsq_rank=0)
+        omega = self.svd_rank_omega
+        if omega is None:
+            sv = np.linalg.svd(np.vstack([X, I]), compute_uv=False)
+            omega = max(1, int(np.sum(sv > OMEGA_RCOND * sv[0])))
+        op = dmdc.DMDBUnknownOperator(svd_rank=rank, svd_rank_omega=omega, tlsq_rank=0)
         Ur, Bfull = op.compute_operator(X, Y, I)
         Atilde = np.real_if_close(op.as_numpy_array)
         Btilde = Ur.conj().T @ Bfull

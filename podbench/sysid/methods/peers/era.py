@@ -112,7 +112,17 @@ def _regressors(Ys, Us, lags: int):
             Ys.transpose(0, 2, 1).reshape(R * n, k_out))
 
 
-def okid_markov(Ys, Us, lags: int, n_markov: int):
+#: Relative singular-value cut of OKID's least squares (Eq. 1): directions of the regressor
+#: below 1e-8 of its largest singular value are dropped. NumPy's default cut (machine epsilon
+#: times the larger dimension, ~1e-13 here) keeps directions that carry only round-off; the
+#: observer recursion (Eq. 2) amplifies them, so that the Hankel singular values moved by 3 %
+#: and the chosen order from 12 to 19 (NL beam, peers study) between two OpenBLAS kernels, and
+#: under a 1e-15 relative perturbation of the records. The rule: round-off (1e-16 relative)
+#: amplified by at most 1/rcond stays two digits below the tables' sixth significant digit.
+OKID_RCOND = 1e-8
+
+
+def okid_markov(Ys, Us, lags: int, n_markov: int, rcond: float = OKID_RCOND):
     """System Markov parameters from forced records that start at rest (OKID, Eqs. 1–2).
 
     Parameters
@@ -125,6 +135,8 @@ def okid_markov(Ys, Us, lags: int, n_markov: int):
         Observer order ``p``.
     n_markov : int
         Number of Markov parameters returned (``h_0 … h_{n_markov−1}``).
+    rcond : float
+        Relative singular-value cut of the least squares (:data:`OKID_RCOND`).
 
     Returns
     -------
@@ -139,7 +151,7 @@ def okid_markov(Ys, Us, lags: int, n_markov: int):
     sy = float(np.sqrt(np.mean(Ys**2))) or 1.0
     su = float(np.sqrt(np.mean(Us**2))) or 1.0
     Phi, Y = _regressors(Ys / sy, Us / su, lags)
-    theta, *_ = np.linalg.lstsq(Phi, Y, rcond=None)
+    theta, *_ = np.linalg.lstsq(Phi, Y, rcond=rcond)
     ny = float(np.linalg.norm(Y))
     residual = float(np.linalg.norm(Phi @ theta - Y) / ny) if ny > 0 else 0.0
     T = theta.T  # (k_out, dim)
@@ -181,6 +193,11 @@ class ERA(PeerMethod):
         deadbeat observer of any order considered exists (Juang et al. 1993: ``p·k ≥ N``).
     holdout : float
         Fraction of each training record held out by the order rule (0.25).
+    rcond : float
+        Relative singular-value cut of OKID's least squares (Eq. 1; default
+        :data:`OKID_RCOND` = 1e-8): smaller singular values carry round-off only, which the
+        observer recursion amplifies (the order rule's choice then depends on the BLAS
+        kernel).
     excitation : {"forced", "displacement", "velocity"}
         ``"forced"`` (default): ERA/OKID from forced records that start at rest.
         ``"displacement"`` / ``"velocity"``: ERA from free decays (Eqs. 4–5; records with
@@ -208,15 +225,18 @@ class ERA(PeerMethod):
     abbreviation = "ERA"
     _parameter_constraints = {"n_modes": INT_OR_NONE, "order": INT_OR_NONE,
                               "max_order": [Interval("integer", 1)], "lags": INT_OR_NONE,
-                              "holdout": HOLDOUT, "excitation": [Options(*_EXCITATIONS)]}
+                              "holdout": HOLDOUT,
+                              "rcond": [Interval("number", 0, 1, closed="left")],
+                              "excitation": [Options(*_EXCITATIONS)]}
 
     def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
-                 excitation="forced"):
+                 rcond=OKID_RCOND, excitation="forced"):
         self.n_modes = n_modes
         self.order = order
         self.max_order = max_order
         self.lags = lags
         self.holdout = holdout
+        self.rcond = rcond
         self.excitation = excitation
 
     @property
@@ -262,7 +282,7 @@ class ERA(PeerMethod):
         return self.order, None
 
     def _factor(self, Ys, Us, lags, blocks):
-        h, residual = okid_markov(Ys, Us, lags, 2 * blocks + 1)
+        h, residual = okid_markov(Ys, Us, lags, 2 * blocks + 1, self.rcond)
         if not np.all(np.isfinite(h)):
             raise np.linalg.LinAlgError("OKID Markov parameters are not finite")
         return h, residual, era_realization(h, blocks)

@@ -1,0 +1,70 @@
+"""docs/peers.md's table of the peers under noise is the median of results/peers_noise/sweep.csv
+(issue 23: numbers in the docs come from the tables, never typed)."""
+
+import math
+import re
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _cell(values: pd.Series, status: pd.Series) -> str:
+    if (status != "ok").all():
+        return "failed"
+    x = float(values.median())
+    return "failed" if math.isnan(x) else f"{x:.3g}"
+
+
+def test_the_docs_table_is_the_sweeps_median_over_targets_and_seeds():
+    df = pd.read_csv(ROOT / "results" / "peers_noise" / "sweep.csv")
+    doc = (ROOT / "docs" / "peers.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- peers_noise:[^>]*-->\n(.*?)<!-- /peers_noise -->", doc, re.S)
+    assert block, "docs/peers.md lost its peers_noise table markers"
+    rows = [line.strip("|").split("|") for line in block.group(1).strip().splitlines()[2:]]
+    seen = set()
+    for structure, method, *cells in (map(str.strip, r) for r in rows):
+        sub = df[(df.structure == structure) & (df.method == method)]
+        assert len(sub), (structure, method)
+        levels = sorted(sub.noise.unique())
+        assert levels == [0.0, 0.01, 0.05]
+        expected = [_cell(sub[sub.noise == lv].total_error, sub[sub.noise == lv].status)
+                    for lv in levels]
+        assert cells == expected, (structure, method)
+        seen.add((structure, method))
+    assert seen == set(zip(df.structure, df.method, strict=True))  # every sweep row is in the docs
+
+
+BEAMS = {"LTI": "lti_beam", "LTV": "ltv_beam", "NL": "nl_beam"}
+TARGETS = ("load5", "load5_half_sine", "double_hit_20")
+
+
+def _peers_rows(text: str):
+    """Rows ``| LTI | ERA (order 24) | 0.0274 | 0.0037 | 0.0139 |`` of a peers table."""
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 5 and cells[0] in BEAMS and re.fullmatch(r"[0-9.]+", cells[2]):
+            yield BEAMS[cells[0]], cells[1], cells[2:]
+
+
+def _close(printed: str, value: float) -> bool:
+    decimals = len(printed.split(".")[1]) if "." in printed else 0
+    return abs(float(printed) - value) <= 0.5 * 10 ** -decimals + 1e-12
+
+
+def test_the_readme_and_docs_peers_tables_are_results_peers():
+    """README's and docs/peers.md's tables of the peers study state results/peers's
+    total errors (to the digits they print)."""
+    df = pd.read_csv(ROOT / "results" / "peers" / "summary.csv").set_index(
+        ["structure", "method", "target"])
+    n = 0
+    for doc in ("README.md", "docs/peers.md"):
+        for structure, label, cells in _peers_rows((ROOT / doc).read_text(encoding="utf-8")):
+            method = label if (structure, label, TARGETS[0]) in df.index else \
+                re.sub(r"\s*\(.*\)$", "", label)
+            for target, printed in zip(TARGETS, cells, strict=True):
+                value = float(df.loc[(structure, method, target), "total_error"])
+                assert _close(printed, value), (doc, structure, label, target, printed, value)
+            n += 1
+    assert n >= 24  # 12 rows in each
