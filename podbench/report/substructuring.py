@@ -16,9 +16,12 @@ from podbench.core.atomic import atomic_write_text
 __all__ = ["write_substructuring", "medians"]
 
 SUMMARY_COLUMNS = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise",
-                   "seed", "total_error", "diverged_at_step", "time_ratio", "growth",
-                   "record_error", "outcome", "detail", "status"]
+                   "seed", "total_error", "diverged_at_step", "growth", "record_error",
+                   "outcome", "detail", "status"]
 GROUP = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise"]
+TIMING_COLUMNS = [*GROUP, "seed", "time_ratio"]
+"""timing.csv: the coupled run's wall time over the assembled truth's (interleaved repeats).
+Not tracked and not in the tables: wall clock differs from run to run."""
 
 QUOTES = [
     "\"in many cases a finite element model is available before a structure is ever built "
@@ -34,8 +37,8 @@ QUOTES = [
 
 
 def medians(df: pd.DataFrame) -> pd.DataFrame:
-    """Median error (NaN if any seed diverged), worst growth, median time ratio, seeds and
-    divergences per configuration."""
+    """Median error (NaN if any seed diverged), worst growth, seeds and divergences per
+    configuration."""
     def agg(g):
         err = g.total_error.to_numpy(dtype=float)
         return pd.Series({
@@ -46,8 +49,7 @@ def medians(df: pd.DataFrame) -> pd.DataFrame:
             if np.any(np.isfinite(g.diverged_at_step)) else np.nan,
             "max_growth": float(np.max(g.growth)),
             "median_record_error": float(np.median(g.record_error))
-            if np.all(np.isfinite(g.record_error)) else np.nan,
-            "time_ratio": float(np.median(g.time_ratio))})
+            if np.all(np.isfinite(g.record_error)) else np.nan})
     return df.groupby(GROUP, sort=False, dropna=False).apply(agg, include_groups=False
                                                              ).reset_index()
 
@@ -59,9 +61,25 @@ run, Haswell against the default kernel). tests/dynamics/test_coupling.py bounds
 
 
 def _three_digits(v: float) -> float:
-    """Errors and time ratios to three significant digits (the project's table rule: their
-    sixth digit moves between BLAS kernels)."""
+    """Errors to three significant digits (the project's table rule: their sixth digit moves
+    between BLAS kernels)."""
     return float(f"{v:.3g}") if np.isfinite(v) else v
+
+
+def _growth(g: float) -> float:
+    """A growth factor with its distance from 1 to two significant digits (1 + 7.5e-4):
+    below 1e-9 it is round-off of an energy-conserving step and written as 1."""
+    if not np.isfinite(g):
+        return g
+    d = g - 1.0
+    return 1.0 if abs(d) < 1e-9 else 1.0 + float(f"{d:.2g}")
+
+
+def _step(k: float) -> float:
+    """A divergence step to two significant digits: a run that diverges from round-off
+    (the two-step's growth factor just above 1) crosses the threshold some tens of steps
+    apart on two BLAS kernels (measured: 1192 against 1181)."""
+    return float(f"{k:.2g}") if np.isfinite(k) else k
 
 
 def _fmt(x, spec=".3g") -> str:
@@ -72,16 +90,15 @@ def _fmt(x, spec=".3g") -> str:
 
 def _table(med: pd.DataFrame) -> str:
     head = ("| component | scheme | kernel | records | n_records | noise | median error | "
-            "seeds (diverged) | first divergence | max growth | time ratio | "
-            "500-sample error |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "seeds (diverged) | first divergence | max growth | 500-sample error |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in med.itertuples():
         div = "" if not np.isfinite(r.first_divergence) else f"step {int(r.first_divergence)}"
         lines.append(f"| {r.component} | {r.scheme} | {r.kernel} | {r.records or '—'} | "
                      f"{r.n_records} | {r.noise:g} | {_fmt(r.median_error)} | {int(r.seeds)} "
-                     f"({int(r.diverged)}) | {div} | {r.max_growth:.8g} | "
-                     f"{_fmt(r.time_ratio, '.2f')} | {_fmt(r.median_record_error)} |")
+                     f"({int(r.diverged)}) | {div} | {r.max_growth:.6g} | "
+                     f"{_fmt(r.median_record_error)} |")
     return head + "\n".join(lines) + "\n"
 
 
@@ -123,9 +140,9 @@ def _targets(med: pd.DataFrame) -> str:
                         for r in t.itertuples())
         out.append(f"| ltv_beam rebuilt (identified LTV tip), {lev:.0%} ≤ {goal}, ≤ 50 records "
                    f"| {val} |")
-    ok = med[(med.scheme == "implicit") & np.isfinite(med.median_error)]
-    out.append(f"| time_ratio ≤ 1.5 (implicit) | median {np.median(ok.time_ratio):.2f}, "
-               f"max {np.max(ok.time_ratio):.2f} |")
+    out.append("| time_ratio ≤ 1.5 (implicit) | per run in `timing.csv` beside this file (wall "
+               "time of the coupled run over the assembled truth's, interleaved repeats; not "
+               "tracked, as wall clock differs from run to run) |")
     d = _pick(med, records="displacement", scheme="implicit")
     val = ", ".join(f"{r.component} {r.kernel} {r.noise:.0%}: {_fmt(r.median_error)} "
                     f"({int(r.diverged)}/{int(r.seeds)} diverged{_first(r)}, growth up to "
@@ -158,7 +175,9 @@ def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
               "dt = 1e-4 s). Where the growth factor exceeds 1 podbench refuses it, e.g.:",
               f"  `{ref}`",
               "  The table's `first divergence` column is where the unchecked run leaves "
-              "10× the truth's peak (runs continue unloaded to 20 × 500 steps).",
+              "10× the truth's peak (runs continue unloaded to 20 × 500 steps), to two "
+              "significant digits (a divergence grown from round-off crosses it some tens of "
+              "steps apart on two BLAS kernels).",
               "- Interface mass is not the whole limit: the light chain (interface mass "
               "8.4e-5, 7× below the parent's) still makes the two-step grow (factor 1.037, "
               "through its stiffness and the one-step lag), slowly enough that a 500-sample "
@@ -239,15 +258,20 @@ def write_substructuring(rows, truths, out, *, dt: float, figures: bool = True,
     out.mkdir(parents=True, exist_ok=True)
     # outcome: ok | refused (two-step, growth factor > 1) | diverged | failed; status (the
     # column `podbench run` checks): "failed" only where a kernel could not be coupled at all
-    df = pd.DataFrame([{**{k: r.get(k, "") for k in SUMMARY_COLUMNS},
+    df = pd.DataFrame([{**{k: r.get(k, "") for k in [*SUMMARY_COLUMNS, "time_ratio"]},
                         "outcome": r.get("status", ""),
                         "status": "failed" if r.get("status") == "failed" else "ok"}
                        for r in rows])
     for c in ("total_error", "diverged_at_step", "time_ratio", "growth", "noise",
               "record_error"):
         df[c] = pd.to_numeric(df[c], errors="coerce")
-    for c in ("total_error", "record_error", "time_ratio"):
+    atomic_write_text(out / "timing.csv", df[TIMING_COLUMNS].to_csv(
+        index=False, float_format="%.3g", lineterminator="\n"))
+    df = df.drop(columns="time_ratio")
+    for c in ("total_error", "record_error"):
         df[c] = df[c].map(_three_digits)
+    df["growth"] = df["growth"].map(_growth)
+    df["diverged_at_step"] = df["diverged_at_step"].map(_step)
     for c in ("total_error", "record_error"):  # round-off (exact kernels): CPU-dependent digits
         df[c] = df[c].where(~(df[c] < ROUNDOFF_ERROR), 0.0)
     atomic_write_text(out / "summary.csv", df.to_csv(index=False, float_format="%.6g",

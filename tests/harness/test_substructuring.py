@@ -35,7 +35,7 @@ ltv_records = [2]
 """
 
 REQUIRED = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise",
-            "total_error", "diverged_at_step", "time_ratio"]
+            "total_error", "diverged_at_step", "growth"]
 
 
 def test_reduced_study_runs_through_podbench_run(tmp_path):
@@ -47,6 +47,9 @@ def test_reduced_study_runs_through_podbench_run(tmp_path):
     res = podbench.run(str(folder), out=tmp_path / "out", figures=False)
     df = pd.read_csv(tmp_path / "out" / "summary.csv")
     assert all(c in df.columns for c in REQUIRED)
+    assert "time_ratio" not in df.columns  # wall clock: timing.csv, untracked
+    timing = pd.read_csv(tmp_path / "out" / "timing.csv")
+    assert len(timing) == len(df) and (timing.time_ratio.dropna() > 0).all()
     exact = df[(df.kernel == "exact") & (df.scheme == "implicit")]
     assert exact.total_error.iloc[0] <= 1e-10
     two = df[(df.kernel == "exact") & (df.scheme == "two-step")]
