@@ -98,6 +98,7 @@ class Config(NamedTuple):
     label: str
     make: Callable[[], Any]
     note: str = ""
+    bands: bool = False
 
 
 def _configs():
@@ -105,12 +106,12 @@ def _configs():
     return [
         Config("three", "FIR-LS", lambda: FIRLeastSquares(),
                "baseline: FIR least squares per output channel, lags 0.25–2 s by "
-               "leave-one-event-out on the training events"),
+               "leave-one-event-out on the training events", bands=True),
         Config("three", "ML", lambda: MultipleLoadIO(),
                "ML, k = 3 POMs, plain least squares, lags by the same rule (equals FIR-LS)"),
         Config("three", "ML-TC", lambda: MultipleLoadIO(prior="tc"),
                "ML, k = 3 POMs, lags by the rule, TC-prior kernel (τ, γ by "
-               "leave-one-event-out on the training events)"),
+               "leave-one-event-out on the training events)", bands=True),
         Config("three", "SL", lambda: SingleLoadIO(), "SL (refused: inputs not at the outputs)"),
         Config("three", "ERA", lambda: ERAIO(), "ERA/OKID, order by the peers' hold-out rule"),
         Config("three", "DMDc", lambda: DMDcIO(), "DMDc (PyDMD), rank by the hold-out rule"),
@@ -133,20 +134,46 @@ def _configs():
 CONFIGS = _configs
 
 
-def _loeo(recs, make):
-    """Leave-one-event-out: (errors per event, per-output errors, predictions, choices, s)."""
+BAND_COVERAGE = 0.9
+"""The nominal coverage of the bands of the configurations with ``bands`` (the harness's)."""
+
+
+def _loeo(recs, make, bands: bool = False):
+    """Leave-one-event-out: (errors per event, per-output errors, predictions, choices, s,
+    bands). ``bands``: each fold's 90 % band (:mod:`podbench.sysid.methods.bands`, its
+    calibration over the 13 training events), as ``(error_estimate, coverage)`` per event;
+    coverage is the fraction of the *measured* target's samples inside the band (the true
+    response of a real bridge is not known). The seconds count the plain fit and predict
+    only."""
 
     _inputs._GRAMS.clear()  # every method pays for its own Grams in its timing
-    t0 = time.perf_counter()
-    errs, per_out, preds, choices = [], [], [], []
+    seconds = 0.0
+    errs, per_out, preds, choices, band = [], [], [], [], []
     for j, target in enumerate(recs):
+        t0 = time.perf_counter()
         model = make().fit([r for i, r in enumerate(recs) if i != j])
         yh = model.predict(target)
+        seconds += time.perf_counter() - t0
         preds.append(yh)
         errs.append(float(np.linalg.norm(yh - target.y) / np.linalg.norm(target.y)))
         per_out.append(np.linalg.norm(yh - target.y, axis=1) / np.linalg.norm(target.y, axis=1))
         choices.append(dict(model.info_))
-    return np.array(errs), per_out, preds, choices, time.perf_counter() - t0
+        if bands:
+            p = model.predict(target, coverage=BAND_COVERAGE)
+            inside = (target.y >= p.lower) & (target.y <= p.upper)
+            band.append((float(p.error_estimate), float(np.mean(inside))))
+    return np.array(errs), per_out, preds, choices, seconds, band
+
+
+def _band_summary(errs, band) -> dict:
+    """Mean coverage of the 90 % bands and the fraction of events whose error estimate is
+    within a factor of 2 of the realized error (empty without bands)."""
+    if not band:
+        return {}
+    est = np.array([b[0] for b in band])
+    ratio = est / np.asarray(errs)
+    return {"mean_coverage": float(np.mean([b[1] for b in band])),
+            "estimate_within_2": float(np.mean((ratio >= 0.5) & (ratio <= 2.0)))}
 
 
 def run_study(folder=None, progress=None, methods=None) -> dict:
@@ -166,24 +193,27 @@ def run_study(folder=None, progress=None, methods=None) -> dict:
             if progress:
                 progress(f"{cfg.inputs} inputs: {cfg.label}")
             try:
-                errs, per_out, pr, choices, secs = _loeo(recs, cfg.make)
+                errs, per_out, pr, choices, secs, band = _loeo(recs, cfg.make, cfg.bands)
             except InputError as exc:
                 summary.append({"inputs": cfg.inputs, "method": cfg.label, "status": "refused",
                                 "mean_error": "", "median_error": "", "max_error": "",
                                 "seconds": "", "note": str(exc)})
                 continue
             preds[(cfg.inputs, cfg.label)] = pr
-            for rec, e, po, ch in zip(recs, errs, per_out, choices, strict=True):
+            for j, (rec, e, po, ch) in enumerate(zip(recs, errs, per_out, choices,
+                                                     strict=True)):
                 rows.append({"event": rec.name, "inputs": cfg.inputs, "method": cfg.label,
                              "total_error": e,
                              **{f"error_ch{c}": v for c, v in zip(rec.output_channels, po,
-                                                                   strict=True)}})
+                                                                   strict=True)},
+                             **({"error_estimate": band[j][0], "coverage": band[j][1]}
+                                if band else {})})
                 fits.append({"event": rec.name, "inputs": cfg.inputs, "method": cfg.label,
                              **{k: v for k, v in ch.items() if k != "cv_error"}})
             summary.append({"inputs": cfg.inputs, "method": cfg.label, "status": "ok",
                             "mean_error": float(np.mean(errs)),
                             "median_error": float(np.median(errs)),
                             "max_error": float(np.max(errs)), "seconds": secs,
-                            "note": cfg.note})
+                            **_band_summary(errs, band), "note": cfg.note})
     return {"rows": rows, "fits": fits, "summary": summary, "preds": preds,
             "records": data, "events": events_table(folder)}
