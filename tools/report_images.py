@@ -2,15 +2,13 @@
 
 Usage: python tools/report_images.py [--report PATH] [--out docs/img]
 
-Without ``--report`` it runs ``podbench run chapter4 --out <temporary folder>`` first (about a
-minute; the checkout's results/ are not touched). From that ``report.html`` it writes:
+Without ``--report`` it runs ``podbench run chapter4 -q`` in an empty temporary folder first
+(a few minutes: a cold cache; the checkout's results/ are not touched). From that ``report.html`` it writes:
 
 * ``report.png``: the top of the page as a browser shows it at 1280 px (header, the first
   scenario's table and the start of its error-decomposition figure);
 * ``report_decomposition.png``: the first scenario's table and error-decomposition figure
   with its caption, cropped from the page;
-* ``report_readings.png``: the first table of "Other findings" (a Markdown table in the
-  claims file, rendered as an HTML table);
 * ``figure_truss_forced_load38.png``: the study's figure file of the truss under load 38.
 
 Each picture is cropped from a screenshot of the page itself (the element's position is
@@ -35,10 +33,9 @@ from PIL import Image
 WIDTH = 1280
 SHOTS = (  # file, CSS selector of the element (down to the bottom of a second one),
     # padding (px), max height (px)
-    ("report.png", "body", None, 0, 1000),
+    ("report.png", "body", None, 0, 1500),
     ("report_decomposition.png", "main section", "main section figure.decomposition", 8,
      2400),
-    ("report_readings.png", "#other-findings ~ div.scroll", None, 8, 2400),
 )
 
 
@@ -115,10 +112,10 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         report = a.report
-        if report is None:
-            subprocess.run([sys.executable, "-m", "podbench", "run", "chapter4", "--out",
-                            str(work / "chapter4"), "-q"], check=True)
-            report = work / "chapter4" / "report.html"
+        if report is None:  # as a user runs it, in an empty folder (a cold cache)
+            subprocess.run([sys.executable, "-m", "podbench", "run", "chapter4", "-q"],
+                           check=True, cwd=work)
+            report = work / "results" / "chapter4" / "report.html"
         page = report.read_text(encoding="utf-8")
         a.out.mkdir(parents=True, exist_ok=True)
         for name, selector, until, pad, max_h in SHOTS:
