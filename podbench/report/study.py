@@ -327,8 +327,10 @@ def _calibration_section(cal_rows, cal_md: str, tmp: Path, figures: bool, figure
 def _decomposition_figures(df, scenarios: dict, fdir: Path, fmt: str) -> dict:
     """One stacked-bar figure of the error decomposition per scenario
     (:mod:`podbench.report.decomposition`), ``figures/<scenario>__decomposition.<fmt>``;
-    returns scenario → PNG ``data:`` URI."""
-    out = {}
+    returns scenario → PNG ``data:`` URI (none for a table without the decomposition)."""
+    out: dict = {}
+    if not {"total_error", "projection_error"} <= set(df.columns):
+        return out
     for name, sub in df.groupby("scenario", sort=False):
         sc = scenarios.get(name)
         title = f"{name}: error decomposition" + (f" ({sc.title})" if sc is not None else "")
