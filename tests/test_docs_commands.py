@@ -90,6 +90,7 @@ COMMANDS: dict[str, object] = {
         SYNOPSIS,
     "python benchmarks/study_time.py --study chapter4 --jobs 1 [--tree OTHER_CHECKOUT] "
     "[--no-write]": SYNOPSIS,
+    "python benchmarks/study_time.py --study <study> --jobs 1 --no-write": SYNOPSIS,
     # quick commands
     "podbench list": RUN,
     "podbench run chapter4/beam_forced": RUN,
@@ -109,6 +110,7 @@ COMMANDS: dict[str, object] = {
     "podbench run peers": SLOW,
     "podbench run sensitivity": SLOW,
     "podbench run substructuring": SLOW,
+    "podbench run mr_designs": SLOW,
     "podbench run chapter5": SLOW,
     "podbench run chapter5 --no-figures --jobs 2": SLOW,
     "podbench experiment chapter5": SLOW,
@@ -419,7 +421,7 @@ PRELUDES = {
         # five loads for four modes: with exactly four the band's folds fail (a known bug,
         # tests/sysid/test_bands.py::test_a_band_with_as_many_records_as_modes_given_explicitly)
         train = [record(x) for x in (2.0, 5.0, 7.0, 11.0, 16.0)]
-        model = MultipleLoad(n_modes=4, solver="block").fit(train)
+        model = MultipleLoad(n_modes=4).fit(train)
         target = record(23.0)
     """,
     ("docs/dynamics.md", "from podbench.dynamics"): """
