@@ -3,7 +3,8 @@
 Usage: python tools/report_images.py [--report PATH] [--out docs/img]
 
 Without ``--report`` it runs ``podbench run chapter4 -q`` in an empty temporary folder first
-(a few minutes: a cold cache; the checkout's results/ are not touched). From that ``report.html`` it writes:
+(a few minutes: a cold cache; the checkout's results/ are not touched). From that
+``report.html`` it writes:
 
 * ``report.png``: the top of the page as a browser shows it at 1280 px (header, the first
   scenario's table and the start of its error-decomposition figure);
