@@ -25,7 +25,7 @@ import shlex
 import shutil
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,9 +40,9 @@ from podbench.core.resources import (
     resolve_bundled,
 )
 from podbench.errors import InputError, UnknownNameError
-from podbench.harness import painter_street
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import run_checks
+from podbench.harness.painter_street import run_study as run_painter_street
 from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
@@ -51,18 +51,22 @@ from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
 from podbench.report.figures import make_figure
+from podbench.report.painter_street import write_study as write_painter_street
 from podbench.report.study import figure_tasks, write_study
 from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.hints import did_you_mean
+from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
+from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
-from podbench.study.substructuring import load_substructuring, substructuring_file
+from podbench.study.substructuring import load_substructuring
 from podbench.sysid.deconvolution import available_solvers
 
 __all__ = ["run", "StudyResult", "predict", "regress", "sweep", "experiment", "resolve_study",
-           "DEFAULT_CACHE", "DEFAULT_RESULTS", "DEFAULT_BASELINE", "REGRESS_STUDIES"]
+           "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE", "DEFAULT_RESULTS",
+           "DEFAULT_BASELINE", "REGRESS_STUDIES"]
 
 DEFAULT_CACHE = Path(".podbench_cache")
 """The truth cache's folder, in the current folder."""
@@ -181,8 +185,20 @@ def _refuse_partial_over(out: Path, names, option: str) -> None:
                          "run them all")
 
 
-def load_scenarios(files) -> dict:
-    """Scenario name → scenario of every file (two scenarios of one name are refused)."""
+def _refuse_own(files, command: str) -> None:
+    """Refuse a study with its own runner where scenarios are needed (``regress``,
+    ``sweep``): only ``podbench run`` runs it."""
+    own = own_study(files)
+    if own is not None:
+        raise InputError(f"{display_path(own.path)}: a study with its own runner "
+                         f"({own.runner}), not scenarios: podbench run runs it, podbench "
+                         f"{command} does not")
+
+
+def load_scenarios(files, command: str = "run") -> dict:
+    """Scenario name → scenario of every file (two scenarios of one name are refused, and so
+    is a study with its own runner: only ``podbench run`` runs it)."""
+    _refuse_own(files, command)
     scenarios: dict = {}
     for f in files:
         sc = load_scenario(f)
@@ -292,7 +308,8 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     ----------
     study : str, path or list of them, optional
         A bundled study or scenario name, a folder or scenario file (default: the bundled
-        Chapter 4 study).
+        Chapter 4 study). A study file whose ``[study]`` table names a runner of
+        :data:`RUNNERS` (``painter_street``, ``substructuring``) is run by that runner.
     out : path, optional
         The output folder (default ``results/<study>``); it must be new, empty or a previous
         podbench output, and is replaced only when the run is complete.
@@ -307,17 +324,16 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     quiet : bool
         No progress on stderr (the CLI shows it unless ``--quiet``).
     command : str, optional
-        The command line shown in ``report.html`` (default: ``podbench.run(...)``).
+        The command line shown in ``report.html`` (default: ``podbench.run(...)``); a study
+        with its own runner names ``podbench run <study>`` in its FINDINGS.md instead.
     """
-    if [str(s).rstrip("/") for s in _as_list(study)] == [painter_street.STUDY] \
-            and not Path(painter_street.STUDY).exists():  # measured records, its own runner
-        return _run_painter_street(out, figures, quiet)
     paths, files = resolve_study(study)
     out = Path(out) if out is not None else default_out(paths)
     output_folder(out, "--out", "summary.csv")
-    if substructuring_file(files) is not None:  # Chapter 6: a study with its own runner
-        return _run_substructuring(substructuring_file(files), out, figures, figure_format,
-                                   quiet, command or f"podbench.run({study!r})")
+    own = own_study(files)
+    if own is not None:  # a study file naming its own runner ([study] runner = "...")
+        return _run_own(own, out, study, jobs=jobs, cache=cache, engine=engine, figures=figures,
+                        figure_format=figure_format, say=_say(progress, quiet, own.name))
     scenarios = load_scenarios(files)
     _refuse_partial_over(out, scenarios, "--out")
     claims = _claims_path(paths)
@@ -371,51 +387,110 @@ def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) ->
     return "podbench: running " + "; then ".join(parts)
 
 
-def _run_painter_street(out, figures: bool, quiet: bool) -> StudyResult:
-    """The Painter Street Overpass study (:mod:`podbench.harness.painter_street`):
-    leave-one-event-out over the bundled earthquake records, same output folder rules."""
-    out = Path(out) if out is not None else DEFAULT_RESULTS / painter_street.STUDY
-    output_folder(out, "--out", "summary.csv")
-    t0 = time.perf_counter()
-    res = painter_street.run_study(
-        progress=None if quiet else (lambda m: print(f"painter_street: {m}", file=sys.stderr)))
-    if not figures:
-        res["no_figures"] = True
-    painter_street.write_study(res, out)
-    summary = pd.read_csv(out / "summary.csv")
-    return StudyResult(out=out, summary=summary, fits=pd.read_csv(out / "fits.csv"),
-                       claims=None, figures=sorted((out / "figures").glob("*.png")),
-                       scenarios={painter_street.STUDY: "leave-one-event-out"},
-                       seconds=time.perf_counter() - t0, simulated=0, cached=0)
-
-
 # ----------------------------------------------------------------------------- predict
 def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=None,
             coverage=None, input_units=None, output_units=None, units=None) -> list[dict]:
     """Fit ``method`` on the ``train`` record files and predict every ``target`` file, as
     ``podbench predict``: ``out/errors.csv`` (target, method, total_error) and
-    ``out/<target stem>.npz`` with ``W_hat``. Every file is checked before any fitting;
-    ``out`` is written whole or not at all. Returns the rows of errors.csv."""
+    ``out/<target stem>.npz`` with ``W_hat`` (with ``coverage``: ``lower``, ``upper`` in the
+    ``.npz``, ``error_estimate`` and ``coverage`` in errors.csv). Every file is checked before
+    any fitting; ``out`` is written whole or not at all. Returns the rows of errors.csv."""
     out = output_folder(out, "--out", "errors.csv")
     return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
                          n_modes=n_modes, coverage=coverage, input_units=input_units,
                          output_units=output_units, units=units)
 
 
-def _run_substructuring(path, out: Path, figures: bool, figure_format: str, quiet: bool,
-                        command: str) -> StudyResult:
-    """The substructuring study (:mod:`podbench.harness.substructuring`): same output folder
-    rules as every study, its own table (``summary.csv``), ``FINDINGS.md`` and figures."""
-    study_plan = load_substructuring(path)
-    t0 = time.perf_counter()
-    rows, truths = run_substructuring(
-        study_plan, progress=None if quiet else (lambda msg: print(msg, file=sys.stderr)))
-    seconds = time.perf_counter() - t0
-    df, drawn = write_substructuring(rows, truths, out, dt=study_plan.dt, figures=figures,
-                                     figure_format=figure_format, command=command)
+# -------------------------------------------------------- studies with their own runner
+@dataclass(frozen=True)
+class RunnerOptions:
+    """What :func:`run` hands a study's own runner: draw ``figures`` (as ``figure_format``),
+    ``say`` one line of progress (None: quiet), and the ``command`` that FINDINGS.md names
+    (``podbench run <study>``, whatever the options, so that FINDINGS regenerates
+    byte-identically from the CLI and from Python)."""
+
+    figures: bool
+    figure_format: str
+    say: Callable[[str], None] | None
+    command: str
+
+
+@dataclass(frozen=True)
+class Runner:
+    """A study runner of its own: its one-line ``title`` (``podbench list``) and
+    ``run(study, out, options) -> StudyResult``, which reads the study file's own table
+    (study layer), runs it (harness) and writes ``out`` (report) as a whole."""
+
+    title: str
+    run: Callable[[OwnStudy, Path, RunnerOptions], StudyResult]
+
+
+def _run_painter_street(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyResult:
+    """The Painter Street Overpass study (:mod:`podbench.harness.painter_street`):
+    leave-one-event-out over measured earthquake records."""
+    plan = load_painter_street(study.path)
+    res = run_painter_street(plan.data, progress=options.say)
+    drawn = write_painter_street(res, out, figures=options.figures,
+                                 figure_format=options.figure_format)
+    return StudyResult(out=out, summary=pd.read_csv(out / "summary.csv"),
+                       fits=pd.read_csv(out / "fits.csv"), claims=None, figures=drawn,
+                       scenarios={plan.name: plan}, seconds=0.0, simulated=0, cached=0)
+
+
+def _run_substructuring(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyResult:
+    """The substructuring study of Chapter 6 (:mod:`podbench.harness.substructuring`): its
+    own table (``summary.csv``, ``medians.csv``), ``FINDINGS.md`` and figures."""
+    plan = load_substructuring(study.path)
+    rows, truths = run_substructuring(plan, progress=options.say)
+    df, drawn = write_substructuring(rows, truths, out, dt=plan.dt, figures=options.figures,
+                                     figure_format=options.figure_format,
+                                     command=options.command)
     return StudyResult(out=out, summary=df, fits=pd.DataFrame(), claims=None, figures=drawn,
-                       scenarios={study_plan.name: study_plan}, seconds=seconds,
-                       simulated=len(study_plan.components), cached=0)
+                       scenarios={plan.name: plan}, seconds=0.0,
+                       simulated=len(plan.components), cached=0)
+
+
+RUNNERS: dict[str, Runner] = {
+    "painter_street": Runner("leave-one-event-out over measured earthquake records "
+                             "(the Painter Street Overpass)", _run_painter_street),
+    "substructuring": Runner("Chapter 6: identified components coupled to a finite-element "
+                             "model", _run_substructuring),
+}
+"""The runners a study file may name (``[study] runner = "<name>"``). A new study that is
+not scenarios of methods and targets adds its runner here (docs/ARCHITECTURE.md)."""
+
+
+def _run_own(own: OwnStudy, out: Path, study, *, jobs, cache, engine, figures: bool,
+             figure_format: str, say) -> StudyResult:
+    """:func:`run` of a study with its own runner: the options checked as for any study
+    (``engine`` refused: the runner chooses its own), then the runner, timed."""
+    if engine is not None:
+        raise InputError(f"--engine: {display_path(own.path)} is run by its own runner "
+                         f"({own.runner}), which takes no engine")
+    _check_run_options(jobs, cache)
+    options = RunnerOptions(figures=figures, figure_format=figure_format, say=say,
+                            command=command_line(["run", *map(str, _as_list(study))]))
+    t0 = time.perf_counter()
+    res = RUNNERS[own.runner].run(own, out, options)
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+def own_study(files) -> OwnStudy | None:
+    """The study with its own runner that ``files`` name (checked: its ``[study]`` table
+    names a runner of :data:`RUNNERS`), or None for scenario files."""
+    path = own_study_file(files, RUNNERS)
+    return None if path is None else load_own_study(path, RUNNERS)
+
+
+def _say(progress, quiet: bool, name: str) -> Callable[[str], None] | None:
+    """One line of an own runner's progress, ``<study>: <message>``, on the progress given
+    (a :class:`Progress` or a callable), else on stderr unless ``quiet``."""
+    if isinstance(progress, Progress):
+        return None if progress.quiet else (lambda m: progress.note(f"{name}: {m}"))
+    if callable(progress):
+        return lambda m: progress(f"{name}: {m}")
+    return None if quiet else (lambda m: print(f"{name}: {m}", file=sys.stderr, flush=True))
 
 
 # ---------------------------------------------------------------------------- regress
@@ -428,6 +503,8 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     With ``update`` the baseline is (re)written instead, and the number of rows is
     returned; otherwise the :class:`~podbench.harness.regress.Comparison`."""
     files = None if table else resolve_study(study, REGRESS_STUDIES)[1]  # missing paths first
+    if files is not None:
+        _refuse_own(files, "regress")
     baseline = Path(baseline)
     if update:  # checked before any work: the new baseline can be written
         if baseline.is_dir():
@@ -441,7 +518,7 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     if table:
         new = read_table(table)
     else:
-        load_scenarios(files)
+        load_scenarios(files, "regress")
         cache_dir = _check_run_options(jobs, cache)
         new = summary_table(run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                                       progress=_progress(progress, quiet), keep_series=False))
@@ -486,9 +563,8 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
     cache_dir = None if cache is None else writable_folder(cache, "--cache")
     writable_folder(out, "--out")
-    for f in files:  # each scenario writes OUT/<name>/sweep.csv, sweep.md
-        output_folder(Path(out) / load_scenario(f).name, "--out", "sweep.csv",
-                      also=("sweep.md",))
+    for name in load_scenarios(files, "sweep"):  # each writes OUT/<name>/sweep.csv, sweep.md
+        output_folder(Path(out) / name, "--out", "sweep.csv", also=("sweep.md",))
     t0 = time.perf_counter()
     scenarios, df = run_sweep(files, jobs=jobs, scheduler=scheduler, cache_dir=cache_dir,
                               engine=engine, progress=_progress(progress, quiet), **axes)

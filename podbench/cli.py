@@ -1,4 +1,4 @@
-"""Command line: ``podbench run | regress | sweep | list | experiment | predict``.
+"""Command line: ``podbench run | regress | sweep | list | experiment | predict | methods``.
 
 Exit codes: 0 success; 1 ``regress`` found an error that got worse; 2 unusable input (a
 missing path, a malformed scenario/structure/claims file, an unknown name, a bad option, an
@@ -21,13 +21,14 @@ from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
 from podbench.core.resources import SWEEPS_STUDY, bundled_structures, bundled_studies, display_path
 from podbench.core.version import __version__
 from podbench.core.warnfmt import one_line_warnings
-from podbench.errors import InputError, PodbenchError
+from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
+from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
-from podbench.study.substructuring import substructuring_file
 from podbench.sysid.deconvolution import available_solvers
 from podbench.sysid.methods import BUILTIN_METHODS
+from podbench.sysid.paramdocs import entries, parameter_help
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
@@ -83,7 +84,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list):
+    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list,
+                _add_methods):
         add(sub)
     return p
 
@@ -275,15 +277,21 @@ def _add_predict(sub) -> None:
             "Fit METHOD on the --train record files and predict every --target file: "
             "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
             "holds outputs, units) and OUT/<target stem>.npz with the prediction W_hat "
-            "(n_out × n). Records: input/output files (inputs, outputs, dt, "
-            "input_channels, output_channels, input_units, output_units) or W/F files. "
-            "Every file is checked before any fitting; OUT is written whole or not at all.",
+            "(n_out × n). Records: input/output files (.npz/.mat with inputs, outputs, dt, "
+            "input_channels, output_channels, input_units, output_units; CSV with columns "
+            "t [s], u:<channel> [unit], y:<channel> [unit]; UFF 58 with one dataset per "
+            "channel, ID line 1 u:<channel> or y:<channel>) or W/F files. "
+            "With --coverage, each prediction gets a band (lower, upper) and an error "
+            "estimate. Every file is checked before any fitting; OUT is written whole or not "
+            "at all.",
             width=88),
         epilog="""
 Examples:
   podbench predict --method ML --train a.npz b.npz c.npz --target x.npz --out pred/
   podbench predict --method FIR-LS --train ev*.npz --target new.npz --out pred/ \
       --input-units m/s^2 --output-units m/s^2     # files without unit variables
+  podbench predict --method ML --train a.csv b.csv c.csv --target x.csv --out pred/ \
+      --coverage 0.9                               # 90 % bands: lower, upper in x.npz
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     pr.add_argument("--method", required=True,
                     help="ML, FIR-LS, ERA, DMDc, OpInf (SL, MR: refused where they do not "
@@ -299,7 +307,10 @@ Examples:
                          "the whole record (records of one length)")
     pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
     pr.add_argument("--coverage", type=float, default=None, metavar="P",
-                    help="prediction band coverage (not available yet: refused)")
+                    help="prediction band coverage in (0, 1), e.g. 0.9: adds lower and "
+                         "upper to every OUT/<target stem>.npz and error_estimate, coverage "
+                         "to errors.csv; calibrated by leave-one-record-out over the "
+                         "training records (at least 3)")
     pr.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
                     help="convert every record to this unit system when it is read")
     pr.add_argument("--input-units", default=None, metavar="UNIT",
@@ -316,9 +327,58 @@ def _add_list(sub) -> None:
                         description="List the structures and scenarios bundled with podbench "
                                     "and those of the current folder (./structures, "
                                     "PODBENCH_STRUCTURES, ./scenarios), each with where it "
-                                    "comes from, the built-in methods and the deconvolution "
-                                    "solvers.")
+                                    "comes from, the built-in methods, the deconvolution "
+                                    "solvers and the runners a study file may name "
+                                    "([study] runner). podbench methods shows the methods' "
+                                    "and solvers' parameters.")
     _add_debug(ls)
+
+
+def _add_methods(sub) -> None:
+    """``podbench methods``."""
+    m = _command(
+        sub, "methods", "the methods' and solvers' parameters: what each admits, default, "
+                        "meaning",
+        "Show the parameters of the built-in identification methods and deconvolution "
+        "solvers, as a scenario file's [[methods]] options (and solver_options) give them: "
+        "for each its name, its default, what it admits and what it does. Generated from "
+        "the declarations every check uses (podbench/sysid/params.py: the classes' "
+        "_parameter_constraints, constructor defaults and docstrings), so what is shown is "
+        "what a scenario file is checked against. Without NAME: every method and solver, "
+        "each parameter's first sentence; with NAME: the whole description.",
+        """Examples:
+  podbench methods                 # every method and solver, briefly
+  podbench methods ML tls          # the multiple-load method and the TLS solver in full
+""")
+    m.add_argument("names", nargs="*", metavar="NAME",
+                   help="a method as a scenario names it (" + ", ".join(
+                       n for n in entries() if n not in available_solvers())
+                   + ") or a solver (" + ", ".join(available_solvers()) + ")")
+    _add_debug(m)
+
+
+def _entry_name(name: str) -> str:
+    """The :func:`entries` name ``name`` means (a class name or another letter case is
+    accepted when it is unambiguous)."""
+    known = entries()
+    if name in known:
+        return name
+    found = [k for k, cls in known.items() if name.lower() in (cls.__name__.lower(), k.lower())]
+    if len(found) == 1:
+        return found[0]
+    raise UnknownNameError(f"{name}: not a built-in method or solver"
+                           f"{did_you_mean(name, known)} (podbench methods lists them)")
+
+
+def cmd_methods(args) -> int:
+    names = [_entry_name(n) for n in args.names]  # every name checked before printing
+    if not names:
+        print("Parameters of the built-in methods and deconvolution solvers, as a scenario's\n"
+              "[[methods]] options give them (podbench methods NAME: the whole description).\n")
+    for name in names or entries():
+        print(parameter_help(name, full=bool(names)))
+        print()
+    return 0
 
 
 def _plural(n: int, word: str, plural: str | None = None) -> str:
@@ -336,7 +396,10 @@ def cmd_predict(args) -> int:
                        input_units=args.input_units, output_units=args.output_units,
                        units=args.units)
     for r in rows:
-        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}")
+        band = (f", error_estimate {r['error_estimate']}, coverage "
+                f"{r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
+        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
+              f"{band}")
     print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")
     return 0
 
@@ -355,8 +418,9 @@ def cmd_run(args) -> int:
         print(f"claims: {n_ok} of {len(res.claims)} reproduced -> {out}/FINDINGS.md")
     failed = df[df.status != "ok"]
     if len(failed):
+        see = "summary.md" if (out / "summary.md").is_file() else "summary.csv"
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
-              "(see summary.md)")
+              f"(see {see})")
     paths, _ = api.resolve_study(args.paths)
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:
@@ -398,10 +462,12 @@ def _list_scenarios(folder: Path, indent: str) -> None:
     for f in sorted(folder.glob("*.toml")):
         if f.name in NOT_SCENARIOS:
             continue
-        if substructuring_file([f]) is not None:  # Chapter 6: a study with its own runner
-            print(f"{indent}{f.stem}: Chapter 6 substructuring study (its own runner)")
-            continue
         try:
+            own = api.own_study([f])
+            if own is not None:  # a study file naming its own runner
+                title = own.title or api.RUNNERS[own.runner].title
+                print(f"{indent}{f.stem}: {title} [its own runner: {own.runner}]")
+                continue
             sc = load_scenario(f)
         except PodbenchError as exc:
             print(f"{indent}{f.stem}: (unreadable: {_one_line(exc, 200)})")
@@ -451,8 +517,12 @@ def cmd_list(args) -> int:
             _list_scenarios(d, "  ")
     for name, d in bundled_studies().items():
         cmd = "sweep" if name == SWEEPS_STUDY else "run"
-        print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
-              f"podbench {cmd} {name}, or {name}/<scenario> for one):")
+        if _own_runner(d):
+            print(f"study bundled with podbench: {name} ({display_path(d)}; podbench run "
+                  f"{name}):")
+        else:
+            print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
+                  f"podbench {cmd} {name}, or {name}/<scenario> for one):")
         _list_scenarios(d, "  ")
     print("methods:")
     for name, cls in BUILTIN_METHODS.items():
@@ -463,7 +533,19 @@ def cmd_list(args) -> int:
     print("  superposition (sum of other methods; MR's coupled twin)")
     print("  module:Class or file.py:Class (your own; see podbench.methods.PODMethod)")
     print("deconvolution solvers: " + ", ".join(available_solvers()))
+    print("study runners (a study file's [study] runner = \"<name>\"):")
+    for name, runner in api.RUNNERS.items():
+        print(f"  {name}: {runner.title}")
     return 0
+
+
+def _own_runner(folder: Path) -> bool:
+    """Whether a study folder is one study file with its own runner."""
+    files = [f for f in folder.glob("*.toml") if f.name not in NOT_SCENARIOS]
+    try:
+        return len(files) == 1 and api.own_study(files) is not None
+    except PodbenchError:
+        return False
 
 
 def _twin_name(est) -> str:
@@ -567,13 +649,16 @@ def main(argv=None) -> int:
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list, "experiment": cmd_experiment,
-                "predict": cmd_predict}[args.command](args)
+                "predict": cmd_predict, "methods": cmd_methods}[args.command](args)
     except PodbenchError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout stopped (podbench list | head): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except MemoryError as exc:
         print(f"{prog}: error: out of memory ({_one_line(exc, 300) or 'MemoryError'}); reduce "
               "n_samples, the structures or --jobs", file=sys.stderr)

@@ -19,7 +19,7 @@ def test_the_cli_reference_is_generated_from_the_parser():
     assert got == cli.reference_markdown(), (
         "docs/reference/cli.md is out of date: regenerate it with python -c \"from podbench "
         "import cli; open('docs/reference/cli.md', 'w').write(cli.reference_markdown())\"")
-    for command in ("run", "regress", "sweep", "list", "experiment"):
+    for command in ("run", "regress", "sweep", "list", "experiment", "predict", "methods"):
         assert f"## podbench {command}\n" in got
 
 

@@ -20,7 +20,8 @@ data come in, and a study never mixes systems (:func:`check_compatible`).
 
 Sampling: column ``j`` is at ``t_j = j·dt``, ``t_0 = 0`` (as everywhere in podbench).
 
-Files (:func:`read_io_record`, :func:`write_io_record`): ``.npz`` or ``.mat`` with variables
+Files (:func:`read_io_record`, :func:`write_io_record`): CSV and UFF 58 (layouts in
+:mod:`podbench.core.iofiles`), or ``.npz`` / ``.mat`` with variables
 ``inputs`` (n_in × n), ``outputs`` (n_out × n; optional for a target), ``dt``,
 ``input_channels``, ``output_channels`` (names or station numbers), ``input_units``,
 ``output_units`` and optionally ``input_quantity``, ``output_quantity`` (otherwise read from
@@ -32,12 +33,16 @@ names the file and the variable, before any fitting.
 
 from __future__ import annotations
 
+import io
+import zipfile
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from podbench.core.atomic import atomic_write_bytes
+from podbench.core.iofiles import IO_SUFFIXES, read_csv_vars, read_uff_vars, write_csv, write_uff
 from podbench.errors import DimensionError, InputError
 
 __all__ = ["IORecord", "UNITS", "QUANTITIES", "normalize_unit", "unit_system", "convert",
@@ -284,13 +289,43 @@ def _scalar_str(v) -> str | None:
     return str(a.reshape(())).strip()
 
 
+def _read_vars(path: Path) -> dict:
+    """The variables of a record file, whatever its format."""
+    name, suffix = path.name, path.suffix.lower()
+    if suffix == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return {k: z[k] for k in z.files}
+        except ValueError as exc:
+            raise InputError(f"{name}: not readable without pickles ({exc})") from None
+        except (OSError, zipfile.BadZipFile) as exc:
+            raise InputError(f"{name}: cannot read as .npz ({exc})") from None
+    if suffix == ".mat":
+        import scipy.io
+
+        try:
+            return {k: x for k, x in scipy.io.loadmat(path).items() if not k.startswith("__")}
+        except (NotImplementedError, ValueError, OSError, TypeError) as exc:
+            raise InputError(f"{name}: not a MATLAB v7 (or older) file ({exc})") from None
+    if suffix == ".csv":
+        return read_csv_vars(path)
+    if suffix in (".uff", ".unv"):
+        return read_uff_vars(path)
+    raise InputError(f"{name}: unknown input/output record format {suffix!r} "
+                     f"(expected one of {', '.join(IO_SUFFIXES)})")
+
+
 def read_io_record(path, *, input_units: str | None = None, output_units: str | None = None,
-                   require_outputs: bool = True, system: str | None = None) -> IORecord:
-    """Read an input/output record from ``.npz`` (``allow_pickle=False``) or ``.mat``.
+                   require_outputs: bool = True, system: str | None = None,
+                   default_output_units: str | None = None) -> IORecord:
+    """Read an input/output record from ``.npz`` (``allow_pickle=False``), ``.mat``, CSV or
+    UFF 58 (``.uff``/``.unv``; layouts in :mod:`podbench.core.iofiles`).
 
     ``input_units``/``output_units`` declare units for a file that has none (e.g. the
     shared Painter Street files, m/s² per their README); a file's own units must agree with
     them. ``system`` converts the record on the way in (``"SI"`` or ``"inch-lbf"``).
+    ``default_output_units`` names the output unit of a target file holding no outputs (a
+    CSV or UFF file without output channels cannot state it): the training records' unit.
 
     Raises
     ------
@@ -299,25 +334,9 @@ def read_io_record(path, *, input_units: str | None = None, output_units: str | 
     """
     path = Path(path)
     name = path.name
-    suffix = path.suffix.lower()
     if not path.is_file():
         raise InputError(f"{path}: no such file")
-    if suffix == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                v = {k: z[k] for k in z.files}
-        except ValueError as exc:
-            raise InputError(f"{name}: not readable without pickles ({exc})") from None
-    elif suffix == ".mat":
-        import scipy.io
-
-        try:
-            v = {k: x for k, x in scipy.io.loadmat(path).items() if not k.startswith("__")}
-        except (NotImplementedError, ValueError) as exc:
-            raise InputError(f"{name}: not a MATLAB v7 (or older) file ({exc})") from None
-    else:
-        raise InputError(f"{name}: unknown input/output record format {suffix!r} "
-                         "(expected .npz or .mat)")
+    v = _read_vars(path)
     have = ", ".join(sorted(v)) or "nothing"
     for key in ("inputs", "dt") + (("outputs",) if require_outputs else ()):
         if key not in v:
@@ -329,6 +348,8 @@ def read_io_record(path, *, input_units: str | None = None, output_units: str | 
             raise InputError(f"{name}: variable `{side}_units`: {in_file!r} in the file, "
                              f"{given!r} declared")
         units[side] = in_file or given
+        if side == "output" and not units[side] and "outputs" not in v:
+            units[side] = default_output_units
         if not units[side]:
             raise InputError(f"{name}: variable `{side}_units`: missing (the file has: {have});"
                              " add it to the file or declare it (e.g. --" + side
@@ -343,10 +364,29 @@ def read_io_record(path, *, input_units: str | None = None, output_units: str | 
 
 
 def write_io_record(path, rec: IORecord, **extra) -> None:
-    """Write ``rec`` as ``.npz`` (the layout :func:`read_io_record` reads), atomically."""
-    import io
-
-
+    """Write ``rec`` atomically in the format of the suffix: ``.npz`` (the layout
+    :func:`read_io_record` reads; ``extra`` arrays are added), ``.mat`` (the same
+    variables), CSV or UFF 58 (:mod:`podbench.core.iofiles`; ``extra`` is refused there)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in IO_SUFFIXES:
+        raise InputError(f"{path.name}: unknown input/output record format {suffix!r} "
+                         f"(expected one of {', '.join(IO_SUFFIXES)})")
+    fields: dict[str, Any] = dict(u=rec.u, y=rec.y, dt=rec.dt,
+                                  input_channels=rec.input_channels,
+                                  output_channels=rec.output_channels,
+                                  input_units=rec.input_units,
+                                  output_units=rec.output_units if rec.y is not None else None)
+    if suffix in (".csv", ".uff", ".unv"):
+        if extra:
+            raise InputError(f"{path.name}: fields {', '.join(sorted(extra))}: CSV and UFF "
+                             "carry the record only; write .npz for extra arrays")
+        if suffix == ".csv":
+            write_csv(path, **fields)
+        else:
+            write_uff(path, **fields, input_quantity=str(rec.input_quantity),
+                      output_quantity=rec.output_quantity if rec.y is not None else None)
+        return
     arrays = {"inputs": rec.u, "dt": np.float64(rec.dt),
               "input_channels": np.array(rec.input_channels),
               "input_units": np.array(rec.input_units),
@@ -359,7 +399,12 @@ def write_io_record(path, rec: IORecord, **extra) -> None:
         arrays["output_channels"] = np.array(rec.output_channels)
     arrays.update(extra)
     buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
+    if suffix == ".mat":
+        import scipy.io
+
+        scipy.io.savemat(buf, arrays, do_compression=True)
+    else:
+        np.savez_compressed(buf, **arrays)
     atomic_write_bytes(path, buf.getvalue())
 
 

@@ -18,7 +18,7 @@ from importlib import resources
 from pathlib import Path
 
 __all__ = ["bundled_root", "bundled_structures", "bundled_scenarios", "bundled_studies",
-           "resolve_bundled", "display_path", "DEFAULT_STUDY", "SWEEPS_STUDY"]
+           "resolve_bundled", "display_path", "unique_paths", "DEFAULT_STUDY", "SWEEPS_STUDY"]
 
 DEFAULT_STUDY = "chapter4"
 """The study ``podbench run`` runs without a path."""
@@ -88,3 +88,16 @@ def display_path(path) -> str:
     except ValueError:  # pragma: no cover - another drive on Windows
         return str(p)
     return str(p) if rel.startswith("..") else rel
+
+
+def unique_paths(paths) -> list[Path]:
+    """``paths`` in their order without those naming a file or folder already named (the same
+    after resolving links and ``..``); each kept as given."""
+    seen: set[Path] = set()
+    out = []
+    for p in map(Path, paths):
+        key = p.resolve()
+        if key not in seen:
+            seen.add(key)
+            out.append(p)
+    return out

@@ -77,3 +77,11 @@ def check_choice(value: _T, name: str, choices: Collection) -> _T:
             f"Parameter `{name}`: {value!r} is not one of {', '.join(map(repr, choices))}"
         )
     return value
+
+
+def condition_number(singular_values) -> float:
+    """The 2-norm condition number ``σ_max / σ_min`` from singular values in descending
+    order (as ``numpy.linalg.svd`` returns them); ``inf`` when the smallest is 0 or there
+    are none."""
+    s = np.asarray(singular_values)
+    return float(s[0] / s[-1]) if s.size and s[-1] > 0 else float("inf")

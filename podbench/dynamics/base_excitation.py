@@ -16,7 +16,12 @@ Outputs at the sensors ``S``: ``relative_displacement`` ``S q``, ``absolute_disp
 ``S q + (S r) u_g``, ``relative_velocity``, ``absolute_velocity``, ``absolute_acceleration``
 ``S q'' + (S r) ü_g`` (what an accelerometer measures), and, for the Hermite-cubic beams,
 ``strain`` at given points: the surface bending strain ``ε = −c κ``, ``κ = w''(x)`` from the
-element's shape functions (``c`` the distance of the fibre from the neutral axis).
+element's shape functions (``c`` the distance of the fibre from the neutral axis); for the
+satellite truss, ``strain`` is the axial strain of chosen members (elongation / length; the
+members of the fractured element read 0 from the fracture on).
+
+Structures: the cantilever beams (transverse motion of the clamp) and the satellite truss
+(both pins moving together along X2), :func:`influence_vector`; any other with ``r`` given.
 
 Units: the structure's (inch, lbf, second): ü_g in in/s², displacements in in, strain
 dimensionless. Sampling: ``t_j = j·dt``; ``ü_g[0]`` enters through the initial acceleration.
@@ -29,22 +34,35 @@ import numpy as np
 from podbench.dynamics.exudyn_engine import simulate_exudyn
 from podbench.dynamics.newmark import newmark
 from podbench.errors import InputError
+from podbench.structures.truss import member_strain_matrix
 
 __all__ = ["influence_vector", "ground_motion", "simulate_base", "beam_strain_matrix",
-           "OUTPUTS"]
+           "strain_matrix", "OUTPUTS"]
 
 OUTPUTS = ("relative_displacement", "absolute_displacement", "relative_velocity",
            "absolute_velocity", "absolute_acceleration", "strain")
 
 
 def influence_vector(structure) -> np.ndarray:
-    """``r`` of a transverse support motion of the beams: 1 on every ``w`` DOF, 0 on the
-    rotations (a rigid translation of the clamp). Other structures: give ``r`` explicitly."""
-    labels = structure.dof_labels
-    if not labels or not all(lbl.startswith(("w@", "theta@")) for lbl in labels):
-        raise InputError(f"structure {structure.name!r}: no beam DOF labels (w@…, theta@…); "
-                         "give the influence vector r explicitly")
-    return np.array([1.0 if lbl.startswith("w@") else 0.0 for lbl in labels])
+    """``r`` of a rigid transverse support motion.
+
+    Beams (DOF labels ``w@…``, ``theta@…``): 1 on every ``w`` DOF, 0 on the rotations (a
+    rigid translation of the clamp). The satellite truss (``faceN.d_top``, ``faceN.d_bot``,
+    ``faceN.theta``): both pins move together along X2, the plane of motion: 1 on every
+    ``d_top``/``d_bot``, 0 on the face rotations (a rigid vertical translation moves no
+    member, so ``K r`` over all coordinates vanishes and only the inertia term
+    ``−M r ü_g`` drives the relative motion). As for the beam clamp, the consistent mass
+    coupling the free DOFs to the supports' own coordinates is not in the effective load
+    (the issue's ``−M r ü_g`` on the free DOFs; zero for a lumped mass). Other structures:
+    give ``r`` explicitly."""
+    labels = structure.dof_labels or ()
+    if labels and all(lbl.startswith(("w@", "theta@")) for lbl in labels):
+        return np.array([1.0 if lbl.startswith("w@") else 0.0 for lbl in labels])
+    if labels and all(lbl.startswith("face") and "." in lbl for lbl in labels):
+        return np.array([1.0 if lbl.endswith((".d_top", ".d_bot")) else 0.0
+                         for lbl in labels])
+    raise InputError(f"structure {structure.name!r}: no beam (w@…, theta@…) or truss "
+                     "(faceN.d_top, …) DOF labels; give the influence vector r explicitly")
 
 
 def ground_motion(ag: np.ndarray, dt: float):
@@ -87,43 +105,28 @@ def beam_strain_matrix(structure, points, fibre_distance: float) -> np.ndarray:
     return E
 
 
-def simulate_base(structure, ag, dt: float, *, outputs=("absolute_acceleration",),
-                  r=None, strain_points=None, fibre_distance=None, engine: str = "newmark"):
-    """Response of ``structure`` to the base acceleration ``ag`` (n,), from rest.
+def strain_matrix(structure, *, strain_points=None, fibre_distance=None,
+                  strain_members=None) -> np.ndarray:
+    """``E`` with ``ε = E q``: the beams' surface bending strain at ``strain_points``
+    (:func:`beam_strain_matrix`, needs ``fibre_distance``) or the truss members' axial
+    strain (``strain_members``: ``(element, label)`` pairs,
+    :func:`podbench.structures.truss.member_strain_matrix`)."""
+    if strain_members is not None:
+        return member_strain_matrix(structure, strain_members)
+    if strain_points is None or fibre_distance is None:
+        raise InputError("output 'strain' needs strain_points and fibre_distance (a beam) "
+                         "or strain_members (the truss)")
+    return beam_strain_matrix(structure, strain_points, fibre_distance)
 
-    Returns
-    -------
-    dict
-        Output name → (n_sensors or n_points, n) array; also ``"q"`` (relative DOF
-        displacements) and ``"effective_load"`` (−M r ü_g, n_dofs × n).
-    """
 
-    ag = np.asarray(ag, dtype=float)
-    if ag.ndim != 1 or ag.size < 2 or not np.all(np.isfinite(ag)):
-        raise InputError("Parameter `ag`: expected a finite 1-D base acceleration (≥ 2 samples)")
-    bad = [o for o in outputs if o not in OUTPUTS]
-    if bad:
-        raise InputError(f"Parameter `outputs`: unknown {bad}; expected some of {OUTPUTS}")
-    derived = r is None
-    r = influence_vector(structure) if derived else np.asarray(r, dtype=float)
-    n_dofs = structure.n_dofs
-    f = -(structure.M @ r)[:, None] * ag[None, :]
-    z = np.zeros(n_dofs)
-    if engine == "newmark":
-        res = newmark(structure, z, z, f, dt)
-        q, v, a = res.q, res.v, res.a
-    elif engine == "exudyn":
-
-        q, v = simulate_exudyn(structure, z, z, f, dt)
-        a = None
-    else:
-        raise InputError(f"Parameter `engine`: expected 'newmark' or 'exudyn', got {engine!r}")
+def _outputs(structure, outputs, r, derived: bool, res, ag, dt, strain) -> dict:
+    q, v, a = res
     S = structure.sensor_matrix()
     Sr = S @ r
     if derived:  # a sensor on the clamp moves with the base
         Sr[structure.sensor_dofs < 0] = 1.0
     vg, ug = ground_motion(ag, dt)
-    out = {"q": q, "effective_load": f}
+    out = {}
     for name in outputs:
         if name == "relative_displacement":
             out[name] = S @ q
@@ -138,7 +141,68 @@ def simulate_base(structure, ag, dt: float, *, outputs=("absolute_acceleration",
                 raise InputError("engine 'exudyn': accelerations are not returned; use newmark")
             out[name] = S @ a + Sr[:, None] * ag[None, :]
         elif name == "strain":
-            if strain_points is None or fibre_distance is None:
-                raise InputError("output 'strain' needs strain_points and fibre_distance")
-            out[name] = beam_strain_matrix(structure, strain_points, fibre_distance) @ q
+            out[name] = strain_matrix(structure, **strain) @ q
+            _broken_members_carry_nothing(structure, out[name], strain["strain_members"], dt)
+    return out
+
+
+def _broken_members_carry_nothing(structure, eps: np.ndarray, members, dt: float) -> None:
+    """The members of the truss's fractured element read zero strain from the fracture on
+    (they are gone; the joints they joined move apart freely)."""
+    broken = structure.metadata.get("fracture_element")
+    if members is None or broken is None or not structure.events:
+        return
+    start = structure.events[0].first_sample(dt)
+    for i, (element, _) in enumerate(members):
+        if int(element) == int(broken):
+            eps[i, start:] = 0.0
+
+
+def simulate_base(structure, ag, dt: float, *, outputs=("absolute_acceleration",),
+                  r=None, strain_points=None, fibre_distance=None, strain_members=None,
+                  engine: str = "newmark"):
+    """Response of ``structure`` to the base acceleration ``ag`` (n,), from rest.
+
+    ``strain``: the beams' surface strain at ``strain_points`` (in from the root; fibre at
+    ``fibre_distance`` in) or the truss members' axial strain (``strain_members``,
+    ``(element, label)`` pairs); see :func:`strain_matrix`.
+
+    Returns
+    -------
+    dict
+        Output name → (n_sensors or n_points, n) array; also ``"q"`` (relative DOF
+        displacements) and ``"effective_load"`` (−M r ü_g, n_dofs × n).
+    """
+
+    ag = np.asarray(ag, dtype=float)
+    if ag.ndim != 1 or ag.size < 2 or not np.all(np.isfinite(ag)):
+        raise InputError("Parameter `ag`: expected a finite 1-D base acceleration (≥ 2 samples)")
+    bad = [o for o in outputs if o not in OUTPUTS]
+    if bad:
+        raise InputError(f"Parameter `outputs`: unknown {bad}; expected some of {OUTPUTS}")
+    strain = dict(strain_points=strain_points, fibre_distance=fibre_distance,
+                  strain_members=strain_members)
+    if "strain" in outputs:  # checked before the integration
+        strain_matrix(structure, **strain)
+    derived = r is None
+    r = influence_vector(structure) if derived else np.asarray(r, dtype=float)
+    n_dofs = structure.n_dofs
+    f = -(structure.M @ r)[:, None] * ag[None, :]
+    z = np.zeros(n_dofs)
+    states: tuple[np.ndarray, np.ndarray, np.ndarray | None]
+    if engine == "newmark":
+        res = newmark(structure, z, z, f, dt)
+        states = (res.q, res.v, res.a)
+    elif engine == "exudyn":
+        # A linear step is solved by exudyn's first Newton iteration (K, C analytic); its
+        # relative tolerance only decides whether it then iterates on round-off. At the
+        # default 1e-10 Newton fails on the truss's load −M r ü_g on every DOF (measured);
+        # at 1e-8 it agrees with podbench's Newmark to 5e-13.
+        rtol = 1e-12 if structure.nonlinear else 1e-8
+        q, v = simulate_exudyn(structure, z, z, f, dt, newton_rtol=rtol)
+        states = (q, v, None)
+    else:
+        raise InputError(f"Parameter `engine`: expected 'newmark' or 'exudyn', got {engine!r}")
+    out = {"q": states[0], "effective_load": f}
+    out.update(_outputs(structure, outputs, r, derived, states, ag, dt, strain))
     return out

@@ -14,20 +14,22 @@ outputs and the whole record. Every hyper-parameter (lag length, prior, model or
 chosen by a rule on the thirteen training events only (leave-one-event-out among them, or
 the peers' hold-out rule), never on the held-out event.
 
-Study layer: it knows the data and the methods; the methods see only records.
+Harness layer: it runs the methods on the data (the methods see only records) and returns
+the numbers; :mod:`podbench.report.painter_street` writes the tables, FINDINGS.md and the
+figures, and ``scenarios/painter_street/painter_street.toml`` names this runner
+(``[study] runner = "painter_street"``, :data:`podbench.api.RUNNERS`).
 """
 
 from __future__ import annotations
 
 import csv
-import io
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from podbench.core.atomic import replace_dir
 from podbench.core.iorecords import IORecord, read_io_record
 from podbench.core.resources import bundled_scenarios
 from podbench.core.threads import single_blas_thread
@@ -37,16 +39,15 @@ from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, Singl
 from podbench.sysid.methods.mdof_peer import MdofIO
 from podbench.sysid.methods.peers_io import ERAIO, DMDcIO, OpInfIO
 
-__all__ = ["data_folder", "load_events", "CONFIGS", "run_study", "write_study", "TARGETS"]
+__all__ = ["data_folder", "load_events", "events_table", "CONFIGS", "run_study", "TARGETS"]
 
 TARGETS = {"fir_three_inputs_issue": 0.399, "fir_ground_issue": 0.343, "best_factor": 0.9,
            "seconds": 10.0}
 """The issue's measured baselines and targets (leave-one-event-out mean errors)."""
-ONE_G = 1.0
-
 
 STUDY = "painter_street"
 """The study's name (``podbench run painter_street``) and its folder under ``scenarios/``."""
+
 
 def data_folder() -> Path:
     """The bundled records (``scenarios/painter_street/data``)."""
@@ -82,16 +83,20 @@ def load_events(folder=None, inputs: str = "three") -> list[IORecord]:
 
 
 def events_table(folder=None) -> dict[str, dict]:
+    """The rows of ``events.csv`` (date, magnitude, peak input and output in g, ...) by event
+    name (the record file's stem)."""
     folder = Path(folder) if folder is not None else data_folder()
     with open(folder / "events.csv", newline="") as fh:
         return {Path(r["file"]).stem: r for r in csv.DictReader(fh)}
 
 
-@dataclass(frozen=True)
-class Config:
+class Config(NamedTuple):
+    """One configuration of the study: the ``inputs`` ("three" or "ground"), the method's
+    ``label``, ``make()`` giving the unfitted estimator and the ``note`` of summary.csv."""
+
     inputs: str
     label: str
-    make: object
+    make: Callable[[], Any]
     note: str = ""
 
 
@@ -145,8 +150,10 @@ def _loeo(recs, make):
 
 
 def run_study(folder=None, progress=None, methods=None) -> dict:
-    """Run every configuration (``methods``: only these labels); returns the results (tables
-    are made by :func:`write_study`)."""
+    """Run every configuration (``methods``: only these labels) on the records of ``folder``
+    (default: the bundled ones); returns the results: ``rows`` (per event), ``fits``,
+    ``summary`` (per method), ``preds``, ``records`` and ``events``, which
+    :func:`podbench.report.painter_street.write_study` writes."""
 
     data = {k: load_events(folder, k) for k in ("three", "ground")}
     rows, fits, preds = [], [], {}
@@ -180,206 +187,3 @@ def run_study(folder=None, progress=None, methods=None) -> dict:
                             "note": cfg.note})
     return {"rows": rows, "fits": fits, "summary": summary, "preds": preds,
             "records": data, "events": events_table(folder)}
-
-
-def _csv(rows, columns) -> str:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n", extrasaction="ignore")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{v:.4f}" if isinstance(v, float) else v) for k, v in r.items()})
-    return buf.getvalue()
-
-
-def _mean(summary, inputs, method):
-    for s in summary:
-        if s["inputs"] == inputs and s["method"] == method and s["status"] == "ok":
-            return s["mean_error"]
-    return float("nan")
-
-
-_MDOF_AND_LEFT = (
-    "## mdof 0.0.23 (BSD-2) as a peer",
-    "",
-    "Two faults were found and worked around (podbench/sysid/methods/mdof_peer.py; "
-    "tests/measured_io/test_mdof_peer.py):",
-    "",
-    "- `mdof.markov.okid`: the Markov recursion's loop `for i in range(k-1)` drops the "
-    "term Ȳ2[k−1]·D; on an exact 4-state system h_0 and h_1 are exact and every h_k from "
-    "h_2 on is off by 50–100 %. With `range(k)` every h_k is exact (1e-14). The table's "
-    "mdof-OKID-ERA runs mdof's own source with that bound corrected.",
-    "- `mdof.realize.srim` returns a zero model (‖B‖ = 3e-11, ‖D‖ = 4e-15 on the first "
-    "3000 samples of the 28 Jan 2015 record) when the identified A has an eigenvalue just "
-    "outside the unit circle (|λ| = 1.014 there): its output-error step fits an initial "
-    "state beside B and D, whose columns C·A^k reach 1e16 over a long record, and the "
-    "least-squares cut-off then discards the input columns. It is not the length alone "
-    "(the whole 8511-sample record, |λ| = 1.002, gives a non-zero B). The table's "
-    "mdof-SRIM takes mdof's A, C and fits B, D with the records' zero initial state.",
-    "- mdof identifies from one history: the 13 training records (which start and end "
-    "quiet) are joined end to end; orders are mdof's default 20, fixed in advance.",
-    "",
-    "## Not done here",
-    "",
-    "- mdof's OKID-ERA-DC variant (only OKID-ERA and SRIM are in the table).",
-    "- Prediction bands: `--coverage` is refused until the error-estimate work lands.",
-)
-"""FINDINGS' sections on mdof's two faults and on what the study leaves out."""
-
-
-def _strong_events(peaks: dict, strong: list, top: str) -> list[str]:
-    """FINDINGS' paragraph on the events above 1 g (none is shipped)."""
-    if strong:
-        return [f"Events above 1 g among the shipped ones: {', '.join(strong)}."]
-    return [
-        "None of the 14 shipped events exceeds 1 g: the largest peak (input or output) "
-        f"is {peaks[top]:.3f} g ({top}). The two > 1 g events of the station (20 Dec "
-        "2022 M6.4, Jan 2023) are among the held-out events, so how far a model "
-        "identified from small events is off there cannot be measured on these data; "
-        "the largest shipped event's error is in errors.csv."]
-
-
-def _findings(res) -> str:
-    S = res["summary"]
-    ev = res["events"]
-    fir3 = _mean(S, "three", "FIR-LS")
-    ml = _mean(S, "three", "ML")
-    mltc = _mean(S, "three", "ML-TC")
-    peers = {m: _mean(S, "three", m) for m in ("ERA", "DMDc", "OpInf", "mdof-SRIM",
-                                                "mdof-OKID-ERA")}
-    peers = {k: v for k, v in peers.items() if np.isfinite(v)}
-    firg = _mean(S, "ground", "FIR-LS")
-    mlg = _mean(S, "ground", "ML-TC")
-    best = min(mltc, mlg, ml)
-    peaks = {k: max(float(v["pga_inputs_g"]), float(v["peak_outputs_g"])) for k, v in ev.items()}
-    strong = [k for k, p in peaks.items() if p > ONE_G]
-    top = max(peaks, key=peaks.get)
-
-    def ok(flag):
-        return "met" if flag else "NOT met"
-
-    lines = [
-        "# Painter Street Overpass: findings",
-        "",
-        "Leave-one-event-out over the 14 bundled events (CESMD/CSMIP station 89324, "
-        "2012–2023; units m/s², errors ‖ŷ − y‖_F/‖y‖_F over the three transverse "
-        "outputs, ch 7, 9, 4). Every hyper-parameter is chosen on the 13 training events "
-        "only. Generated by `podbench run painter_street`; the tables are `summary.csv` "
-        "(per method), `errors.csv` (per event) and `fits.csv` (each fold's choices).",
-        "",
-        "| inputs | method | mean | median | max |",
-        "|---|---|---|---|---|",
-    ]
-    for s in S:
-        if s["status"] == "ok":
-            lines.append(f"| {s['inputs']} | {s['method']} | {s['mean_error']:.3f} | "
-                         f"{s['median_error']:.3f} | {s['max_error']:.3f} |")
-        else:
-            lines.append(f"| {s['inputs']} | {s['method']} | refused | | |")
-    lines += [
-        "",
-        "## Targets",
-        "",
-        f"- ML (plain least squares, k = 3 POMs) {ml:.3f} = FIR-LS {fir3:.3f}: with as many "
-        "POMs as outputs the POD basis is a rotation of the outputs and ML *is* the FIR "
-        "baseline (a test checks it to round-off); the lag rule chose the same lengths.",
-        f"- ML-TC {mltc:.3f} ≤ FIR-LS {fir3:.3f} (issue: 0.399): "
-        f"{ok(mltc <= fir3)}; below every peer "
-        f"({', '.join(f'{k} {v:.3f}' for k, v in peers.items())}): "
-        f"{ok(all(mltc < v for v in peers.values()))}.",
-        f"- Every ground-level channel as input: FIR-LS {firg:.3f} (issue: 0.343), ML-TC "
-        f"{mlg:.3f}. podbench's best {best:.3f} ≤ 0.9 × three-input baseline "
-        f"{0.9 * fir3:.3f}: {ok(best <= 0.9 * fir3)}.",
-        "- Time (target: all 14 events identified and predicted in < 10 s on 2 cores): "
-        "measured per method in `timing.csv` (wall-clock, one BLAS thread, the "
-        "hyper-parameter rules included; it varies with the machine's load, so it is kept "
-        "out of the deterministic tables).",
-        "- SL is refused (message in summary.csv): its diagonal assumption pairs each POM "
-        "with its own modal force, and ground accelerations are not forces at the outputs. "
-        "MR is refused for the same records: it needs free responses.",
-        "",
-        "## Events above 1 g",
-        "",
-    ]
-    lines += _strong_events(peaks, strong, top)
-    worst = max((r for r in res["rows"] if r["method"] == "ML-TC" and r["inputs"] == "three"),
-                key=lambda r: r["total_error"])
-    lines += [
-        "",
-        f"The worst-predicted event (ML-TC, three inputs) is {worst['event']} "
-        f"({worst['total_error']:.3f}), the M4.9 aftershock 5 minutes after the M6.4 "
-        "that the data README says deviates from the others."
-        if worst["event"] == "20221220_nc73821046" else
-        f"The worst-predicted event (ML-TC, three inputs) is {worst['event']} "
-        f"({worst['total_error']:.3f}).",
-        "",
-        *_MDOF_AND_LEFT,
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def _figure(res, path: Path, which: str = "median") -> str:
-    """Measured vs predicted deck acceleration (ch 9), ML-TC and FIR-LS, three inputs: the
-    event of median ML-TC error (``which="median"``) or of the largest peak input
-    (``"largest"``); the whole record and ±5 s around the measured peak."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ev = res["events"]
-    recs = res["records"]["three"]
-    errs = {r["event"]: r["total_error"] for r in res["rows"]
-            if r["method"] == "ML-TC" and r["inputs"] == "three"}
-    if which == "median":
-        order = sorted(range(len(recs)), key=lambda i: (errs[recs[i].name], recs[i].name))
-        j = order[(len(order) - 1) // 2]
-    else:
-        j = max(range(len(recs)), key=lambda i: float(ev[recs[i].name]["pga_inputs_g"]))
-    rec = recs[j]
-    ch = rec.output_channels.index("9")
-    yh = res["preds"][("three", "ML-TC")][j][ch]
-    fir = res["preds"][("three", "FIR-LS")][j][ch]
-    t = rec.t
-    tp = t[int(np.argmax(np.abs(rec.y[ch])))]
-    fig, axes = plt.subplots(2, 1, figsize=(8, 5.2), constrained_layout=True)
-    for ax, (lo, hi) in zip(axes, ((0, t[-1]), (tp - 5, tp + 5)), strict=True):
-        m = (t >= lo) & (t <= hi)
-        ax.plot(t[m], rec.y[ch][m], color="k", lw=0.9, label="measured")
-        ax.plot(t[m], yh[m], color="C3", lw=0.8, label="ML-TC, identified from the other 13")
-        if hi - lo <= 10:
-            ax.plot(t[m], fir[m], color="C0", lw=0.6, ls="--", label="FIR-LS baseline")
-        ax.set_ylabel("deck accel. ch 9, m/s²")
-    axes[-1].set_xlabel("time, s")
-    axes[-1].legend(loc="upper right", fontsize=7)
-    e = float(np.linalg.norm(yh - rec.y[ch]) / np.linalg.norm(rec.y[ch]))
-    axes[0].set_title(
-        f"Painter Street Overpass, {ev[rec.name]['title']} (peak input "
-        f"{float(ev[rec.name]['pga_inputs_g']):.3f} g)\ntransverse deck acceleration near the "
-        f"east abutment predicted from 3 ground accelerations; ML-TC error on ch 9: {e:.2f}",
-        fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return rec.name
-
-
-def write_study(res, out) -> None:
-    """Write ``out``/summary.csv, errors.csv, fits.csv, FINDINGS.md, figures/ as a whole."""
-    out = Path(out)
-    with replace_dir(out) as tmp:
-        (tmp / "summary.csv").write_text(_csv(res["summary"], [
-            "inputs", "method", "status", "mean_error", "median_error", "max_error", "note"]))
-        (tmp / "timing.csv").write_text(_csv(
-            [s for s in res["summary"] if s["status"] == "ok"],
-            ["inputs", "method", "seconds"]))
-        cols = ["event", "inputs", "method", "total_error"]
-        cols += sorted({k for r in res["rows"] for k in r if k.startswith("error_ch")})
-        (tmp / "errors.csv").write_text(_csv(res["rows"], cols))
-        fcols = ["event", "inputs", "method"]
-        fcols += sorted({k for r in res["fits"] for k in r} - set(fcols))
-        (tmp / "fits.csv").write_text(_csv(res["fits"], fcols))
-        (tmp / "FINDINGS.md").write_text(_findings(res))
-        if not res.get("no_figures") and ("three", "ML-TC") in res["preds"] \
-                and ("three", "FIR-LS") in res["preds"]:
-            (tmp / "figures").mkdir()
-            _figure(res, tmp / "figures" / "deck_acceleration.png", "median")
-            _figure(res, tmp / "figures" / "deck_acceleration_largest.png", "largest")

@@ -7,13 +7,20 @@ its ``units``, ``output_channels`` and ``dt``. ``OUT`` is built beside its place
 in whole: nothing half-written is left.
 
 Records: input/output files (``inputs``, ``outputs``, ``dt``, channels, units:
-:mod:`podbench.core.iorecords`) or today's displacement/force files (``W``, ``F``:
+:mod:`podbench.core.iorecords`; ``.npz``, ``.mat``, CSV or UFF 58, layouts in
+:mod:`podbench.core.iofiles`) or today's displacement/force files (``W``, ``F``:
 :mod:`podbench.measured`, in and lbf). Every file is read and checked against the first
 training file (``dt``, channels, quantities, units, NaN/Inf, length) before any fitting;
 the first problem is one line naming the file and the field.
 
-Prediction bands (``coverage``) are the error-estimate work's: the hook is the methods'
-``predict(record, coverage=…)``; until it lands ``coverage`` is refused with that message.
+``coverage`` (``--coverage``): every prediction gets its band (``lower``, ``upper`` in the
+``.npz``) and ``errors.csv`` the columns ``error_estimate`` (the predicted total error, three
+significant digits) and ``coverage`` (the fraction of the target's measured samples inside
+the band, where it holds outputs). The band is calibrated by leave-one-record-out over the
+training records and conformal scaling (:mod:`podbench.sysid.methods.bands`); it needs at
+least :data:`MIN_BAND_RECORDS` training records. Note that a measured target's outputs hold
+its noise: the coverage of a measured record is that of the measurement, not of the
+noise-free response the band is meant to hold.
 """
 
 from __future__ import annotations
@@ -25,10 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.core.iofiles import is_io_layout
 from podbench.core.iorecords import IORecord, check_records, convert, from_record, read_io_record
 from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
 from podbench.sysid.measured import read_record
+from podbench.sysid.methods.bands import check_coverage
 from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, SingleLoadIO
 from podbench.sysid.methods.peers_io import ERAIO, DMDcIO, OpInfIO
 
@@ -37,18 +46,26 @@ __all__ = ["METHODS", "make_method", "read_any", "predict_files"]
 METHODS = ("ML", "FIR-LS", "SL", "MR", "ERA", "DMDc", "OpInf")
 """The method names ``podbench predict --method`` takes (SL, MR: refused with the reason
 on records whose inputs are not forces at the outputs / that carry no initial condition)."""
+MIN_BAND_RECORDS = 3
+"""Training records ``--coverage`` needs: leave-one-record-out folds of at least two records
+(ML's lag length and TC prior are themselves chosen by leave-one-record-out)."""
 SOLVERS_FIR = ("auto", "ls", "tc")
 """``--solver`` for the truncated kernel: ``auto`` (TC prior with three or more training
 records, else plain), ``ls`` (plain least squares), ``tc`` (TC prior). Any other name (e.g.
 ``block``, ``cgls``) is a deconvolution solver on the kernel over the whole record."""
 
 
-def read_any(path, *, input_units=None, output_units=None, system=None) -> IORecord:
-    """An input/output record from a file (input/output layout or W/F layout)."""
+def read_any(path, *, input_units=None, output_units=None, system=None,
+             default_output_units=None) -> IORecord:
+    """An input/output record from a file (input/output layout or W/F layout; ``.npz``,
+    ``.mat``, CSV, UFF 58). ``default_output_units``: the unit of a target without outputs."""
     path = Path(path)
-    if path.suffix.lower() in (".npz", ".mat") and _has(path, "inputs"):
+    suffix = path.suffix.lower()
+    if ((suffix in (".npz", ".mat") and _has(path, "inputs"))
+            or (suffix in (".csv", ".uff", ".unv") and is_io_layout(path))):
         return read_io_record(path, input_units=input_units, output_units=output_units,
-                              require_outputs=False, system=system)
+                              require_outputs=False, system=system,
+                              default_output_units=default_output_units)
 
     rec = from_record(read_record(path), name=path.name)
     return convert(rec, system) if system else rec
@@ -101,13 +118,12 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
     Returns the rows of errors.csv. Raises InputError (one line naming the file and the
     field) before anything is written."""
 
-    if coverage is not None:
-        raise InputError("--coverage: prediction bands are not available yet (they come with "
-                         "the error-estimate work); run without --coverage")
     if not train:
         raise InputError("--train: no training file given")
     if not targets:
         raise InputError("--target: no target file given")
+    if coverage is not None:
+        coverage = _check_coverage(coverage, len(train))
     stems = [Path(t).stem for t in targets]
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:
@@ -115,7 +131,7 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
                          "predictions are named after it)")
     kw = dict(input_units=input_units, output_units=output_units, system=units)
     tr = [read_any(p, **kw) for p in train]
-    tg = [read_any(p, **kw) for p in targets]
+    tg = [read_any(p, **kw, default_output_units=tr[0].output_units) for p in targets]
     est = make_method(method, solver=solver, n_modes=n_modes, n_train=len(tr))
     min_samples = 2
     if getattr(est, "n_lags", None) == "auto":
@@ -123,23 +139,52 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
     check_records(tr, tg, min_samples=min_samples)
     with single_blas_thread():
         est.fit(tr)
-        preds = [est.predict(r) for r in tg]
-    rows = []
-    for stem, rec, yh in zip(stems, tg, preds, strict=True):
-        err = ("" if rec.y is None else
-               f"{float(np.linalg.norm(yh - rec.y) / np.linalg.norm(rec.y)):.6g}")
-        rows.append({"target": stem, "method": method, "total_error": err,
-                     "units": rec.output_units})
+        preds = [est.predict(r, coverage=coverage) for r in tg]
+    rows = [_row(stem, method, rec, p, coverage)
+            for stem, rec, p in zip(stems, tg, preds, strict=True)]
+    columns = ["target", "method", "total_error", "units"]
+    if coverage is not None:
+        columns += ["error_estimate", "coverage"]
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=["target", "method", "total_error", "units"],
-                       lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
     w.writeheader()
     w.writerows(rows)
     with replace_dir(out) as tmp:
-        for stem, rec, yh in zip(stems, tg, preds, strict=True):
-            np.savez_compressed(tmp / f"{stem}.npz", W_hat=yh, dt=np.float64(rec.dt),
+        for stem, rec, p in zip(stems, tg, preds, strict=True):
+            arrays = p.to_arrays() if coverage is not None else {"W_hat": p}
+            np.savez_compressed(tmp / f"{stem}.npz", **arrays, dt=np.float64(rec.dt),
                                 units=np.array(tr[0].output_units),
                                 quantity=np.array(tr[0].output_quantity),
                                 output_channels=np.array(tr[0].output_channels))
         (tmp / "errors.csv").write_text(buf.getvalue())
     return rows
+
+
+def _check_coverage(coverage, n_train: int) -> float:
+    """``--coverage`` in (0, 1) with enough training records for its calibration."""
+    try:
+        c = check_coverage(coverage)
+    except InputError:
+        raise InputError(f"--coverage: expected a number in (0, 1), got {coverage!r}") from None
+    if n_train < MIN_BAND_RECORDS:
+        raise InputError(f"--coverage: the band is calibrated by leave-one-record-out over "
+                         f"the training records (each fold fitted on the others, with its own "
+                         f"lag and prior choice): give at least {MIN_BAND_RECORDS} --train "
+                         f"files, got {n_train}")
+    return c
+
+
+def _row(stem: str, method: str, rec: IORecord, p, coverage) -> dict:
+    """One row of errors.csv (``p``: the prediction, an array or a Prediction)."""
+    yh = np.asarray(p)
+    err = ("" if rec.y is None else
+           f"{float(np.linalg.norm(yh - rec.y) / np.linalg.norm(rec.y)):.6g}")
+    row = {"target": stem, "method": method, "total_error": err, "units": rec.output_units}
+    if coverage is not None:
+        if not (np.all(np.isfinite(p.lower)) and np.all(np.isfinite(p.upper))):
+            raise InputError(f"--coverage: {coverage:g} needs more calibration residuals "
+                             "than the training records give (the band would be infinite); "
+                             "lower it or add --train files")
+        row["error_estimate"] = f"{p.error_estimate:.3g}"
+        row["coverage"] = "" if rec.y is None else f"{p.covers(rec.y):.6g}"
+    return row

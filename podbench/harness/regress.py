@@ -129,25 +129,25 @@ def compare(new: pd.DataFrame, base: pd.DataFrame, *, rtol: float = 0.01,
         if b["status"] == "ok" and n["status"] != "ok":
             out.status.append((key, b["status"], n["status"]))
         for col in COMPARED:
-            if col not in b or col not in n:  # a column added after the baseline was written
-                continue
-            bv, nv = float(b[col]), float(n[col])
-            if math.isnan(bv):
-                continue
-            if math.isnan(nv) or nv > bv * (1 + rtol) + atol:
-                out.worse.append((key, col, bv, nv))
-            elif nv < bv * (1 - rtol) - atol:
-                out.better.append((key, col, bv, nv))
+            if col in b and col in n:  # not a column added after the baseline was written
+                _judge(out, key, col, float(b[col]), float(n[col]), rtol, atol)
         if "coverage" not in b or "coverage" not in n:
             continue
         bc, nc = calibration_columns(b), calibration_columns(n)
         for col in CALIBRATION:
-            bv, nv = bc[col], nc[col]
-            if math.isnan(bv):
-                continue
-            if math.isnan(nv) or nv > bv * (1 + rtol) + CALIBRATION_ATOL:
-                out.worse.append((key, col, bv, nv))
-            elif nv < bv * (1 - rtol) - CALIBRATION_ATOL:
-                out.better.append((key, col, bv, nv))
+            _judge(out, key, col, bc[col], nc[col], rtol, CALIBRATION_ATOL)
     out.added = [k for k in nk if k not in bk]
     return out
+
+
+def _judge(out: Comparison, key, col: str, bv: float, nv: float, rtol: float,
+           atol: float) -> None:
+    """File one error of a row as worse (above ``bv·(1 + rtol) + atol``, or NaN where the
+    baseline has a number) or better (below ``bv·(1 − rtol) − atol``); a NaN baseline is
+    not compared."""
+    if math.isnan(bv):
+        return
+    if math.isnan(nv) or nv > bv * (1 + rtol) + atol:
+        out.worse.append((key, col, bv, nv))
+    elif nv < bv * (1 - rtol) - atol:
+        out.better.append((key, col, bv, nv))

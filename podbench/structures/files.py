@@ -39,14 +39,14 @@ from __future__ import annotations
 
 import inspect
 import os
-import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from podbench.core.resources import bundled_structures
+from podbench.core.resources import bundled_structures, unique_paths
+from podbench.core.tomlfile import load_toml
 from podbench.core.userimport import UserImportError, import_module_or_file
 from podbench.errors import InputError, StructureFileError, UnknownNameError
 from podbench.structures.beam import (
@@ -69,11 +69,6 @@ from podbench.structures.matrices import (
 from podbench.structures.spec import Table, fail
 from podbench.structures.structure import Structure
 from podbench.structures.truss import TubeSection, satellite_truss
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 __all__ = [
     "UNITS",
@@ -150,13 +145,7 @@ def structure_dirs(search_path=None) -> list[Path]:
     bundled = bundled_structures()
     if bundled.is_dir():
         dirs.append(bundled)
-    seen, out = set(), []
-    for d in dirs:
-        key = d.resolve()
-        if key not in seen:
-            seen.add(key)
-            out.append(d)
-    return out
+    return unique_paths(dirs)
 
 
 def list_structures(search_path=None) -> list[str]:
@@ -234,15 +223,7 @@ def load_structure(name_or_path, *, search_path=None, overrides=None,
     """
     path = find_structure(name_or_path, search_path=search_path)
     shown = _display(path)
-    try:
-        with open(path, "rb") as fh:
-            spec = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise StructureFileError(f"{shown}: TOML syntax error: {exc}") from None
-    except UnicodeDecodeError as exc:
-        raise StructureFileError(f"{shown}: not UTF-8 text ({exc})") from None
-    except OSError as exc:
-        raise StructureFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
+    _, spec = load_toml(path, shown, StructureFileError)
     if not overrides:
         structure = build_structure(spec, source=str(path))
     else:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
-from typing import Literal, NoReturn, overload
+from typing import Any, Literal, NoReturn, overload
 
 from podbench.errors import StructureFileError
 
@@ -204,13 +204,18 @@ class Table:
             out.append(int(v))
         return out
 
-    def strings(self, key: str, default=MISSING) -> list[str]:
+    def _array_of(self, key: str, default, kind: type, what: str) -> tuple[Any, bool]:
+        """``(value, present)`` of the array ``key`` whose items must all be ``kind``
+        (``what`` names them in the message); ``(default, False)`` when absent."""
         value, present = self._get(key, default)
-        if not present:
-            return value
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            self.fail(key, f"expected an array of strings, got {_show(value)}")
-        return list(value)
+        if present and (not isinstance(value, list)
+                        or not all(isinstance(v, kind) for v in value)):
+            self.fail(key, f"expected an array of {what}, got {_show(value)}")
+        return value, present
+
+    def strings(self, key: str, default=MISSING) -> list[str]:
+        value, present = self._array_of(key, default, str, "strings")
+        return list(value) if present else value
 
     # ------------------------------------------------------------------ sub-tables
     @overload
@@ -230,11 +235,9 @@ class Table:
 
     def tables(self, key: str, default=MISSING) -> list[Table]:
         """An array of tables (``[[key]]`` or ``key = [{...}, ...]``)."""
-        value, present = self._get(key, default)
+        value, present = self._array_of(key, default, dict, "tables")
         if not present:
             return value
-        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-            self.fail(key, f"expected an array of tables, got {_show(value)}")
         return [Table(v, file=self.file, prefix=f"{self.field(key)}[{i}]")
                 for i, v in enumerate(value)]
 

@@ -103,6 +103,7 @@ __all__ = [
     "truss_dof",
     "dissertation_dof_element",
     "FRACTURE_MODELS",
+    "member_strain_matrix",
 ]
 
 #: ``fracture_model`` choices of :func:`satellite_truss` (see the module docstring).
@@ -319,6 +320,52 @@ def dissertation_dof_element(dof: int) -> int:
     if (dof - 2) % 6:
         raise InputError(f"Parameter `dof`: {dof} is not of the form 6e + 2")
     return (dof - 2) // 6
+
+
+def _member_row(mem: TrussMember, bay: float, side: float) -> np.ndarray:
+    """``g / L``: the member's axial strain in the element's nine coordinates."""
+    pos, T = _joint_geometry(side)
+    xi = np.array([mem.face_i * bay, *pos[mem.joint_i]])
+    xj = np.array([mem.face_j * bay, *pos[mem.joint_j]])
+    length = float(np.linalg.norm(xj - xi))
+    e = (xj - xi) / length
+    Bi = np.zeros((3, 9))
+    Bj = np.zeros((3, 9))
+    Bi[:, 3 * mem.face_i:3 * mem.face_i + 3] = T[mem.joint_i]
+    Bj[:, 3 * mem.face_j:3 * mem.face_j + 3] = T[mem.joint_j]
+    return e @ (Bj - Bi) / length
+
+
+def member_strain_matrix(structure: Structure, members) -> np.ndarray:
+    """``E`` with ``ε = E q``: the axial strain (elongation / length, positive in tension)
+    ``ε = eᵀ(d_j − d_i)/L`` of truss members, one row per member over the structure's DOFs.
+
+    ``members``: ``(element, label)`` pairs, the element 1-based from the left pin and the
+    label of :func:`element_members` (``"1"`` the top longeron of bay 1, ``"10"`` a
+    diagonal, …). The joint displacements ``d`` follow from the face coordinates by Fig.
+    4.51's kinematics (module docstring); pinned coordinates are zero. Then
+    ``Σ_members EA L ε² = qᵀ K q`` (the strain energy, twice)."""
+    md = structure.metadata
+    if "free_coordinates" not in md or "bay_length" not in md:
+        raise InputError(f"structure {structure.name!r}: member strain needs the satellite "
+                         "truss (its metadata: free_coordinates, bay_length, side)")
+    n = int(md["n_elements"])
+    lookup = {m.label: m for m in element_members(str(md["diagonal_pattern"]))}
+    col = {int(c): k for k, c in enumerate(md["free_coordinates"])}
+    pairs = list(members)
+    E = np.zeros((len(pairs), structure.n_dofs))
+    for i, (element, label) in enumerate(pairs):
+        if not (isinstance(element, (int, np.integer)) and 1 <= element <= n):
+            raise InputError(f"Parameter `members`: element {element!r} not in [1, {n}]")
+        if str(label) not in lookup:
+            raise InputError(f"Parameter `members`: unknown member label {label!r} (one of "
+                             f"{', '.join(lookup)})")
+        row = _member_row(lookup[str(label)], float(md["bay_length"]), float(md["side"]))
+        for local, g in enumerate(row):
+            k = col.get(6 * (int(element) - 1) + local)
+            if k is not None and g != 0.0:
+                E[i, k] += g
+    return E
 
 
 # ---------------------------------------------------------------------------- the truss

@@ -84,17 +84,13 @@ import hashlib
 import inspect
 import json
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
 from podbench.core.resources import display_path as _display
+from podbench.core.resources import unique_paths
+from podbench.core.tomlfile import load_toml
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import MISSING, Table
 from podbench.study.estimators import (
@@ -332,15 +328,7 @@ def read_study_file(path: Path, shown: str, what: str) -> tuple[bytes, dict]:
     """
     if not path.is_file():
         raise ScenarioFileError(f"{shown}: no such {what} file")
-    try:
-        raw = path.read_bytes()
-        return raw, tomllib.loads(raw.decode("utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioFileError(f"{shown}: TOML syntax error: {exc}") from None
-    except UnicodeDecodeError as exc:
-        raise ScenarioFileError(f"{shown}: not UTF-8 text ({exc})") from None
-    except OSError as exc:
-        raise ScenarioFileError(f"{shown}: cannot read ({exc.strerror or exc})") from None
+    return load_toml(path, shown, ScenarioFileError)
 
 
 def _load_base(sc: Table, path: Path, rel: str, stack: tuple) -> Scenario:
@@ -803,13 +791,7 @@ def find_scenarios(paths) -> list[Path]:
             found.append(p)
         else:
             raise ScenarioFileError(f"{_display(p)}: no such file or folder")
-    out, seen = [], set()
-    for f in found:
-        r = f.resolve()
-        if r not in seen:
-            seen.add(r)
-            out.append(f)
-    return out
+    return unique_paths(found)
 
 
 def canonical_json(obj) -> str:

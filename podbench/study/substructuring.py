@@ -1,9 +1,9 @@
 """The substructuring study file (Chapter 6): ``scenarios/substructuring/substructuring.toml``.
 
-A study folder whose one TOML file has a top-level ``[substructuring]`` table is not a
-scenario folder of methods and targets: :func:`substructuring_file` recognizes it and
-:func:`load_substructuring` reads it into a :class:`SubstructuringPlan` (pure data), which
-:mod:`podbench.harness.substructuring` runs.
+A study with its own runner (``[study] runner = "substructuring"``,
+:mod:`podbench.study.own_runner`), not a scenario folder of methods and targets:
+:func:`load_substructuring` reads its ``[substructuring]`` table into a
+:class:`SubstructuringPlan` (pure data), which :mod:`podbench.harness.substructuring` runs.
 """
 
 from __future__ import annotations
@@ -19,8 +19,7 @@ else:  # pragma: no cover - Python 3.10
 
 from podbench.errors import ScenarioFileError
 
-__all__ = ["SubstructuringPlan", "ComponentEntry", "substructuring_file", "load_substructuring",
-           "TABLE"]
+__all__ = ["SubstructuringPlan", "ComponentEntry", "load_substructuring", "TABLE"]
 
 TABLE = "substructuring"
 
@@ -60,24 +59,6 @@ def _read(path: Path) -> dict:
             return tomllib.load(fh)
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ScenarioFileError(f"{path}: cannot be read ({exc})") from None
-
-
-def substructuring_file(files) -> Path | None:
-    """The substructuring study file among ``files`` (a single TOML file with a
-    ``[substructuring]`` table), or None."""
-    files = [Path(f) for f in files]
-    if len(files) != 1 or files[0].suffix != ".toml":
-        return None
-    try:
-        text = files[0].read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):  # the scenario reader reports it, in one line
-        return None
-    if f"[{TABLE}]" not in text:
-        return None
-    try:
-        return files[0] if TABLE in tomllib.loads(text) else None
-    except tomllib.TOMLDecodeError:
-        return None
 
 
 def _get(d: dict, key: str, kind, path: Path, default=None):

@@ -1,4 +1,5 @@
-"""The parameter tables of docs/methods.md, generated from the declarations.
+"""The parameter tables of docs/methods.md and the command line's parameter help, generated
+from the declarations.
 
 Every built-in method and solver declares its hyperparameters once
 (:mod:`podbench.sysid.params`); :func:`render` writes the tables from them, and
@@ -6,11 +7,19 @@ tests/sysid/test_params.py checks that docs/methods.md holds exactly that text b
 :data:`BEGIN` and :data:`END`. After changing a declaration::
 
     python -m podbench.sysid.paramdocs docs/methods.md
+
+:func:`entries` and :func:`parameter_help` give ``podbench methods [NAME]`` the same
+declarations: name, what each parameter admits, its default and its description (from the
+class docstring's ``Parameters`` section).
 """
 
 from __future__ import annotations
 
+import inspect
+import re
 import sys
+import textwrap
+from functools import partial
 from pathlib import Path
 
 from podbench.sysid.deconvolution._api import available_solvers, get_solver
@@ -19,9 +28,10 @@ from podbench.sysid.methods.free import MDS, POVR
 from podbench.sysid.methods.mixed import MixedResponse
 from podbench.sysid.methods.peers import ERA, DMDc, OpInf
 from podbench.sysid.methods.superposition import Superposition
-from podbench.sysid.params import parameter_table
+from podbench.sysid.params import parameter_table, parameters, plain_text
 
-__all__ = ["METHODS", "SOLVERS", "BEGIN", "END", "render", "update"]
+__all__ = ["METHODS", "SOLVERS", "BEGIN", "END", "render", "update", "entries",
+           "parameter_help"]
 
 METHODS = (POVR, MDS, SingleLoad, MultipleLoad, MixedResponse, Superposition, ERA, DMDc, OpInf)
 """The built-in methods, in the order of the docs."""
@@ -43,6 +53,45 @@ def render() -> str:
                   parameter_table(solver), ""]
     parts.append(END)
     return "\n".join(parts)
+
+
+def entries() -> dict[str, type]:
+    """The names ``podbench methods`` takes: every built-in method by the name a scenario
+    gives (``ML``, ``superposition``), then every solver by its ``solver=`` name."""
+    return {**{cls.abbreviation: cls for cls in METHODS}, **SOLVERS}
+
+
+def _first_sentence(text: str) -> str:
+    match = re.match(r"(.+?\.)(?:\s+[A-Z(\"]|$)", text)
+    return match.group(1) if match else text
+
+
+_USAGE = {"superposition": '[[methods]] method = "superposition", parts = [labels of other '
+                           'methods]'}
+"""How a scenario file gives a method whose parameters are not ``options``."""
+
+
+def parameter_help(name: str, *, full: bool = True, width: int = 88) -> str:
+    """The help on one method or solver of :func:`entries`: its heading (what it is, how a
+    scenario file names it) and, per parameter, its name, default, what it admits and its
+    description (``full``: all of it, else its first sentence), wrapped to ``width``."""
+    cls = entries()[name]
+    summary = plain_text(" ".join((inspect.getdoc(cls) or "").split("\n\n")[0].split()))
+    if name in SOLVERS:
+        usage = f'a method\'s options = {{ solver = "{name}", solver_options = {{ ... }} }}'
+    else:
+        usage = _USAGE.get(name, f'[[methods]] method = "{name}", options = {{ ... }}')
+    wrap = partial(textwrap.wrap, width=width, break_long_words=False, break_on_hyphens=False)
+    lines = wrap(f"{name}: {cls.__name__} — {_first_sentence(summary)}",
+                 subsequent_indent="  ")
+    lines.append(f"  ({usage})")
+    for p in parameters(cls):
+        lines.append(f"  {p.name} (default {p.default}): {p.admits}")
+        doc = p.doc if full else _first_sentence(p.doc)
+        lines += wrap(doc, initial_indent="      ", subsequent_indent="      ")
+    if not parameters(cls):
+        lines.append("  (no parameters)")
+    return "\n".join(lines)
 
 
 def update(path: str | Path) -> bool:

@@ -24,7 +24,9 @@ from __future__ import annotations
 import inspect
 import math
 import numbers
+import re
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,6 +43,10 @@ __all__ = [
     "check_param",
     "check_names",
     "parameter_table",
+    "parameters",
+    "parameter_docs",
+    "Parameter",
+    "plain_text",
 ]
 
 
@@ -294,18 +300,91 @@ class ParamsMixin:
         return f"{type(self).__name__}({args})"
 
 
+@dataclass(frozen=True)
+class Parameter:
+    """One hyperparameter as declared: ``name``, what it ``admits`` (from the constraints),
+    its ``default`` as shown (from the constructor's signature) and ``doc`` (its
+    description in the class docstring's ``Parameters`` section, markup removed; "" if
+    none)."""
+
+    name: str
+    admits: str
+    default: str
+    doc: str
+
+
+def parameters(cls) -> list[Parameter]:
+    """The hyperparameters of ``cls`` in the constructor's order, from its declaration:
+    the one source of :func:`parameter_table` (docs/methods.md) and of
+    ``podbench methods`` (the command line's help on a method or solver)."""
+    sig = inspect.signature(cls.__init__)
+    declared: Mapping = cls._parameter_constraints
+    docs = parameter_docs(cls)
+    out = []
+    for name in cls._get_param_names():
+        default = sig.parameters[name].default
+        out.append(Parameter(
+            name=name, admits=describe(declared[name]) if name in declared else "(not declared)",
+            default=f"{default:g}" if isinstance(default, float) else repr(default),
+            doc=docs.get(name, "")))
+    return out
+
+
 def parameter_table(cls) -> str:
     """The Markdown table of ``cls``'s hyperparameters (name, what it admits, default), as
     in docs/methods.md."""
-    sig = inspect.signature(cls.__init__)
-    declared: Mapping = cls._parameter_constraints
     rows = ["| parameter | admits | default |", "| --- | --- | --- |"]
-    for name in cls._get_param_names():
-        default = sig.parameters[name].default
-        admits = describe(declared[name]) if name in declared else "(not declared)"
-        shown = f"{default:g}" if isinstance(default, float) else repr(default)
-        rows.append(f"| `{name}` | {admits} | `{shown}` |")
+    rows += [f"| `{p.name}` | {p.admits} | `{p.default}` |" for p in parameters(cls)]
     return "\n".join(rows)
+
+
+_HEADER = re.compile(r"^(\w+(?:\s*,\s*\w+)*)(?:\s+:\s+.*|\s*:)?\s*$")
+"""A numpydoc parameter line, ``name : type`` or ``a, b : type`` or ``name``."""
+
+
+def parameter_docs(cls) -> dict[str, str]:
+    """Name → description of every parameter in the numpydoc ``Parameters`` section of
+    ``cls``'s docstring (a parameter it leaves undescribed: its base classes'), one
+    paragraph, reStructuredText roles and literals reduced to their text
+    (``:class:`~a.B``` → ``B``)."""
+    docs: dict[str, str] = {}
+    for klass in cls.__mro__:
+        for name, text in _section(inspect.cleandoc(klass.__dict__.get("__doc__") or "")):
+            if text and name not in docs:
+                docs[name] = text
+    return docs
+
+
+def _section(doc: str) -> list[tuple[str, str]]:
+    """(name, description) of the ``Parameters`` section of one docstring."""
+    lines = doc.splitlines()
+    starts = [i for i in range(len(lines) - 1)
+              if lines[i].strip() == "Parameters" and set(lines[i + 1].strip()) == {"-"}]
+    if not starts:
+        return []
+    docs: dict[str, list[str]] = {}
+    current: list[str] = []
+    for i in range(starts[0] + 2, len(lines)):
+        line = lines[i]
+        if not line.strip():
+            continue
+        if line[0].isspace():
+            current.append(line.strip())
+            continue
+        match = _HEADER.match(line)
+        if match is None or (i + 1 < len(lines) and set(lines[i + 1].strip()) == {"-"}):
+            break  # prose after the section, or the next section
+        current = []
+        for name in match.group(1).split(","):
+            docs[name.strip()] = current
+    return [(name, plain_text(" ".join(text))) for name, text in docs.items()]
+
+
+def plain_text(text: str) -> str:
+    """reStructuredText reduced to plain text: ``:role:`~a.b.C``` → ``C``, ````x```` → ``x``."""
+    text = re.sub(r":\w+:`~[\w.]*?(\w+)`", r"\1", text)
+    text = re.sub(r":\w+:`([^`]+)`", r"\1", text)
+    return re.sub(r"``([^`]+)``", r"\1", text)
 
 
 # Constraints many hyperparameters share.

@@ -72,6 +72,13 @@ def _fix_signs(U: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return U * signs, V * signs
 
 
+def _snapshots(W, n_modes) -> tuple[np.ndarray, int]:
+    """The snapshot matrix checked (finite, 2-D) and the number of modes ``k`` (``n_modes``,
+    at most ``min(m, n)``; default all)."""
+    W = as_finite_array(W, "W", ndim=2)
+    return W, _check_n_modes(n_modes, min(W.shape))
+
+
 def _check_n_modes(n_modes, r_max: int):
     if n_modes is None:
         return r_max
@@ -99,8 +106,7 @@ def snapshot_svd(W, n_modes: int | None = None) -> POD:
     POD
         ``modes`` (m, k), ``povs`` (k,), ``pocs`` (n, k).
     """
-    W = as_finite_array(W, "W", ndim=2)
-    k = _check_n_modes(n_modes, min(W.shape))
+    W, k = _snapshots(W, n_modes)
     U, s, Vt = scipy.linalg.svd(W, full_matrices=False, lapack_driver="gesdd")
     U, V = _fix_signs(U[:, :k], Vt[:k].T)
     return POD(U, s[:k].copy(), V)
@@ -128,8 +134,7 @@ def method_of_snapshots(W, n_modes: int | None = None) -> POD:
     POD
         ``modes`` (m, k), ``povs`` (k,), ``pocs`` (n, k).
     """
-    W = as_finite_array(W, "W", ndim=2)
-    k = _check_n_modes(n_modes, min(W.shape))
+    W, k = _snapshots(W, n_modes)
     G = W.T @ W
     n = G.shape[0]
     lam, V = scipy.linalg.eigh(G, subset_by_index=(n - k, n - 1))

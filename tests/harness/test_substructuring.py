@@ -6,11 +6,15 @@ import pandas as pd
 import pytest
 
 import podbench
-from podbench.study.substructuring import load_substructuring, substructuring_file
+from podbench.api import own_study
+from podbench.study.substructuring import load_substructuring
 
 pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
 STUDY = """
+[study]
+runner = "substructuring"
+
 [substructuring]
 parent = "lti_beam"
 interface_dof = 46
@@ -38,7 +42,7 @@ def test_reduced_study_runs_through_podbench_run(tmp_path):
     folder = tmp_path / "sub"
     folder.mkdir()
     (folder / "substructuring.toml").write_text(STUDY, encoding="utf-8")
-    assert substructuring_file([folder / "substructuring.toml"]) is not None
+    assert own_study([folder / "substructuring.toml"]).runner == "substructuring"
     assert load_substructuring(folder / "substructuring.toml").components[0].tip_mass
     res = podbench.run(str(folder), out=tmp_path / "out", figures=False)
     df = pd.read_csv(tmp_path / "out" / "summary.csv")

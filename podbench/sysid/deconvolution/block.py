@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft
 
+from podbench.core.validation import condition_number
 from podbench.errors import IllConditionedError, InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.system import ConvolutionSystem
@@ -143,7 +144,7 @@ def _block(system: ConvolutionSystem, zero_tol: float, max_cond: float, max_grow
         )
     d = system.leading_zeros(zero_tol)
     sv = np.linalg.svd(G[d], compute_uv=False)
-    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else np.inf
+    cond = condition_number(sv)
     if not cond <= max_cond:
         raise IllConditionedError(
             f"solver 'block': the first nonzero force-sample matrix G[{d}] (modal forces of "

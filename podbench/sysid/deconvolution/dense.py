@@ -19,7 +19,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse.linalg
 
-from podbench.core.validation import as_finite_array, check_positive
+from podbench.core.validation import as_finite_array, check_positive, condition_number
 from podbench.errors import DimensionError, InputError, PodbenchWarning
 from podbench.sysid.deconvolution._base import (
     Solver,
@@ -80,7 +80,7 @@ def _lstsq(A: np.ndarray, B: np.ndarray, rcond: float | None):
     """``X = A⁺ B`` by ``gelsd`` with its diagnostics (``B`` 2-D, ``rcond`` validated)."""
     X, _, rank, s = np.linalg.lstsq(A, B, rcond=rcond)
     used = float(np.finfo(float).eps * max(A.shape)) if rcond is None else rcond
-    cond = float(s[0] / s[-1]) if s.size and s[-1] > 0 else float("inf")
+    cond = condition_number(s)
     return X, {"rank": int(rank), "rcond": used, "condition": cond}
 
 

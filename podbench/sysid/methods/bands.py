@@ -59,12 +59,14 @@ which the fitted model does identify).
 
 from __future__ import annotations
 
+import inspect
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from statistics import NormalDist
 
 import numpy as np
 
+from podbench.core.iorecords import IORecord
 from podbench.core.records import Record, as_record
 from podbench.errors import InputError
 
@@ -231,12 +233,18 @@ class BandCalibration:
 
 def _refit(model, records, *, n_modes=None, basis=None):
     est = type(model)(**model.get_params(deep=False))
+    if basis is not None and "basis" not in inspect.signature(est.fit).parameters:
+        raise InputError(f"{type(model).__name__}: no prediction band: the band refits the "
+                         "method in its fitted basis (leave one record out), and its fit "
+                         "takes no basis")
     if n_modes is not None and "n_modes" in est.get_params(deep=False):
         est.set_params(n_modes=n_modes)
     return est.fit(records, basis=basis)
 
 
 def _with_W(rec, W):
+    if isinstance(rec, IORecord):
+        return replace(rec, y=W)
     r = as_record(rec)
     return Record(W=W, F=r.F, w0=r.w0, v0=r.v0, dt=r.dt)
 
@@ -322,6 +330,31 @@ def _residuals(model, recs, U, can_split: bool):
     return source, residuals, envs, cv_modes
 
 
+def _time_profile(residuals, envs) -> np.ndarray:
+    """The time profile g: RMS of residual/envelope per time bin over folds and sensors,
+    normalized to a mean square of one. Records of different lengths (measured
+    input/output records) are binned each over its own length (g is a profile over the
+    fraction of the record)."""
+    if len({R.shape[1] for R in residuals}) == 1:
+        bins = _bins(residuals[0].shape[1])
+        ratio2 = np.stack([(R / E) ** 2 for R, E in zip(residuals, envs, strict=True)])
+        g = np.array([np.sqrt(np.mean(ratio2[:, :, bins == b])) if np.any(bins == b)
+                      else 1.0 for b in range(N_TIME_BINS)])
+    else:
+        sums = np.zeros(N_TIME_BINS)
+        counts = np.zeros(N_TIME_BINS)
+        for R, E in zip(residuals, envs, strict=True):
+            r2 = (R / E) ** 2
+            b = np.broadcast_to(_bins(R.shape[1]), r2.shape).ravel()
+            sums += np.bincount(b, weights=r2.ravel(), minlength=N_TIME_BINS)
+            counts += np.bincount(b, minlength=N_TIME_BINS)
+        g = np.where(counts > 0, np.sqrt(sums / np.maximum(counts, 1)), 1.0)
+    if not np.all(np.isfinite(g)) or np.max(g) == 0:
+        return np.ones(N_TIME_BINS)
+    g = np.maximum(g, 1e-3 * np.max(g))
+    return g / np.sqrt(np.mean(g ** 2))
+
+
 def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
               cross_validate: bool = True) -> BandCalibration:
     """Calibrate the band of a fitted ``model`` on its training ``records`` (see the module
@@ -332,6 +365,10 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     the cost of no extra refit); ``cross_validate=False`` gives the noise part alone (the
     known-answer case)."""
     recs = list(records)
+    if isinstance(recs[0], IORecord) and cross_validate and len(recs) < 2:
+        raise InputError(f"{type(model).__name__}: a prediction band on input/output records "
+                         "is calibrated by leave-one-record-out: it needs at least 2 training "
+                         f"records (got {len(recs)})")
     lo, hi = getattr(model, "n_records", (1, None))
     can_split = cross_validate and len(recs) >= 2 and len(recs) - 1 >= lo and \
         (hi is None or len(recs) - 1 <= hi)
@@ -341,23 +378,12 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     U = np.asarray(model.modes_, dtype=float)
     sig = _noise_std(model, recs, noise_std, m)
     noise_models = _noise_refits(model, recs, sig, n_draws, seed, U)
-    n = np.shape(recs[0].W)[1]
-    bins = _bins(n)
     if not cross_validate:
         return BandCalibration("noise", np.zeros(0), 0.0, np.ones(N_TIME_BINS), sig, 0,
                                len(noise_models), None, noise_models)
     source, residuals, envs, cv_modes = _residuals(model, recs, U, can_split)
-    # the time profile g: RMS of residual/envelope per time bin over folds and sensors,
-    # normalized to a mean square of one
-    ratio2 = np.stack([(R / E) ** 2 for R, E in zip(residuals, envs, strict=True)])
-    g = np.array([np.sqrt(np.mean(ratio2[:, :, bins == b])) if np.any(bins == b) else 1.0
-                  for b in range(N_TIME_BINS)])
-    if not np.all(np.isfinite(g)) or np.max(g) == 0:
-        g = np.ones(N_TIME_BINS)
-    else:
-        g = np.maximum(g, 1e-3 * np.max(g))
-        g = g / np.sqrt(np.mean(g ** 2))
-    per_fold = [(np.abs(R) / (E * g[bins][None, :])).ravel()
+    g = _time_profile(residuals, envs)
+    per_fold = [(np.abs(R) / (E * g[_bins(R.shape[1])][None, :])).ravel()
                 for R, E in zip(residuals, envs, strict=True)]
     scores = np.sort(np.concatenate(per_fold))
     # the error estimate's scale: per fold, κ_j² = ‖R_j‖²/‖s_j‖² (the fold's Frobenius
@@ -365,7 +391,7 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     # total_error); the geometric mean over folds (relative errors differ by orders of
     # magnitude between records — a load near the clamp — and the estimate is scored on a
     # log scale: within a factor of 2)
-    ms = np.array([np.sum(R ** 2) / np.sum((E * g[bins][None, :]) ** 2)
+    ms = np.array([np.sum(R ** 2) / np.sum((E * g[_bins(R.shape[1])][None, :]) ** 2)
                    for R, E in zip(residuals, envs, strict=True)])
     ms_gm = float(np.exp(np.mean(np.log(ms[ms > 0])))) if np.any(ms > 0) else 0.0
     return BandCalibration(source, scores, ms_gm, g, sig,

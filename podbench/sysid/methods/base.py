@@ -22,6 +22,7 @@ from typing import cast
 
 import numpy as np
 
+from podbench.core.iorecords import IORecord
 from podbench.core.records import Record, as_record, is_record
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, IllConditionedError, InputError, NotFittedError
@@ -234,10 +235,12 @@ class PODMethod(ParamsMixin):
                     )
         return recs
 
-    def _records_or_none(self, records, **beside) -> list[Record] | None:
-        """The training records (:meth:`_training_records`) when ``fit`` got the record form
-        (a record or a sequence of records; then none of the array-form arguments
+    def _fit_records(self, records, **beside) -> list[Record] | None:
+        """``fit``'s first step: the hyperparameters checked (:meth:`_validate_params`),
+        then the training records (:meth:`_training_records`) when ``fit`` got the record
+        form (a record or a sequence of records; then none of the array-form arguments
         ``beside`` may be given too), else None (the array form)."""
+        self._validate_params()
         if not is_record_input(records):
             return None
         for name, value in beside.items():
@@ -292,7 +295,7 @@ def _banded_predict(predict):
             return mean
         c = check_coverage(coverage)
         record = args[0] if args else kwargs.get("record")
-        if not is_record(record):
+        if not (is_record(record) or isinstance(record, IORecord)):
             raise InputError(f"{type(self).__name__}.predict: a band (`coverage`) needs the "
                              "target as a record (an object with W, F, w0, v0, dt)")
         cal = getattr(self, "band_calibration_", None)

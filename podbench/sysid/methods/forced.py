@@ -286,8 +286,7 @@ class SingleLoad(_ForcedMethod):
         -------
         self
         """
-        self._validate_params()
-        recs = self._records_or_none(records, F=F, dt=dt)
+        recs = self._fit_records(records, F=F, dt=dt)
         if recs is not None:
             W, F, dt = recs[0].W, recs[0].F, recs[0].dt
         else:
@@ -450,8 +449,7 @@ class MultipleLoad(_ForcedMethod):
         -------
         self
         """
-        self._validate_params()
-        recs = self._records_or_none(records, F=F, dt=dt)
+        recs = self._fit_records(records, F=F, dt=dt)
         if recs is not None:
             Ws, Fs, dt = [r.W for r in recs], [cast(np.ndarray, r.F) for r in recs], recs[0].dt
         else:

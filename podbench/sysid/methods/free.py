@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.core.records import Record, is_record
+from podbench.core.validation import condition_number
 from podbench.errors import IllConditionedError, InputError
 from podbench.sysid.methods.base import (
     BASES,
@@ -182,8 +183,7 @@ class POVR(_FreeMethod):
         -------
         self
         """
-        self._validate_params()
-        recs = self._records_or_none(records, x0=x0)
+        recs = self._fit_records(records, x0=x0)
         if recs is not None:
             W, x0 = recs[0].W, getattr(recs[0], _X0[self.excitation])
         else:
@@ -260,6 +260,8 @@ class MDS(_FreeMethod):
     Parameters
     ----------
     excitation : {"displacement", "velocity"}
+        Kind of initial condition of every data set (``w0`` or ``v0``), used for training
+        and prediction.
     n_modes : int, optional
         ``k``; default the number of data sets (or ``basis.shape[1]``). Must not exceed the
         number of data sets.
@@ -323,8 +325,7 @@ class MDS(_FreeMethod):
         -------
         self
         """
-        self._validate_params()
-        recs = self._records_or_none(records, x0=x0)
+        recs = self._fit_records(records, x0=x0)
         if recs is not None:
             Ws = [r.W for r in recs]
             x0 = [getattr(r, _X0[self.excitation]) for r in recs]
@@ -363,7 +364,7 @@ class MDS(_FreeMethod):
             U, povs, pocs = select_basis(Ws[0], k, None)
         V0 = U.T @ X0  # k × n_sets
         s = np.linalg.svd(V0, compute_uv=False)
-        cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
+        cond = condition_number(s)
         if not cond <= max_cond:
             raise IllConditionedError(
                 f"MDS: the initial {word} profiles are (nearly) linearly dependent in the POM "

@@ -78,6 +78,16 @@ def io_records(records, name: str = "records") -> list[IORecord]:
     return recs
 
 
+def given_basis(recs, basis) -> tuple[np.ndarray, np.ndarray]:
+    """``(U, povs)`` of a given basis (n_out × k) and the records' energy along it."""
+    U = np.asarray(basis, dtype=float)
+    m = recs[0].n_outputs
+    if U.ndim != 2 or U.shape[0] != m or not 1 <= U.shape[1] <= m:
+        raise InputError(f"Parameter `basis`: expected an array of shape ({m}, k), k ≤ {m}, "
+                         f"got shape {U.shape}")
+    return U, np.linalg.norm(U.T @ np.hstack([r.y for r in recs]), axis=1)
+
+
 def _channel_grams(rec: IORecord, n_lags: int, first: int):
     """``A``, ``B_y`` and ``y yᵀ`` of a record in its output channels (cached per record)."""
     cache = _GRAMS.setdefault(rec, {})
@@ -304,11 +314,14 @@ class MultipleLoadIO(IOMethod):
                              f"{Uall.shape[1]}, got {k!r}")
         return Uall[:, :k], s[:k]
 
-    def fit(self, records) -> MultipleLoadIO:
-        """Identify the kernel from training IORecords (any lengths); returns ``self``."""
+    def fit(self, records, basis=None) -> MultipleLoadIO:
+        """Identify the kernel from training IORecords (any lengths); returns ``self``.
+
+        ``basis`` (n_out × k): the POMs to use instead of the records' own (the band's
+        leave-one-record-out refits keep the whole fit's basis)."""
         recs = io_records(records)
         check_records(recs)
-        U, povs = self._basis(recs)
+        U, povs = self._basis(recs) if basis is None else given_basis(recs, basis)
         if self.n_lags is None:
             theta, info = self._fit_full(recs, U)
         else:
@@ -355,11 +368,9 @@ class MultipleLoadIO(IOMethod):
     def predict(self, record, coverage=None) -> np.ndarray:
         """Predicted outputs ``ŷ = U v̂`` (n_out × n, the training output unit).
 
-        ``coverage`` (a prediction band) is the hook of the error-estimate work; not built
-        here: refused."""
-        if coverage is not None:
-            raise InputError("Parameter `coverage`: prediction bands are not available for "
-                             "input/output records yet")
+        ``coverage=c`` returns a :class:`~podbench.sysid.methods.bands.Prediction` (band and
+        error estimate, calibrated by leave-one-record-out over the training records;
+        handled by :class:`~podbench.sysid.methods.base.PODMethod`)."""
         return self.modes_ @ self.predict_coordinates(record)
 
 
@@ -403,7 +414,7 @@ class SingleLoadIO(MultipleLoadIO):
     abbreviation = "SL"
     coupled = False
 
-    def fit(self, records) -> SingleLoadIO:
+    def fit(self, records, basis=None) -> SingleLoadIO:
         recs = io_records(records)
         r = recs[0]
         if not r.collocated:

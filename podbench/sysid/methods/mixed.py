@@ -211,8 +211,7 @@ class MixedResponse(PODMethod):
         -------
         self
         """
-        self._validate_params()
-        recs = self._records_or_none(records, w0=w0, v0=v0, F=F, dt=dt)
+        recs = self._fit_records(records, w0=w0, v0=v0, F=F, dt=dt)
         if recs is not None:
             Ws = [r.W for r in recs]
             w0s, v0s, Fs = ([cast(np.ndarray, getattr(r, f)) for r in recs]

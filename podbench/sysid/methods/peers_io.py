@@ -23,7 +23,7 @@ import numpy as np
 
 from podbench.core.iorecords import check_records
 from podbench.errors import InputError
-from podbench.sysid.methods.inputs import IOMethod, io_records
+from podbench.sysid.methods.inputs import IOMethod, given_basis, io_records
 from podbench.sysid.methods.peers import ERA, DMDc, OpInf
 from podbench.sysid.methods.peers._common import simulate
 from podbench.sysid.methods.peers.era import era_realization, okid_markov, realize
@@ -65,10 +65,10 @@ class IOPeer(IOMethod):
             raise InputError(f"{self.abbreviation}: delay coordinates need as many inputs as "
                              f"output modes ({recs[0].n_inputs} inputs, {k} modes)")
 
-    def fit(self, records):
+    def fit(self, records, basis=None):
         recs = io_records(records)
         check_records(recs)
-        U, povs = self._basis(recs)
+        U, povs = self._basis(recs) if basis is None else given_basis(recs, basis)
         Ys, Us = _padded(recs, U)
         self.model_, self.info_ = self._identify_io(Ys, Us, recs)
         self.modes_ = U
@@ -79,9 +79,6 @@ class IOPeer(IOMethod):
         return self
 
     def predict(self, record, coverage=None) -> np.ndarray:
-        if coverage is not None:
-            raise InputError("Parameter `coverage`: prediction bands are not available for "
-                             "input/output records yet")
         rec = self._target(record)
         return self.modes_ @ self._respond_io(rec.u)
 

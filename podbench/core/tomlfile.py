@@ -1,0 +1,34 @@
+"""Reading a TOML file of podbench's (a structure, a scenario, a claims or experiment file)
+with one line naming the file for each way it can fail."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["load_toml"]
+
+
+def load_toml(path, shown: str, error: type[Exception]) -> tuple[bytes, dict]:
+    """The bytes of ``path`` and their parsed table.
+
+    Raises
+    ------
+    error
+        ``<shown>: TOML syntax error: …``, ``<shown>: not UTF-8 text (…)`` or ``<shown>:
+        cannot read (…)`` (``shown``: the file as messages name it).
+    """
+    try:
+        raw = Path(path).read_bytes()
+        return raw, tomllib.loads(raw.decode("utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{shown}: TOML syntax error: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{shown}: not UTF-8 text ({exc})") from None
+    except OSError as exc:
+        raise error(f"{shown}: cannot read ({exc.strerror or exc})") from None

@@ -1,0 +1,134 @@
+"""Studies with their own runner: a study file whose ``[study]`` table names the runner.
+
+Most studies are scenario files of methods and targets (:mod:`podbench.study.scenarios`),
+run unit by unit by :mod:`podbench.harness.runner`. A study that is not — the Painter
+Street Overpass' leave-one-event-out over measured earthquakes, Chapter 6's substructuring
+— is one TOML file that names its runner::
+
+    [study]
+    runner = "substructuring"        # a name of podbench.api.RUNNERS
+    title = "Chapter 6: ..."         # optional, shown by `podbench list`
+
+    [substructuring]                 # the runner's own table, read by the runner
+    ...
+
+:func:`own_study_file` recognizes such a file among the files a run names and
+:func:`load_own_study` reads and checks its ``[study]`` table (one line naming the file and
+the field, with the closest runner name for a misspelt one). The runners themselves are
+registered in :data:`podbench.api.RUNNERS`, the one place that joins a runner (harness) to
+its rendering (report).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+from podbench.core.resources import display_path
+from podbench.errors import ScenarioFileError, StructureFileError
+from podbench.structures.spec import Table
+from podbench.study.hints import did_you_mean
+
+__all__ = ["OwnStudy", "STUDY_TABLE", "own_study_file", "load_own_study", "read_toml"]
+
+STUDY_TABLE = "study"
+"""The top-level table that names a study's own runner."""
+
+
+@dataclass(frozen=True)
+class OwnStudy:
+    """A study file with its own runner: ``path``, the ``runner``'s name, the ``title``
+    (empty if the file gives none) and ``name`` (the study's folder name, as
+    ``podbench run`` names its output ``results/<name>``)."""
+
+    path: Path
+    runner: str
+    title: str
+    name: str
+
+
+def read_toml(path: Path) -> dict | None:
+    """The parsed TOML of ``path``, or None if it cannot be read (the scenario reader then
+    reports why, in one line)."""
+    try:
+        return tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+
+
+def _declares(path: Path, runners: list[str]) -> bool:
+    """Whether ``path`` is a study file with its own runner (a ``[study]`` table); a file
+    that has a runner's own table but neither ``[study]`` nor ``[scenario]`` is refused
+    with the line it lacks."""
+    doc = read_toml(path)
+    if doc is None:
+        return False
+    if STUDY_TABLE in doc:
+        return True
+    own = [r for r in runners if r in doc]
+    if own and "scenario" not in doc:
+        raise ScenarioFileError(
+            f"{display_path(path)}: field `{STUDY_TABLE}.runner`: missing (a [{own[0]}] table "
+            f"is run by its own runner: add [{STUDY_TABLE}] runner = \"{own[0]}\")")
+    return False
+
+
+def own_study_file(files, runners: Iterable[str]) -> Path | None:
+    """The study file with its own runner among ``files`` (None if there is none).
+
+    Raises
+    ------
+    ScenarioFileError
+        Such a file among other files (a study with its own runner is run alone), or a
+        runner's own table without the ``[study]`` table naming the runner.
+    """
+    runners = list(runners)
+    files = [Path(f) for f in files]
+    own = [f for f in files if f.suffix == ".toml" and _declares(f, runners)]
+    if not own:
+        return None
+    if len(files) > 1:
+        other = next(f for f in files if f != own[0])
+        raise ScenarioFileError(
+            f"{display_path(own[0])}: a study with its own runner ([{STUDY_TABLE}] runner) is "
+            f"run alone, not with {display_path(other)}")
+    return own[0]
+
+
+def load_own_study(path, runners: Iterable[str]) -> OwnStudy:
+    """Read and check the ``[study]`` table of ``path``: ``runner`` (one of ``runners``) and
+    an optional ``title``; other fields of ``[study]`` are refused. The runner's own tables
+    are left to the runner.
+
+    Raises
+    ------
+    ScenarioFileError
+        ``<file>: field `study.runner`: ...`` — missing, not a string, or not a runner
+        (with the closest name and the list of runners).
+    """
+    path = Path(path)
+    shown = display_path(path)
+    doc = read_toml(path)
+    if doc is None:
+        raise ScenarioFileError(f"{shown}: cannot be read as TOML")
+    runners = list(runners)
+    try:
+        top = Table(doc, file=shown)
+        study = top.table(STUDY_TABLE, required=True)
+        runner = study.string("runner")
+        if runner not in runners:
+            study.fail("runner", f'unknown runner "{runner}"{did_you_mean(runner, runners)} '
+                                 f"(runners: {', '.join(runners)})")
+        title = study.string("title", "")
+        study.close()
+        top.accept_all()  # the runner reads its own tables
+    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
+        raise ScenarioFileError(str(exc)) from None
+    return OwnStudy(path=path, runner=runner, title=title, name=path.resolve().parent.name)

@@ -1,0 +1,61 @@
+"""The Painter Street Overpass study file: ``scenarios/painter_street/painter_street.toml``.
+
+A study with its own runner (:mod:`podbench.study.own_runner`): its ``[painter_street]``
+table names the folder of measured records (``data``, relative to the file: one ``.npz``
+per earthquake and ``events.csv``), which :mod:`podbench.harness.painter_street` runs
+leave-one-event-out and :mod:`podbench.report.painter_street` writes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from podbench.core.resources import display_path
+from podbench.errors import ScenarioFileError, StructureFileError
+from podbench.structures.spec import Table
+from podbench.study.own_runner import read_toml
+
+__all__ = ["PainterStreetPlan", "load_painter_street", "TABLE"]
+
+TABLE = "painter_street"
+
+
+@dataclass(frozen=True)
+class PainterStreetPlan:
+    """``name`` (the study folder's name), the study file ``path`` and the records folder
+    ``data`` (``*.npz`` events and ``events.csv``)."""
+
+    name: str
+    path: Path
+    data: Path
+
+
+def load_painter_street(path) -> PainterStreetPlan:
+    """Read and check the ``[painter_street]`` table of a study file.
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the file and the field: the table or ``data`` missing, ``data`` not a
+        folder holding ``.npz`` records and ``events.csv``.
+    """
+    path = Path(path)
+    shown = display_path(path)
+    doc = read_toml(path)
+    if doc is None:
+        raise ScenarioFileError(f"{shown}: cannot be read as TOML")
+    try:
+        top = Table(doc, file=shown)
+        t = top.table(TABLE, required=True)
+        rel = t.string("data")
+        data = (path.parent / rel).resolve()
+        if not data.is_dir():
+            t.fail("data", f'no such folder "{rel}" (relative to this file)')
+        if not any(data.glob("*.npz")) or not (data / "events.csv").is_file():
+            t.fail("data", f'"{rel}" holds no .npz records and events.csv')
+        t.close()
+        top.accept_all()
+    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
+        raise ScenarioFileError(str(exc)) from None
+    return PainterStreetPlan(name=path.resolve().parent.name, path=path, data=data)
