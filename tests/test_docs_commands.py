@@ -93,6 +93,11 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/study_time.py --study <study> --jobs 1 --no-write": SYNOPSIS,
     # quick commands
     "podbench list": RUN,
+    "podbench methods": RUN,
+    "podbench methods <name>": SYNOPSIS,
+    "podbench methods [NAME ...]": SYNOPSIS,
+    "podbench predict --method ML --train FILE ... --target FILE ... --out DIR": COVERED(
+        "tests/measured_io/test_predict_and_painter_street.py"),
     "podbench run chapter4/beam_forced": RUN,
     "podbench run scenarios/examples/measured/measured_chain.toml": RUN,
     "podbench experiment chapter5 --check": RUN,
@@ -183,8 +188,12 @@ BLOCKS: dict[tuple[str, str], object] = {
      "printing, exit codes; nothing else"): NOT_CODE,
     ("docs/ARCHITECTURE.md", "structures/*.toml ──► podbench.structures (load_structure) ──► "
      "Structure: M, C, K(t)"): NOT_CODE,
-    ("docs/ARCHITECTURE.md", "record files (inputs, outputs, dt, channels, units) ──► "
-     "podbench.core.iorecords (IORecord: u n_in×n,"): NOT_CODE,
+    ("docs/ARCHITECTURE.md", "record files (.npz, .mat; CSV, UFF 58 via podbench.core.iofiles)"):
+        NOT_CODE,
+    ("docs/ARCHITECTURE.md", "[study]"): NOT_RUN(
+        "a template (`...` stands for the runner's own table): the complete files are "
+        "scenarios/substructuring/substructuring.toml and scenarios/painter_street/"
+        "painter_street.toml, run by `podbench run substructuring` / `painter_street` (slow)"),
     ("docs/structures.md", "T_top    = [[0, 0, -y_t], [1, 0, 0], [0, 0, 0]]     d_top    = "
      "T_top    (Δ_top, Δ_bot, Θ)"): NOT_CODE,
     ("docs/structures.md", "K_e = Σ_members (EA/L) gᵀ g,   g = eᵀ (B_j − B_i)"): NOT_CODE,
@@ -550,17 +559,19 @@ WALL_TIMES = "### The studies and how long each takes"
 
 
 def test_the_readme_states_every_studys_wall_time():
-    """The README's table of studies names every bundled study folder of ``scenarios/``
-    (``podbench run <study>``; the sweeps by ``podbench sweep``) with a measured wall time,
-    and says on which machine it was measured."""
+    """The README's table of studies names every bundled study (the folders of
+    ``scenarios/`` that ``podbench run <name>`` finds; the sweeps by ``podbench sweep``) with
+    a measured wall time, and says on which machine it was measured."""
+    from podbench.core.resources import bundled_studies
+
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     assert WALL_TIMES in text, f"README.md has no section {WALL_TIMES!r}"
     section = text[text.index(WALL_TIMES):]
     section = section[:section.index("\n## ")]
     rows = [ln for ln in section.splitlines() if ln.startswith("| `podbench ")]
     named = {m.group(1) for ln in rows if (m := re.match(r"\| `podbench run (\w+)`", ln))}
-    studies = {d.name for d in (ROOT / "scenarios").iterdir()
-               if d.is_dir() and d.name not in ("examples", "sweeps")}
+    studies = set(bundled_studies()) - {"sweeps"}
+    assert studies <= {d.name for d in (ROOT / "scenarios").iterdir()}
     assert named == studies, (sorted(studies - named), sorted(named - studies))
     assert any(ln.startswith("| `podbench sweep`") for ln in rows)
     for ln in rows:
