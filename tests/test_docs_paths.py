@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")),
         ROOT / "benchmarks" / "README.md"]
 FOLDERS = ("podbench/", "scenarios/", "structures/", "docs/", "tests/", "benchmarks/",
-           ".github/", ".ci/")
+           ".github/", ".ci/", "tools/")
 SPAN = re.compile(r"`([^`\s]+)`|\]\(([^)\s#]+)")
 
 

@@ -69,7 +69,8 @@ def test_a_wheel_installed_in_a_fresh_venv_runs_a_bundled_scenario_from_an_empty
         "summary.csv", "summary.md"]
     assert "<img" in (res / "report.html").read_text(encoding="utf-8")  # the study's report
     assert sorted(p.name for p in (res / "figures").glob("*.png")) == [
-        "calibration.png", "truss_free_displacement__satellite_truss__w6.png"]
+        "calibration.png", "truss_free_displacement__decomposition.png",
+        "truss_free_displacement__satellite_truss__w6.png"]
     findings = (res / "FINDINGS.md").read_text(encoding="utf-8")
     assert "`scenarios/chapter4/claims.toml`" in findings
     # the same numbers as the committed study
@@ -96,7 +97,7 @@ def test_the_readme_first_command_leaves_a_clean_clone(tmp_path):
     env["PYTHONPATH"] = str(clone)
     r = _run([sys.executable, "-m", "podbench", "run", "-q"], cwd=clone, env=env)
     assert f"-> {Path('results') / 'chapter4'}/summary.csv" in r.stdout
-    # 31 targets' figures and the calibration plot of the bands
-    assert len(list((clone / "results" / "chapter4" / "figures").glob("*.png"))) == 32
+    # 31 targets' figures, 7 scenarios' error decompositions and the bands' calibration plot
+    assert len(list((clone / "results" / "chapter4" / "figures").glob("*.png"))) == 39
     status = _run(["git", "status", "--porcelain", "--untracked-files=all"], cwd=clone)
     assert status.stdout == ""

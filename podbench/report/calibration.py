@@ -316,7 +316,9 @@ def calibration_html(rows: pd.DataFrame, figure_uri: str | None) -> str:
                    'and coverage by structure class and method" style="max-width:100%">'
                    "</figure>")
     t = grouped(rows)
-    out.append('<div class="tablewrap"><table><thead><tr>'
+    for c in ("total_error_median", "estimate_median"):  # fractions of ‖W‖_F, shown in %
+        t[c] = [f"{100 * v:.3g} %" if math.isfinite(v) else "–" for v in t[c]]
+    out.append('<div class="scroll"><table><thead><tr>'
                + "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
                + "</tr></thead><tbody>")
     for r in t.itertuples(index=False):

@@ -29,10 +29,12 @@ import scipy
 
 from podbench.core.version import __version__
 from podbench.harness import metrics
+from podbench.report.decomposition import CAPTION
 from podbench.report.figures import percent
+from podbench.report.markdown import inline_html, markdown_to_html
 from podbench.study.claims import NOT_CHECKABLE, text_claims
 
-__all__ = ["provenance", "render_report", "text_to_html"]
+__all__ = ["as_percent", "provenance", "render_report", "text_to_html"]
 
 ERROR_BINS = ((0.01, "e0", "< 1 %"), (0.05, "e1", "1–5 %"), (0.20, "e2", "5–20 %"),
               (1.0, "e3", "20–100 %"), (math.inf, "e4", "≥ 100 %"))
@@ -71,6 +73,7 @@ header.top { background: #13293d; color: #fff; padding: 26px 0 18px; margin-bott
 header.top .wrap { padding-bottom: 0; }
 header.top p.prov-line { margin-top: 12px; font-size: .85rem; }
 header.top p.prov-line code { background: none; color: #e8eef4; }
+header.top a { color: #9fd0ff; }
 header.top h1 { margin: 0 0 4px; font-size: 1.75rem; font-weight: 650; }
 header.top p { margin: 0; color: #c9d6e2; max-width: 60rem; }
 header.top .stats { display: flex; gap: 28px; flex-wrap: wrap; margin-top: 14px; }
@@ -113,6 +116,13 @@ td.e3 { background: #fdd3a8; } td.e4 { background: #f5aaa6; } td.na { color: #8a
 figure { margin: 0; border: 1px solid var(--line); border-radius: 6px; padding: 6px;
   background: #fff; }
 figure img { display: block; width: 100%; height: auto; }
+figure.decomposition { margin: 14px 0 8px; max-width: 1000px; }
+.scroll, .tablewrap { overflow-x: auto; max-width: 100%; }
+.sticky1 td:first-child, .sticky1 th:first-child { position: sticky; left: 0; z-index: 1;
+  box-shadow: 1px 0 0 var(--line); }
+.sticky1 td:first-child { background: var(--bg); }
+table.md td, table.md th { white-space: normal; min-width: 7rem; vertical-align: top; }
+pre { background: var(--soft); padding: 8px 10px; border-radius: 4px; overflow-x: auto; }
 figcaption { font-size: .82rem; color: var(--muted); padding: 4px 4px 0; }
 .badge { display: inline-block; padding: 0 8px; border-radius: 10px; font-size: .8rem;
   font-weight: 600; white-space: nowrap; }
@@ -142,6 +152,19 @@ window.addEventListener("load", function () {
   document.body.setAttribute("data-images", String(imgs.length));
   document.body.setAttribute("data-images-loaded", String(ok));
   document.body.setAttribute("data-ok", ok === imgs.length ? "yes" : "no");
+  // every table inside a frame that scrolls sideways; nothing wider than the window
+  var tables = Array.prototype.slice.call(document.querySelectorAll("table"));
+  var loose = tables.filter(function (t) {
+    for (var p = t.parentElement; p; p = p.parentElement) {
+      var o = getComputedStyle(p).overflowX;
+      if (o === "auto" || o === "scroll") { return false; }
+    }
+    return true;
+  }).length;
+  document.body.setAttribute("data-tables", String(tables.length));
+  document.body.setAttribute("data-tables-unframed", String(loose));
+  document.body.setAttribute("data-page-overflow", String(
+    Math.max(0, document.documentElement.scrollWidth - document.documentElement.clientWidth)));
 });
 """
 
@@ -154,46 +177,15 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_-]+", "-", str(text)).strip("-") or "x"
 
 
-def text_to_html(text: str) -> str:
-    """Paragraphs and bullet lists of plain text (docstrings, claim notes) as HTML.
-
-    Blank lines separate blocks; a block whose lines start with ``* `` or ``- `` is a list
-    (indented lines continue an item). ```code``` and ```code``` become ``<code>``,
-    ``**bold**`` and ``*emphasis*`` are kept. Everything else is escaped.
-    """
-    out = []
-    for block in re.split(r"\n\s*\n", text.strip("\n")):
-        lines = block.split("\n")
-        if not block.strip():
-            continue
-        first = lines[0].lstrip()
-        if first.startswith(("* ", "- ")):
-            items: list[str] = []
-            for ln in lines:
-                s = ln.strip()
-                if s.startswith(("* ", "- ")) and (not items or not ln.startswith("   ")):
-                    items.append(s[2:])
-                elif items:
-                    items[-1] += " " + s
-            out.append("<ul>" + "".join(f"<li>{_inline(i)}</li>" for i in items) + "</ul>")
-        else:
-            out.append(f"<p>{_inline(' '.join(ln.strip() for ln in lines))}</p>")
-    return "\n".join(out)
+def text_to_html(text: str, heading_offset: int = 3) -> str:
+    """Markdown text (docstrings, scenario descriptions, claims' notes and remarks) as HTML:
+    :func:`podbench.report.markdown.markdown_to_html`, headings placed under the page's
+    ``<h3>`` by default."""
+    return markdown_to_html(text, heading_offset)
 
 
 def _inline(text: str) -> str:
-    text = text.replace("``", "`")
-    parts = re.split(r"(`[^`]+`)", text)
-    out = []
-    for p in parts:
-        if len(p) > 1 and p.startswith("`") and p.endswith("`"):
-            out.append(f"<code>{_e(' '.join(p[1:-1].split()))}</code>")
-            continue
-        s = _e(re.sub(r"\s+", " ", p))
-        s = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", s)
-        s = re.sub(r"(?<![\w*])\*(?!\s)(.+?)(?<!\s)\*(?![\w*])", r"<em>\1</em>", s)
-        out.append(s)
-    return "".join(out)
+    return inline_html(text)
 
 
 def _git(args, cwd) -> str | None:
@@ -262,7 +254,8 @@ def _cell(value, kind) -> str:
 
 def _legend() -> str:
     chips = "".join(f'<span class="chip {c}">{_e(t)}</span>' for _, c, t in ERROR_BINS)
-    return f'<div class="legend"><span class="muted">error of ‖W‖<sub>F</sub>:</span>{chips}' \
+    return f'<div class="legend"><span class="muted"><a href="#decomposition">error</a>, % of ' \
+           f'‖W‖<sub>F</sub>:</span>{chips}' \
            '<span class="chip" style="color:#8a949e">— undefined</span></div>'
 
 
@@ -287,7 +280,8 @@ def _fits_table(fits) -> str:
         return '<p class="muted">No method was fitted.</p>'
     cols = list(fits.columns)
     text_cols = {"scenario", "structure", "method", "solver"}
-    head = "".join(f'<th class="{"l" if c in text_cols else ""}">{_e(c)}</th>' for c in cols)
+    head = "".join(f'<th class="{"l" if c in text_cols else ""}" title="{_e(c)}">'
+                   f'{_e(c).replace("_", "_<wbr>")}</th>' for c in cols)
     body = []
     for r in fits.to_dict("records"):
         cells = []
@@ -300,8 +294,35 @@ def _fits_table(fits) -> str:
             else:
                 cells.append(f"<td>{_num(v, 4)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
-    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
+    return (f'<p class="muted">{len(fits)} fits × {len(cols)} columns; a table wider than '
+            "the page scrolls sideways inside its frame (the first column stays).</p>"
+            f'<div class="scroll sticky1"><table><thead><tr>{head}</tr></thead>'
             f'<tbody>{"".join(body)}</tbody></table></div>')
+
+
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_FRACTION_METRIC = r"[\w.:/() -]*?(?:_error|error_estimate)"
+
+
+def as_percent(text: str) -> str:
+    """A claim's check, or its evaluation, with the fraction metrics (``*_error``,
+    ``error_estimate``: fractions of ‖W‖_F) and the numbers compared with them in percent:
+    ``POVR.total_error = 0.08875 < 0.1`` → ``POVR.total_error = 8.875 % < 10 %``. Checks
+    on Eq. 4.2's ``norm_pe_*`` (already percent) get the unit written out."""
+    def pct(v: str) -> str:
+        return f"{100 * float(v):.4g} %"
+
+    out = re.sub(rf"({_FRACTION_METRIC}) = ({_NUMBER})", lambda m: f"{m.group(1)} = "
+                 f"{pct(m.group(2))}", text)
+    out = re.sub(rf"((?:_error|error_estimate)\b[^<>=]*?) ([-+]) ({_NUMBER})(?=\s|$)",
+                 lambda m: f"{m.group(1)} {m.group(2)} {pct(m.group(3))}", out)
+    out = re.sub(rf"^(.*(?:_error|error_estimate).*?) (<=|>=|<|>) ({_NUMBER})$",
+                 lambda m: f"{m.group(1)} {m.group(2)} {pct(m.group(3))}", out)
+    out = re.sub(rf"^({_NUMBER}) (<=|>=|<|>) (.*(?:_error|error_estimate).*)$",
+                 lambda m: f"{pct(m.group(1))} {m.group(2)} {m.group(3)}", out)
+    # Eq. 4.2's percent errors: already percent, the unit written out
+    out = re.sub(rf"(norm_pe_\w+ = {_NUMBER})(?=\s|$)", r"\1 %", out)
+    return re.sub(rf"^(.*norm_pe_\w+.*?) (<=|>=|<|>) ({_NUMBER})$", r"\1 \2 \3 %", out)
 
 
 def _verdict_badge(verdict: str) -> str:
@@ -318,7 +339,10 @@ def _findings(evaluated, remarks, claims_path) -> str:
     out = [f"<p>Each claim of <code>{_e(claims_path)}</code> checked against this run's "
            "summary table (the same evaluation as <code>FINDINGS.md</code>). The words were "
            "translated into thresholds before any run; the structures and methods were not "
-           "adjusted to the dissertation.</p>",
+           "adjusted to the dissertation. Checks are shown in percent (the claims file's "
+           "literal check is the tooltip); the notes are the claims file's text, as in "
+           "<code>FINDINGS.md</code>, where an error written as a bare number is a fraction "
+           "of ‖W‖<sub>F</sub> (0.05 = 5 %).</p>",
            f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
            f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
            "measured.</strong></p>"]
@@ -356,7 +380,8 @@ def _findings(evaluated, remarks, claims_path) -> str:
             mark = {True: ("holds", "holds"), False: ("fails", "fails"),
                     None: ("unmeasured", "not measured")}[d["holds"]]
             items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
-                         f'<code>{_e(d["check"])}</code> → {_e(d["shown"])}: {mark[1]}</li>')
+                         f'<code title="{_e(d["check"])}">{_e(as_percent(d["check"]))}</code>'
+                         f' → {_e(as_percent(d["shown"]))}: {mark[1]}</li>')
         out.append(f'<ul class="checks">{"".join(items)}</ul>')
         if getattr(c, "finding", ""):
             out.append(f"<p><strong>In one line:</strong> {_inline(c.finding)}</p>")
@@ -364,9 +389,9 @@ def _findings(evaluated, remarks, claims_path) -> str:
             out.append(text_to_html(c.note))
         out.append("</article>")
     if remarks:
-        out.append("<h3>Other findings</h3>")
+        out.append('<h3 id="other-findings">Other findings</h3>')
         for r in remarks:
-            out.append(f"<h4>{_e(r['title'])}</h4>{text_to_html(r['text'])}")
+            out.append(f"<h4>{_e(r['title'])}</h4>{text_to_html(r['text'], 4)}")
     return "\n".join(out)
 
 
@@ -386,7 +411,7 @@ def _figures(figs, figure_format: str | None) -> str:
 def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, remarks=(),
                   claims_path=None, figures: dict | None = None,
                   figure_format: str | None = "png", command: str | None = None,
-                  calibration: str = "") -> str:
+                  calibration: str = "", decompositions: dict | None = None) -> str:
     """The HTML text of a study's ``report.html``.
 
     Parameters
@@ -409,11 +434,15 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
     calibration : str, optional
         The calibration section's HTML (:func:`podbench.report.calibration.calibration_html`);
         empty: no section.
+    decompositions : dict, optional
+        Scenario name → ``data:`` URI of its error-decomposition figure
+        (:mod:`podbench.report.decomposition`).
     """
     figures = figures or {}
     prov = provenance(command)
-    n_figs = sum(len(v) for v in figures.values())
-    toc, sections = _scenario_sections(df, scenarios, figures, figure_format)
+    n_figs = sum(len(v) for v in figures.values()) + len(decompositions or {})
+    decompositions = decompositions or {}
+    toc, sections = _scenario_sections(df, scenarios, figures, figure_format, decompositions)
     cal_html = ""
     if calibration:
         toc.insert(-4, '<a href="#calibration">Calibration</a>')
@@ -442,8 +471,17 @@ def _stats(df, evaluated, n_figs: int) -> str:
                    for v, t in stats)
 
 
-def _scenario_sections(df, scenarios: dict, figures: dict,
-                       figure_format: str | None) -> tuple[list[str], list[str]]:
+def _decomposition(name: str, uri: str | None) -> str:
+    if not uri:
+        return ""
+    return (f'<figure class="decomposition"><img src="{uri}" alt="{_e(name)}: error '
+            'decomposition per method and target (stacked bars)" loading="eager">'
+            f"<figcaption>{CAPTION} (figures/{_e(name)}__decomposition.*)</figcaption>"
+            "</figure>")
+
+
+def _scenario_sections(df, scenarios: dict, figures: dict, figure_format: str | None,
+                       decompositions: dict) -> tuple[list[str], list[str]]:
     """The table of contents' links and one section per scenario (title, source,
     description, its rows, its figures)."""
     toc = ['<a href="#results">Results</a>']
@@ -458,6 +496,7 @@ def _scenario_sections(df, scenarios: dict, figures: dict,
         if sc is not None and sc.description:
             part.append(text_to_html(sc.description))
         part.append(_summary_table(sub))
+        part.append(_decomposition(name, decompositions.get(name)))
         part.append(_figures(figures.get(name, []), figure_format))
         part.append("</section>")
         sections.append("\n".join(part))
@@ -486,8 +525,9 @@ def _page(*, study: str, prov: dict, stat_html: str, toc: list[str], sections: l
 <header class="top"><div class="wrap">
 <h1>podbench study report: {_e(study)}</h1>
 <p>POD-based system identification after Allison (2007), <em>System Identification via the
-Proper Orthogonal Decomposition</em>. Units: inch, lbf, second. Errors are percentages of the
-target's ‖W‖<sub>F</sub>; Eq. 4.2 errors are percent errors of the displacement norm.</p>
+Proper Orthogonal Decomposition</em>. Units: inch, lbf, second. Every error on this page is in
+percent: of the target's ‖W‖<sub>F</sub> (<a href="#decomposition">definitions</a>), or Eq. 4.2's
+percent error of the displacement norm.</p>
 <div class="stats">{stat_html}</div>
 <p class="prov-line">commit <code>{_e(prov['commit'])}</code> · {_e(prov['date'])} ·
 <code>{_e(prov['command'])}</code></p>
@@ -513,6 +553,9 @@ fit residual, condition numbers and the deconvolution solver's amplification, gr
 regularization and iterations.</p>
 {fits}
 <h2 id="decomposition">Error decomposition</h2>
+<p>The definitions below write each error as a fraction of N = ‖W‖<sub>F</sub>, as
+<code>summary.csv</code> stores it; this page shows every one of them multiplied by 100, in
+percent.</p>
 {text_to_html(metrics.__doc__ or "")}
 <h2 id="provenance">Provenance</h2>
 <dl class="prov">{prov_html}</dl>

@@ -29,6 +29,7 @@ from podbench.report.calibration import (
     calibration_rows,
     findings_calibration,
 )
+from podbench.report.decomposition import decomposition_figure
 from podbench.report.figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
 from podbench.report.html import render_report
 from podbench.report.nonlinearity import write_outputs
@@ -323,6 +324,21 @@ def _calibration_section(cal_rows, cal_md: str, tmp: Path, figures: bool, figure
     return calibration_html(cal_rows, uri)
 
 
+def _decomposition_figures(df, scenarios: dict, fdir: Path, fmt: str) -> dict:
+    """One stacked-bar figure of the error decomposition per scenario
+    (:mod:`podbench.report.decomposition`), ``figures/<scenario>__decomposition.<fmt>``;
+    returns scenario → PNG ``data:`` URI (none for a table without the decomposition)."""
+    out: dict = {}
+    if not {"total_error", "projection_error"} <= set(df.columns):
+        return out
+    for name, sub in df.groupby("scenario", sort=False):
+        sc = scenarios.get(name)
+        title = f"{name}: error decomposition" + (f" ({sc.title})" if sc is not None else "")
+        png = decomposition_figure(sub, fdir / f"{name}__decomposition.{fmt}", title=title)
+        out[name] = "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+    return out
+
+
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
                 jobs: int = 1, figure_format: str = "png", command: str | None = None,
                 progress=None, sensitivity=None, nonlinearity=None):
@@ -372,11 +388,14 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                     "uri": uri, "alt": f"{task.title}. {task.subtitle}",
                     "caption": f"{m['structure']}, target {m['target']}: {m['words']} "
                                f"(figures/{task.path.name})"})
+        decompositions = (_decomposition_figures(df, scenarios, tmp / "figures", figure_format)
+                          if figures else {})
         cal_section = _calibration_section(cal_rows, cal_md, tmp, figures, figure_format,
                                            Path(out_dir).name)
         page = render_report(study=Path(out_dir).name, df=df, fits=fits, scenarios=scenarios,
                              evaluated=evaluated, remarks=remarks, claims_path=claims_path,
                              figures=embedded, figure_format=figure_format if figures else None,
-                             command=command, calibration=cal_section)
+                             command=command, calibration=cal_section,
+                             decompositions=decompositions)
         (tmp / "report.html").write_text(page, encoding="utf-8", newline="\n")
     return df, evaluated

@@ -32,9 +32,11 @@ def test_the_readme_python_api_block_runs(tmp_path, monkeypatch):
     assert (tmp_path / "results" / "beam_forced" / "summary.csv").is_file()
     assert len(res.summary) == 12 and set(res.summary.method) == {"SL", "ML"}
     assert (tmp_path / "beam_forced.html").read_text(encoding="utf-8").startswith("<!DOCTYPE")
-    assert env["fig"].axes  # 6 targets' figures and the calibration plot of the bands
+    # 6 targets' figures, the scenario's error decomposition and the bands' calibration plot
+    assert env["fig"].axes
     assert sorted(p.name for p in res.figures if not p.name.startswith("beam_forced__")) == \
-        ["calibration.png"] and len(res.figures) == 7
+        ["calibration.png"] and len(res.figures) == 8
+    assert sum(p.name == "beam_forced__decomposition.png" for p in res.figures) == 1
     # the numbers the block's comments state
     assert env["f1"] == pytest.approx(41.376, abs=1e-3)
     assert env["error"] == pytest.approx(0.033, abs=5e-4)  # = the study's ML load5 row

@@ -28,7 +28,7 @@ from podbench.study.scenarios import Case
 
 pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
-CLAIMS = """
+CLAIMS = '''
 [[claims]]
 id = "chain-mds-exact"
 source = "podbench test"
@@ -47,8 +47,27 @@ scenario = "chain_free"
 structure = "chain_coupled"
 target = "x6"
 checks = ["POVR.total_error < 0"]
-note = "Fails by construction: *no* error is negative (`total_error` >= 0)."
+note = """
+Fails by construction: *no* error is negative (`total_error` >= 0). Checks:
+  * one bullet, continued
+    on an indented line
+  * a second bullet with |x| = 1 in it
 """
+
+[[remarks]]
+title = "A table in a remark"
+text = """
+Words before the table.
+
+| open point | the text | main study |
+|---|:---:|---:|
+| fracture | "breaks off" | element `10` removed |
+| second row | two | three |
+
+- a list after it
+- and its **second** item
+"""
+'''
 
 
 @pytest.fixture(autouse=True)
@@ -231,8 +250,9 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
     assert len(p.ids) == len(set(p.ids))  # unique anchors
     assert '<html lang="en">' in page and '<meta charset="utf-8">' in page
     # nothing loaded from elsewhere: images are data: URIs, links are anchors in the page
-    # two prediction figures and the calibration plot (issue 21)
-    assert len(p.imgs) == 3 and all(i["src"].startswith("data:image/png;base64,")
+    # two prediction figures, one error-decomposition figure per scenario and the
+    # calibration plot (issue 21)
+    assert len(p.imgs) == 5 and all(i["src"].startswith("data:image/png;base64,")
                                     for i in p.imgs)
     assert all(r.startswith(("data:", "#")) for r in p.refs)
     assert all("#" + r[1:] in {"#" + i for i in p.ids} for r in p.refs if r.startswith("#"))
@@ -244,8 +264,15 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
                    "1 of 2 claims reproduced", 'id="fits"', "condition_number",
                    "subspace_error = ‖Ŵ − P W‖ / N", "<dt>commit</dt>", "<dt>NumPy</dt>",
                    "<dt>matplotlib</dt>", "Coupled chain, free response (k = m = 5)",
-                   'id="calibration"', "Spearman(estimate, realized)"):
+                   'id="calibration"', "Spearman(estimate, realized)",
+                   # Markdown as HTML: the note's list, the remark's table, checks in percent
+                   "<li>one bullet, continued on an indented line</li>",
+                   "<li>a second bullet with |x| = 1 in it</li>",
+                   '<table class="md">', "<code>10</code>", "<strong>second</strong>",
+                   "MDS.total_error &lt; 0.1 %", 'class="decomposition"',
+                   "do not add up to the total"):
         assert needle in page, needle
+    assert page.count('<table class="md">') == 1 and "|---" not in page
     assert "Traceback" not in page
 
 
@@ -253,12 +280,12 @@ def test_the_report_embeds_vector_figures_and_tables_do_not_change(study, tmp_pa
     out = tmp_path / "results" / "small"
     page = _run(study, out, "--figure-format", "svg")
     # the calibration plot is a file in the chosen format and embedded as PNG
-    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg", ".svg", ".svg"]
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg"] * 5
     assert page.count('src="data:image/svg+xml;base64,') == 2
     table = (out / "summary.csv").read_bytes()
     page = _run(study, out, "--figure-format", "pdf")
-    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf", ".pdf", ".pdf"]
-    assert page.count('src="data:image/png;base64,') == 3
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf"] * 5
+    assert page.count('src="data:image/png;base64,') == 5
     assert (out / "summary.csv").read_bytes() == table
     page = _run(study, out, "--no-figures")
     assert "<img" not in page and "Figures not drawn" in page
@@ -286,6 +313,65 @@ def _chromium():
     return None
 
 
+_TEXT_PROBE = """<script>window.addEventListener("load", function () {
+  var pre = document.createElement("pre");
+  pre.id = "probe-text";
+  pre.textContent = document.querySelector("main").innerText;
+  document.body.appendChild(pre);
+});</script>"""
+
+_RAW_TABLE_ROW = re.compile(r"^\s*\|.*\|\s*$|\|\s*:?-{3,}:?\s*\|")
+"""A Markdown table row left as text: a line starting and ending with a pipe, or a delimiter
+row (``|---|``, ``| --- |``, ``|:---:|``)."""
+
+
+def _browser_base(exe, tmp_path):
+    return [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+            "--no-first-run", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", f"--user-data-dir={tmp_path / 'chromium'}",
+            "--virtual-time-budget=5000"]
+
+
+def check_page_in_browser(exe, page_path, tmp_path, n_images):
+    """What a reader's browser shows of ``page_path``: every image decoded with a non-zero
+    natural size, every table inside a frame that scrolls sideways and nothing wider than
+    the window, no Markdown table row left as text, and a screenshot of the top that is not
+    blank. Returns the page's text (``innerText`` of ``<main>``)."""
+    base = _browser_base(exe, tmp_path)
+    url = page_path.resolve().as_uri()
+    dom = subprocess.run([*base, "--window-size=1280,2000", "--dump-dom", url],
+                         capture_output=True, text=True, timeout=300, check=True).stdout
+    body = re.search(r"<body[^>]*>", dom)
+    assert body, dom[:500]
+    attrs = dict(re.findall(r'(data-[\w-]+)="([^"]*)"', body.group(0)))
+    # the page's own script counted the images the browser decoded (naturalWidth > 0)
+    assert attrs["data-images"] == str(n_images)
+    assert attrs["data-images-loaded"] == str(n_images) and attrs["data-ok"] == "yes"
+    assert int(attrs["data-tables"]) > 0 and attrs["data-tables-unframed"] == "0"
+    assert attrs["data-page-overflow"] == "0"  # the page never scrolls sideways
+    assert "Traceback" not in dom and "failed:" not in dom
+    # the text a reader sees: no raw Markdown table rows
+    probe = tmp_path / "probe.html"
+    probe.write_text(page_path.read_text(encoding="utf-8").replace(
+        "</body>", _TEXT_PROBE + "</body>"), encoding="utf-8")
+    dom = subprocess.run([*base, "--window-size=1280,2000", "--dump-dom", probe.as_uri()],
+                         capture_output=True, text=True, timeout=300, check=True).stdout
+    m = re.search(r'<pre id="probe-text">(.*?)</pre>', dom, re.S)
+    assert m, dom[-500:]
+    text = html.unescape(m.group(1))
+    raw = [ln for ln in text.splitlines() if _RAW_TABLE_ROW.search(ln)]
+    assert raw == [], raw[:5]
+    shot = tmp_path / "report.png"
+    subprocess.run([*base, f"--screenshot={shot}", "--window-size=1280,2000", url],
+                   capture_output=True, timeout=300, check=True)
+    img = mpimg.imread(shot)[..., :3]
+    assert img.shape[:2] == (2000, 1280)
+    gray = img.mean(axis=2)
+    assert gray.std() > 0.1  # not blank: the dark header, tables and figures
+    assert (gray < 0.5).mean() > 0.05 and (gray > 0.9).mean() > 0.3
+    return text
+
+
 @pytest.mark.browser
 def test_the_report_in_a_headless_browser(study, tmp_path):
     exe = _chromium()
@@ -295,28 +381,10 @@ def test_the_report_in_a_headless_browser(study, tmp_path):
     out = tmp_path / "results" / "small"
     _run(study, out)
     n_figures = len(list((out / "figures").iterdir()))
-    url = (out / "report.html").resolve().as_uri()
-    base = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-            "--no-first-run", "--disable-background-networking", "--disable-component-update",
-            "--disable-sync", f"--user-data-dir={tmp_path / 'chromium'}",
-            "--virtual-time-budget=5000"]
-    dom = subprocess.run([*base, "--dump-dom", url], capture_output=True, text=True,
-                         timeout=180, check=True).stdout
-    body = re.search(r"<body[^>]*>", dom)
-    assert body, dom[:500]
-    # the page's own script counted the images the browser decoded (naturalWidth > 0)
-    assert f'data-images="{n_figures}"' in body.group(0)
-    assert f'data-images-loaded="{n_figures}"' in body.group(0)
-    assert 'data-ok="yes"' in body.group(0)
-    assert "Traceback" not in dom and "failed:" not in dom
-    shot = tmp_path / "report.png"
-    subprocess.run([*base, f"--screenshot={shot}", "--window-size=1280,2000", url],
-                   capture_output=True, timeout=180, check=True)
-    img = mpimg.imread(shot)[..., :3]
-    assert img.shape[:2] == (2000, 1280)
-    gray = img.mean(axis=2)
-    assert gray.std() > 0.1  # not blank: the dark header, tables and figures
-    assert (gray < 0.5).mean() > 0.05 and (gray > 0.9).mean() > 0.3
+    text = check_page_in_browser(exe, out / "report.html", tmp_path, n_figures)
+    # the remark's Markdown table is a table: its cells are tab-separated in the text
+    assert "fracture\t\"breaks off\"\telement 10 removed" in text
+    assert "Words before the table." in text and "| open point" not in text
 
 
 def test_the_report_names_the_command_that_made_it(study, tmp_path):
@@ -392,3 +460,20 @@ def test_the_summary_writes_error_estimates_to_three_digits():
                                          "error_estimate": 0.0115516}
     df = summary_table([SimpleNamespace(rows=[row, row | {"error_estimate": 0.0115515}])])
     assert df["error_estimate"].tolist() == [0.0116, 0.0116]
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+def test_the_chapter4_report_in_a_headless_browser(tmp_path):
+    """The real page (Chapter 4: its claims' notes and remarks carry Markdown lists and a
+    table): every image shown, every table framed, no raw Markdown in its text."""
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("Chromium not installed (apt-get install chromium)")
+    out = tmp_path / "chapter4"
+    assert cli.main(["run", "chapter4", "--out", str(out), "-q"]) == 0
+    n_images = len(list((out / "figures").glob("*.png")))
+    text = check_page_in_browser(exe, out / "report.html", tmp_path, n_images)
+    # the remark's table of readings, and one decomposition figure per scenario (7)
+    assert "truss fracture\t§4.2:" in text
+    assert len(list((out / "figures").glob("*__decomposition.png"))) == 7
