@@ -76,12 +76,6 @@ def test_predict_without_coverage_returns_the_array():
     assert np.all(p99.upper - p99.lower >= p.upper - p.lower - 1e-15)
 
 
-@pytest.mark.xfail(strict=True, raises=InputError, reason=(
-    "known bug, not fixed here: the leave-one-out folds refit with the fold's k − 1 modes "
-    "but keep the given n_modes = k (bands._residuals: _refit(model, rest, basis=U_cv) "
-    "without n_modes=cv_modes), so the band fails; the one-line fix turns 253 NaN band "
-    "cells of results/chapter5/summary.csv (ML with n_modes = 2 on 2 loads) into numbers "
-    "and needs that study regenerated"))
 def test_a_band_with_as_many_records_as_modes_given_explicitly():
     """ML with n_modes = k given and exactly k training records: the band is the one of the
     same model built without n_modes (which takes k from the first record)."""

@@ -309,7 +309,7 @@ def _residuals(model, recs, U, can_split: bool):
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         for j in range(len(recs)):
             rest = recs[:j] + recs[j + 1:]
-            est = _refit(model, rest, basis=U_cv)
+            est = _refit(model, rest, n_modes=cv_modes, basis=U_cv)
             Wh = np.asarray(est.predict(recs[j]), dtype=float)
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
