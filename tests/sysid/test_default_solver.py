@@ -43,3 +43,15 @@ def test_default_ml_on_clean_records_is_the_exact_answer():
     assert default.solver_info_["noise_floor"] <= 1e-3
     pred, ref = default.predict(F_new), ls.predict(F_new)
     assert np.linalg.norm(pred - ref) <= 1e-8 * np.linalg.norm(ref)
+
+
+def test_band_of_ml_with_explicit_modes_equal_to_the_records():
+    # k = N records with n_modes given: the cross-validation folds have N − 1 records and
+    # fit k − 1 modes (their basis's count), instead of refusing n_modes = k
+    recs, F_new = _records()
+    model = MultipleLoad(n_modes=2, solver="block").fit(recs)
+    target = pb.Record(W=np.zeros((6, F_new.shape[1])), F=F_new, dt=DT)
+    pred = model.predict(target, coverage=0.9)
+    assert np.array_equal(pred.mean, model.predict(target))
+    assert np.all(pred.lower <= pred.mean) and np.all(pred.mean <= pred.upper)
+    assert np.any(pred.upper > pred.lower) and np.isfinite(pred.error_estimate)

@@ -231,7 +231,10 @@ class BandCalibration:
 
 def _refit(model, records, *, n_modes=None, basis=None):
     est = type(model)(**model.get_params(deep=False))
-    if n_modes is not None and "n_modes" in est.get_params(deep=False):
+    params = est.get_params(deep=False)
+    if n_modes is None and basis is not None and params.get("n_modes") is not None:
+        n_modes = np.shape(basis)[1]  # a fold in fewer modes (k > N − 1): the basis's count
+    if n_modes is not None and "n_modes" in params:
         est.set_params(n_modes=n_modes)
     return est.fit(records, basis=basis)
 
