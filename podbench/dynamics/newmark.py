@@ -37,7 +37,7 @@ Conventions
   (O(nnz)); the loads can be given at a few points with a sparse map to the DOFs
   (``force_map``) and the histories recorded through an output matrix (``record``, e.g. the
   sensor matrix), so that nothing of size n_dofs × n_samples is allocated: memory is
-  O(nnz + n_samples · (n_loads + n_outputs)).
+  O(nnz + n_samples · (n_loads + n_outputs)) plus blocks of at most 8 MiB (:data:`CHUNK`).
 * Nonlinear elements: Newton iterations on the residual
   ``r(a) = f − M a − C v(a) − K q(a) − g(q(a), v(a))`` with the tangent
   ``S + dt²/4 K_g + dt/2 C_g`` (``K_g``, ``C_g`` the elements' stiffness and damping). The
@@ -290,9 +290,18 @@ def _as_map(A, name: str, rows: int | None, cols: int):
 
 CHUNK = 256
 """Samples per block of the sparse load and output maps: ``T f`` and ``R q`` are formed for
-``CHUNK`` samples at once (one sparse product per block instead of one per sample). A CSR
-product sums each output element over its row's entries in the same order whatever the
-number of columns, so the numbers are those of the per-sample products."""
+up to ``CHUNK`` samples at once (one sparse product per block instead of one per sample),
+fewer on large structures so that a block holds at most :data:`BLOCK_FLOATS` numbers per
+history. A CSR product sums each output element over its row's entries in the same order
+whatever the number of columns, so the numbers are those of the per-sample products."""
+
+BLOCK_FLOATS = 2**20
+"""Largest block (floats, 8 MiB) of one buffered history (n_dofs × block samples)."""
+
+
+def _chunk(n_dofs: int) -> int:
+    """Samples per block for ``n_dofs`` DOFs (:data:`CHUNK`, :data:`BLOCK_FLOATS`)."""
+    return max(1, min(CHUNK, BLOCK_FLOATS // max(n_dofs, 1)))
 
 
 class _Loads:
@@ -302,7 +311,8 @@ class _Loads:
     def __init__(self, f: np.ndarray, T):
         self.f, self.T = f, T
         self.sparse = T is not None and sp.issparse(T)
-        self.start = -CHUNK
+        self.size = _chunk(T.shape[0]) if self.sparse else 1
+        self.start = -self.size
         self.block = np.empty((0, 0))
 
     def __call__(self, j: int) -> np.ndarray:
@@ -310,9 +320,9 @@ class _Loads:
             return self.f[:, j]
         if not self.sparse:
             return self.T @ self.f[:, j]
-        if not 0 <= j - self.start < CHUNK:
+        if not 0 <= j - self.start < self.size:
             self.start = j
-            self.block = self.T @ self.f[:, j:j + CHUNK]
+            self.block = self.T @ self.f[:, j:j + self.size]
         return self.block[:, j - self.start]
 
 
@@ -329,7 +339,8 @@ class _Recorder:
         self.a = np.empty((rows, n))
         self.buffered = self.R is not None and sp.issparse(self.R)
         if self.buffered:
-            self.buf = np.empty((3, n_dofs, CHUNK))
+            self.size = _chunk(n_dofs)
+            self.buf = np.empty((3, n_dofs, self.size))
             self.start, self.count = 0, 0
 
     def __call__(self, j: int, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> None:
@@ -337,7 +348,7 @@ class _Recorder:
         if R is None:
             self.q[:, j], self.v[:, j], self.a[:, j] = q, v, a
         elif self.buffered:
-            if self.count == CHUNK:
+            if self.count == self.size:
                 self.flush()
             if self.count == 0:
                 self.start = j

@@ -148,3 +148,19 @@ def test_block_recording_equals_per_sample_products(beams, n):
     rec = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T, record=S)
     for name in ("q", "v", "a"):
         assert np.array_equal(getattr(rec, name), S @ getattr(full, name))
+
+
+def test_blocks_shrink_on_large_structures(monkeypatch):
+    # the buffered blocks hold at most BLOCK_FLOATS numbers per history: on a large
+    # structure (here forced by a small budget) the blocks are a few samples, same numbers
+    nm = importlib.import_module("podbench.dynamics.newmark")  # not the function
+
+    s = load_structure("nl_beam")
+    F = Pulse(23.0, 500.0, 5e-4).sample(s, 40, DT_BEAM)
+    S = s.sensor_matrix()
+    q0 = v0 = np.zeros(s.n_dofs)
+    ref = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T, record=S)
+    monkeypatch.setattr(nm, "BLOCK_FLOATS", 3 * s.n_dofs)
+    assert nm._chunk(s.n_dofs) == 3
+    small = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T, record=S)
+    assert np.array_equal(small.q, ref.q) and np.array_equal(small.a, ref.a)
