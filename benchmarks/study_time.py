@@ -3,6 +3,7 @@
     python benchmarks/study_time.py                       # chapter5, --jobs 2, no figures
     python benchmarks/study_time.py --study chapter4 --jobs 1
     python benchmarks/study_time.py --tree /path/to/other/checkout   # time another commit
+    python benchmarks/study_time.py --baseline-tree /path/to/previous/checkout  # speed-up
 
 A shared machine's speed changes from minute to minute, so a study's wall time alone says
 little; this script times a fixed reference workload (:func:`reference`: a seeded dense SVD,
@@ -82,10 +83,22 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--tree", type=Path, default=ROOT,
                     help="checkout whose podbench is timed (default: this one)")
+    ap.add_argument("--baseline-tree", type=Path, default=None,
+                    help="another checkout (e.g. the previous commit, `git worktree add`) "
+                         "timed in the same session, before the tree: the row then states "
+                         "the speed-up tree against it")
     ap.add_argument("--python", default=sys.executable)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "benchmarks.csv")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
+    base_note = ""
+    if args.baseline_tree is not None:
+        b0 = reference(args.python)
+        base = run_study(args.python, args.baseline_tree.resolve(), args.study, args.jobs)
+        b1 = reference(args.python)
+        base_units = base / (0.5 * (b0 + b1))
+        base_note = (f"; baseline {args.baseline_tree.resolve().name}: {base:.1f} s wall, "
+                     f"{base_units:.0f} reference units")
     ref0 = reference(args.python)
     wall = run_study(args.python, args.tree.resolve(), args.study, args.jobs)
     ref1 = reference(args.python)
@@ -93,7 +106,9 @@ def main(argv=None) -> int:
     case = f"podbench run {args.study} (cold, no figures, --jobs {args.jobs})"
     note = (f"reference workload {ref0:.2f} s before, {ref1:.2f} s after; the study takes "
             f"{wall / ref:.0f} reference units; tree {args.tree.resolve().name}; load "
-            f"{os.getloadavg()[0]:.1f}")
+            f"{os.getloadavg()[0]:.1f}{base_note}")
+    if args.baseline_tree is not None:
+        note += f"; speed-up in reference units {base_units / (wall / ref):.2f}x"
     print(f"{case}: {wall:.1f} s wall = {wall / ref:.1f} × the reference workload "
           f"({ref:.2f} s); {note}")
     if not args.no_write:

@@ -37,7 +37,7 @@ Conventions
   (O(nnz)); the loads can be given at a few points with a sparse map to the DOFs
   (``force_map``) and the histories recorded through an output matrix (``record``, e.g. the
   sensor matrix), so that nothing of size n_dofs × n_samples is allocated: memory is
-  O(nnz + n_samples · (n_loads + n_outputs)).
+  O(nnz + n_samples · (n_loads + n_outputs)) plus blocks of at most 8 MiB (:data:`CHUNK`).
 * Nonlinear elements: Newton iterations on the residual
   ``r(a) = f − M a − C v(a) − K q(a) − g(q(a), v(a))`` with the tangent
   ``S + dt²/4 K_g + dt/2 C_g`` (``K_g``, ``C_g`` the elements' stiffness and damping). The
@@ -201,6 +201,11 @@ class _Model:
         self.el_pos = [np.array([pos[int(d)] for d in ed]) for ed in self.el_dofs]
 
         self.first = [ev.first_sample(h) for ev in s.events]
+        # elements on one DOF that evaluate themselves on floats (``scalar_terms(q, v)`` ->
+        # ``(g, dg/dq, dg/dv)``, the numbers of force/stiffness/damping): all or none
+        terms = [getattr(el, "scalar_terms", None) for el in self.nonlinear]
+        self.scalar_terms: list | None = (
+            terms if terms and all(t is not None for t in terms) else None)
         self._cache: dict[tuple[int, ...], dict] = {}
 
     def _state(self, j: int) -> dict:
@@ -283,8 +288,48 @@ def _as_map(A, name: str, rows: int | None, cols: int):
     return A
 
 
+CHUNK = 256
+"""Samples per block of the sparse load and output maps: ``T f`` and ``R q`` are formed for
+up to ``CHUNK`` samples at once (one sparse product per block instead of one per sample),
+fewer on large structures so that a block holds at most :data:`BLOCK_FLOATS` numbers per
+history. A CSR product sums each output element over its row's entries in the same order
+whatever the number of columns, so the numbers are those of the per-sample products."""
+
+BLOCK_FLOATS = 2**20
+"""Largest block (floats, 8 MiB) of one buffered history (n_dofs × block samples)."""
+
+
+def _chunk(n_dofs: int) -> int:
+    """Samples per block for ``n_dofs`` DOFs (:data:`CHUNK`, :data:`BLOCK_FLOATS`)."""
+    return max(1, min(CHUNK, BLOCK_FLOATS // max(n_dofs, 1)))
+
+
+class _Loads:
+    """``f_j`` of every DOF: ``f[:, j]``, or ``T f[:, j]`` with a load map ``T`` (sparse:
+    formed by blocks of :data:`CHUNK` samples)."""
+
+    def __init__(self, f: np.ndarray, T):
+        self.f, self.T = f, T
+        self.sparse = T is not None and sp.issparse(T)
+        self.size = _chunk(T.shape[0]) if self.sparse else 1
+        self.start = -self.size
+        self.block = np.empty((0, 0))
+
+    def __call__(self, j: int) -> np.ndarray:
+        if self.T is None:
+            return self.f[:, j]
+        if not self.sparse:
+            return self.T @ self.f[:, j]
+        if not 0 <= j - self.start < self.size:
+            self.start = j
+            self.block = self.T @ self.f[:, j:j + self.size]
+        return self.block[:, j - self.start]
+
+
 class _Recorder:
-    """Stores the state of every sample: the full vectors, or ``R x`` for an output matrix R."""
+    """Stores the state of every sample: the full vectors, or ``R x`` for an output matrix R
+    (sparse ``R``: the states are buffered and mapped by blocks of :data:`CHUNK` samples;
+    call :meth:`flush` after the last sample)."""
 
     def __init__(self, record, n_dofs: int, n: int):
         self.R = None if record is None else _as_map(record, "record", None, n_dofs)
@@ -292,13 +337,36 @@ class _Recorder:
         self.q = np.empty((rows, n))
         self.v = np.empty((rows, n))
         self.a = np.empty((rows, n))
+        self.buffered = self.R is not None and sp.issparse(self.R)
+        if self.buffered:
+            self.size = _chunk(n_dofs)
+            self.buf = np.empty((3, n_dofs, self.size))
+            self.start, self.count = 0, 0
 
     def __call__(self, j: int, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> None:
         R = self.R
         if R is None:
             self.q[:, j], self.v[:, j], self.a[:, j] = q, v, a
+        elif self.buffered:
+            if self.count == self.size:
+                self.flush()
+            if self.count == 0:
+                self.start = j
+            c = self.count
+            self.buf[0, :, c], self.buf[1, :, c], self.buf[2, :, c] = q, v, a
+            self.count += 1
         else:
             self.q[:, j], self.v[:, j], self.a[:, j] = R @ q, R @ v, R @ a
+
+    def flush(self) -> None:
+        """Map the buffered states (sparse ``R``); a no-op otherwise."""
+        if not self.buffered or self.count == 0:
+            return
+        j0, c, R = self.start, self.count, self.R
+        assert R is not None
+        for hist, block in zip((self.q, self.v, self.a), self.buf, strict=True):
+            hist[:, j0:j0 + c] = R @ block[:, :c]
+        self.count = 0
 
 
 def newmark(
@@ -374,18 +442,25 @@ def newmark(
     else:
         T = _as_map(force_map, "force_map", n_dofs, f.shape[0])
 
-    def load(j: int) -> np.ndarray:
-        return f[:, j] if T is None else T @ f[:, j]
-
+    load = _Loads(f, T)
     out = _Recorder(record, n_dofs, n)
     model = _Model(structure, n, h)
-    bh2, gh = model.bh2, model.gh
     iters = np.zeros(n, dtype=np.int64)
 
     q, v, a = _initial_state(model, q0, v0, load(0))
     out(0, q, v, a)
+    if model.first or model.removed(0).size:
+        _steps_general(model, load, out, q, v, a, iters, rtol, max_iter)
+    else:
+        _steps_fixed(model, load, out, q, v, a, iters, rtol, max_iter)
+    out.flush()
+    return NewmarkResult(q=out.q, v=out.v, a=out.a, newton_iterations=iters)
 
-    for j in range(n - 1):
+
+def _steps_general(model: _Model, load, out, q, v, a, iters, rtol, max_iter) -> None:
+    """Samples 1 … n−1 of :func:`newmark` (stiffness events: the matrices per sample)."""
+    h, bh2, gh = model.h, model.bh2, model.gh
+    for j in range(iters.size - 1):
         K, absK, solver = model.stiffness(j + 1)
         removed = model.removed(j + 1)
         if removed.size:  # DOFs that left the model (element fracture) are held at zero
@@ -412,7 +487,43 @@ def newmark(
         q = qp + bh2 * a
         v = vp + gh * a
         out(j + 1, q, v, a)
-    return NewmarkResult(q=out.q, v=out.v, a=out.a, newton_iterations=iters)
+
+
+def _steps_fixed(model: _Model, load, out, q, v, a, iters, rtol, max_iter) -> None:
+    """:func:`_steps_general` for a structure without stiffness events: the same
+    arithmetic, with the matrices and the step's branch looked up once."""
+    h, bh2, gh = model.h, model.bh2, model.gh
+    K, absK, solver = model.stiffness(0)
+    C = model.C if model.has_damping else None
+    nonlinear, vm = bool(model.nonlinear), model.vm is not None
+    scalar = nonlinear and not vm and solver.dofs.size == 1
+    for j in range(iters.size - 1):
+        qp = q + h * v + bh2 * a  # predictors q̃, ṽ
+        vp = v + gh * a
+        fj = load(j + 1)
+        if scalar:  # _newton_condensed's one-DOF case, without its dispatch
+            rhs = fj - K @ qp
+            if C is not None:
+                rhs -= C @ vp
+            a, iters[j + 1] = _newton_scalar(model, j + 1, a, qp, vp,
+                                             solver.factorization.solve(rhs), solver,
+                                             rtol, max_iter)
+        elif nonlinear and not vm:
+            a, iters[j + 1] = _newton_condensed(
+                model, j + 1, a, qp, vp, fj, K, solver, rtol, max_iter
+            )
+        elif nonlinear:
+            a, iters[j + 1] = _newton(
+                model, j + 1, a, qp, vp, fj, K, absK, solver, rtol, max_iter
+            )
+        else:  # S(t_{j+1}) a = f − C ṽ − K q̃, one solve
+            rhs = fj - K @ qp
+            if C is not None:
+                rhs -= C @ vp
+            a = solver.solve(rhs, model.update(j + 1, qp, vp) if vm else None)
+        q = qp + bh2 * a
+        v = vp + gh * a
+        out(j + 1, q, v, a)
 
 
 def _initial_state(model: _Model, q0: np.ndarray, v0: np.ndarray,
@@ -502,15 +613,23 @@ def _newton_scalar(model: _Model, j, a, qp, vp, y, solver, rtol, max_iter):
     q_norm = None
     dq = np.inf
     qbuf, vbuf = np.empty(1), np.empty(1)
+    terms = model.scalar_terms
     for it in range(max_iter + 1):
-        qbuf[0] = qd0 + bh2 * ad
-        vbuf[0] = vd0 + gh * ad
         g = 0.0
         b = 0.0
-        for el in model.nonlinear:
-            g += float(np.sum(el.force(qbuf, vbuf)))
-            b += (bh2 * float(np.asarray(el.stiffness(qbuf, vbuf)).reshape(-1)[0])
-                  + gh * float(np.asarray(el.damping(qbuf, vbuf)).reshape(-1)[0]))
+        if terms is not None:  # the elements' own float evaluation (the same numbers)
+            qs, vs = qd0 + bh2 * ad, vd0 + gh * ad
+            for term in terms:
+                ge, ke, ce = term(qs, vs)
+                g += ge
+                b += bh2 * ke + gh * ce
+        else:
+            qbuf[0] = qd0 + bh2 * ad
+            vbuf[0] = vd0 + gh * ad
+            for el in model.nonlinear:
+                g += float(np.sum(el.force(qbuf, vbuf)))
+                b += (bh2 * float(np.asarray(el.stiffness(qbuf, vbuf)).reshape(-1)[0])
+                      + gh * float(np.asarray(el.damping(qbuf, vbuf)).reshape(-1)[0]))
         zg = z * g
         phi = ad - yd + zg
         scale = abs(ad) + abs(yd) + abs(zg)

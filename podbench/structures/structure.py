@@ -212,6 +212,14 @@ class OneSidedSpring:
     def damping(self, q, v):
         return np.zeros((1, 1))
 
+    def scalar_terms(self, q: float, v: float) -> tuple[float, float, float]:
+        """``(g, dg/dq, dg/dv)`` at the floats ``q``, ``v``: the numbers of :meth:`force`,
+        :meth:`stiffness`, :meth:`damping` without arrays (Newmark's one-DOF Newton loop)."""
+        s, d = self.side, self.offset
+        x = s * q - d
+        g = s * self.k * (max(x, 0.0) - max(-d, 0.0))
+        return g, (self.k if x > 0.0 else 0.0), 0.0
+
     def linear_stiffness(self) -> np.ndarray:
         """The (1, 1) stiffness (lbf/in) the linear twin puts on ``dof`` (see ``twin``)."""
         if self.twin == "two_sided" or (self.twin == "tangent" and self.offset < 0.0):

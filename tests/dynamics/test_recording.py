@@ -135,3 +135,32 @@ def test_bad_record_or_force_map(kwargs, error, match):
 def test_bad_dof_histories():
     with pytest.raises(InputError, match="dof_histories"):
         simulate(chain(4), 10, 0.01, dof_histories="no")
+
+
+@pytest.mark.parametrize("n", [1, 255, 256, 257, 700])
+def test_block_recording_equals_per_sample_products(beams, n):
+    # sparse load and output maps are applied by blocks of CHUNK samples: every sample's
+    # numbers equal the products of that sample's vectors (block boundaries included)
+    s, q0, v0, _ = _beam_case(beams, "nl_beam")
+    F = Pulse(23.0, 500.0, 5e-4).sample(s, n, DT_BEAM)
+    S = s.sensor_matrix()
+    full = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T)
+    rec = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T, record=S)
+    for name in ("q", "v", "a"):
+        assert np.array_equal(getattr(rec, name), S @ getattr(full, name))
+
+
+def test_blocks_shrink_on_large_structures(monkeypatch):
+    # the buffered blocks hold at most BLOCK_FLOATS numbers per history: on a large
+    # structure (here forced by a small budget) the blocks are a few samples, same numbers
+    nm = importlib.import_module("podbench.dynamics.newmark")  # not the function
+
+    s = load_structure("nl_beam")
+    F = Pulse(23.0, 500.0, 5e-4).sample(s, 40, DT_BEAM)
+    S = s.sensor_matrix()
+    q0 = v0 = np.zeros(s.n_dofs)
+    ref = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T, record=S)
+    monkeypatch.setattr(nm, "BLOCK_FLOATS", 3 * s.n_dofs)
+    assert nm._chunk(s.n_dofs) == 3
+    small = newmark(s, q0, v0, F, DT_BEAM, force_map=S.T, record=S)
+    assert np.array_equal(small.q, ref.q) and np.array_equal(small.a, ref.a)

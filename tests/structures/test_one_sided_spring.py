@@ -200,3 +200,44 @@ def test_tip_band_file_errors_are_one_line(tmp_path, band, match):
     with pytest.raises(StructureFileError, match=match) as e:
         load_structure(p)
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("kw", [{}, {"side": -1}, {"slack": 0.003}, {"prestretch": 0.002},
+                                {"side": -1, "prestretch": 0.002}])
+def test_scalar_terms_are_the_array_methods_numbers(kw):
+    # Newmark's one-DOF Newton loop evaluates the band on floats (scalar_terms); it must give
+    # bit for bit the numbers of force / stiffness / damping, or the integration would move
+    el = OneSidedSpring(dof=0, k=0.12, **kw)
+    rng = np.random.default_rng(3)
+    qs = np.concatenate([rng.normal(scale=0.01, size=200), [0.0, -0.0, 0.003, -0.002, 0.002]])
+    for q in qs:
+        v = float(rng.normal())
+        g, kq, cv = el.scalar_terms(float(q), v)
+        qa, va = np.array([q]), np.array([v])
+        assert np.array_equal(np.array([g]), el.force(qa, va))
+        assert kq == el.stiffness(qa, va)[0, 0] and cv == el.damping(qa, va)[0, 0]
+
+
+def test_newmark_scalar_path_equals_array_path():
+    # the same band without scalar_terms (the array evaluation) integrates to the same bits
+    class ArrayOnly:
+        def __init__(self, el):
+            self.el, self.dofs = el, el.dofs
+
+        def force(self, q, v):
+            return self.el.force(q, v)
+
+        def stiffness(self, q, v):
+            return self.el.stiffness(q, v)
+
+        def damping(self, q, v):
+            return self.el.damping(q, v)
+
+    s = load_structure("rubber_band_beam")
+    band = dataclasses.replace(s.nonlinear[0], slack=0.002)
+    fast = dataclasses.replace(s, nonlinear=(band,))
+    slow = dataclasses.replace(s, nonlinear=(ArrayOnly(band),))
+    F = Pulse(4.0, 1.8, 1e-3, shape="half_sine").sample(s, 900, 1e-4)
+    a = simulate(fast, n_samples=900, dt=1e-4, force=F, dof_histories=False)
+    b = simulate(slow, n_samples=900, dt=1e-4, force=F, dof_histories=False)
+    assert np.array_equal(a.W, b.W) and np.abs(a.W).max() > 0

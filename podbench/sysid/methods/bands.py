@@ -237,7 +237,10 @@ def _refit(model, records, *, n_modes=None, basis=None):
         raise InputError(f"{type(model).__name__}: no prediction band: the band refits the "
                          "method in its fitted basis (leave one record out), and its fit "
                          "takes no basis")
-    if n_modes is not None and "n_modes" in est.get_params(deep=False):
+    params = est.get_params(deep=False)
+    if n_modes is None and basis is not None and params.get("n_modes") is not None:
+        n_modes = np.shape(basis)[1]  # a fold in fewer modes (k > N − 1): the basis's count
+    if n_modes is not None and "n_modes" in params:
         est.set_params(n_modes=n_modes)
     return est.fit(records, basis=basis)
 
