@@ -28,6 +28,7 @@ from podbench.dynamics.excitations import excitation_from_dict
 from podbench.errors import PodbenchError, ScenarioFileError
 from podbench.harness.bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from podbench.harness.cache import TruthCache, structure_fingerprint
+from podbench.harness.digits import diagnostic_digits
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
@@ -426,7 +427,8 @@ def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, swe
     diag = diag if isinstance(diag, dict) else {}
     res.fits.append({**base, **diag})
     if sweep:  # a sweep point: what the solver chose, on every row
-        base = {**base, **{k: diag.get(k, float("nan")) for k in SWEEP_DIAGNOSTICS}}
+        base = {**base, **{k: diagnostic_digits(k, diag.get(k, float("nan")))
+                           for k in SWEEP_DIAGNOSTICS}}
     U = getattr(est, "modes_", None)
     U = None if U is None else np.asarray(U, dtype=float)
     coupled = bool(getattr(est, "coupled", False))

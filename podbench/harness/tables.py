@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from podbench.harness.digits import DIAGNOSTIC_COLUMNS, ESTIMATE_COLUMNS, diagnostic_digits
 from podbench.harness.runner import COLUMNS
 
 FLOAT_FORMAT = "%.6g"
@@ -43,11 +44,6 @@ def summary_table(results) -> pd.DataFrame:
 ROUNDOFF_RESIDUAL = 1e-12
 
 
-#: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
-#: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
-#: records (1e-7…1e-6, the rounding of the file) its fourth digit differs between OpenBLAS
-#: kernels (measured: 1.87089e-06 against 1.87098e-06 for the same fit).
-ESTIMATE_COLUMNS = ("solver_noise_floor",)
 
 
 def fits_table(results) -> pd.DataFrame:
@@ -59,9 +55,9 @@ def fits_table(results) -> pd.DataFrame:
     for c in df.columns:  # round-off residuals: their digits depend on the CPU's BLAS kernel
         if c.endswith("residual") and pd.api.types.is_numeric_dtype(df[c]):
             df[c] = df[c].mask(df[c].abs() < ROUNDOFF_RESIDUAL, 0.0)
-    for c in ESTIMATE_COLUMNS:
+    for c in ESTIMATE_COLUMNS + DIAGNOSTIC_COLUMNS:
         if c in df and pd.api.types.is_numeric_dtype(df[c]):
-            df[c] = df[c].map(lambda v: float(f"{v:.2g}") if np.isfinite(v) else v)
+            df[c] = df[c].map(lambda v, c=c: diagnostic_digits(c, v))
     first = [c for c in ("scenario", "structure", "method", "n_modes", "solver") if c in df]
     return df[first + sorted(c for c in df.columns if c not in first)]
 

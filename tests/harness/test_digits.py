@@ -1,0 +1,27 @@
+"""Fit diagnostics whose last digits move between BLAS kernels are written to two digits."""
+
+import math
+from types import SimpleNamespace
+
+from podbench.harness.digits import diagnostic_digits
+from podbench.harness.tables import fits_table, table_csv
+
+
+def test_conditioning_and_iterations_are_written_to_two_digits():
+    # the pairs measured on two OpenBLAS kernels land on the same written value
+    assert diagnostic_digits("solver_iterations", 188) == diagnostic_digits(
+        "solver_iterations", 189) == 190.0
+    assert diagnostic_digits("condition_number", 117.568) == 120.0
+    assert diagnostic_digits("solver_noise_floor", 1.87089e-06) == 1.9e-06
+    # other columns, zeros and NaN are left alone
+    assert diagnostic_digits("fit_residual", 0.123456) == 0.123456
+    assert diagnostic_digits("solver_iterations", 0) == 0
+    assert math.isnan(diagnostic_digits("condition_number", float("nan")))
+
+
+def test_fits_table_applies_them():
+    unit = SimpleNamespace(fits=[{"scenario": "s", "structure": "b", "method": "ML",
+                                  "condition_number": 341.241, "solver_iterations": 279,
+                                  "fit_residual": 0.25}])
+    text = table_csv(fits_table([unit]))
+    assert text.splitlines()[1] == "s,b,ML,340,0.25,280"
