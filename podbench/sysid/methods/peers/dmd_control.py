@@ -81,8 +81,8 @@ class DMDc(PeerMethod):
     abbreviation = "DMDc"
     _requires = ("pydmd", "DMDc", "PyDMD")
     _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
-                              "svd_rank": [None, *_PYDMD_RANK], "svd_rank_omega": [None, *_PYDMD_RANK],
-                              "holdout": HOLDOUT}
+                              "svd_rank": [None, *_PYDMD_RANK],
+                              "svd_rank_omega": [None, *_PYDMD_RANK], "holdout": HOLDOUT}
 
     def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=None,
                  holdout=0.25):
