@@ -36,6 +36,7 @@ import csv
 import io
 import re
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -43,7 +44,7 @@ from podbench.core.atomic import atomic_write_bytes, atomic_write_text
 from podbench.errors import InputError
 
 __all__ = ["IO_SUFFIXES", "read_csv_vars", "write_csv", "read_uff_vars", "write_uff",
-           "is_io_layout", "UFF_TYPES"]
+           "is_io_layout", "UFF_TYPES", "read_uff58", "pyuff_module", "uniform_dt"]
 
 IO_SUFFIXES = (".npz", ".mat", ".csv", ".uff", ".unv")
 """File suffixes of input/output records."""
@@ -56,19 +57,28 @@ _HEAD = re.compile(r"^(?P<side>[uy]):(?P<name>.+?)(?:\s*\[(?P<unit>[^\[\]]*)\])?
 _SIDE = {"u": "input", "y": "output"}
 
 
-def _fail(name: str, field: str, message: str):
+def _fail(name: str, field: str, message: str) -> NoReturn:
     raise InputError(f"{name}: field `{field}`: {message}")
 
 
-def _dt_from_t(name: str, t: np.ndarray) -> float:
+def uniform_dt(t: np.ndarray) -> float:
+    """``dt`` (s) of a time column ``t_j = j·dt`` (uniform from 0, within 1e-6·dt); a
+    ValueError saying what is wrong otherwise (the reader adds the file and field)."""
     if t.size < 2:
-        _fail(name, "t", f"{t.size} sample(s), expected at least 2")
+        raise ValueError(f"{t.size} sample(s), expected at least 2")
     dt = float(t[1] - t[0])
     ideal = np.arange(t.size) * dt
     if abs(t[0]) > 1e-9 * abs(dt) or dt <= 0 or np.max(np.abs(t - ideal)) > 1e-6 * dt:
-        _fail(name, "t", f"expected uniform times t_j = j·dt from 0 (t[0] = {t[0]:g}, "
+        raise ValueError(f"expected uniform times t_j = j·dt from 0 (t[0] = {t[0]:g}, "
                          f"t[1] = {t[1]:g})")
     return dt
+
+
+def _dt_from_t(name: str, t: np.ndarray) -> float:
+    try:
+        return uniform_dt(t)
+    except ValueError as exc:
+        _fail(name, "t", str(exc))
 
 
 def _side_unit(name: str, units: dict):
@@ -157,7 +167,8 @@ def write_csv(path, *, u, y, dt: float, input_channels, output_channels, input_u
     atomic_write_text(path, buf.getvalue())
 
 
-def _pyuff():
+def pyuff_module():
+    """The optional ``pyuff`` module, or one InputError naming the extra that installs it."""
     try:
         import pyuff
     except ImportError:
@@ -185,14 +196,21 @@ def _uff_channel(name: str, k: int, s: dict) -> tuple[str, str, str | None, str 
     return side, ch, (None if unit.upper() in ("", "NONE") else unit), kind
 
 
-def _uff_sets(name: str, path: Path) -> list:
-    pyuff = _pyuff()
+def read_uff58(path, name) -> list[dict]:
+    """The datasets 58 (functions at a node) of a UFF file, in file order (an empty list if
+    it has none); one InputError naming ``name`` (the file as shown) when pyuff is missing
+    or cannot read the file."""
+    pyuff = pyuff_module()
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as exc:  # noqa: BLE001 - pyuff raises anything on a malformed file
         raise InputError(f"{name}: cannot read as UFF ({type(exc).__name__}: {exc})") from None
     sets = [sets] if isinstance(sets, dict) else list(sets)
-    sets = [s for s in sets if s.get("type") == 58]
+    return [s for s in sets if s.get("type") == 58]
+
+
+def _uff_sets(name: str, path: Path) -> list:
+    sets = read_uff58(path, name)
     if not sets:
         _fail(name, "inputs", "no dataset 58 (function at a node) in the file")
     return sets
@@ -273,7 +291,7 @@ def write_uff(path, *, u, y, dt: float, input_channels, output_channels, input_u
     if float(f"{float(dt):.5e}") != float(dt):
         raise InputError(f"{path.name}: field `dt`: {float(dt)!r} s needs more than the 6 "
                          "significant digits UFF 58 stores (E13.5); write .npz or CSV")
-    pyuff = _pyuff()
+    pyuff = pyuff_module()
     sets = [_uff_dataset(pyuff, f"u:{c}", np.asarray(r, dtype=float), dt, input_units,
                          input_quantity, k + 1) for k, (c, r) in enumerate(zip(
                              input_channels, np.atleast_2d(u), strict=True))]

@@ -11,7 +11,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["load_toml"]
+__all__ = ["load_toml", "typed_field"]
 
 
 def load_toml(path, shown: str, error: type[Exception]) -> tuple[bytes, dict]:
@@ -32,3 +32,27 @@ def load_toml(path, shown: str, error: type[Exception]) -> tuple[bytes, dict]:
         raise error(f"{shown}: not UTF-8 text ({exc})") from None
     except OSError as exc:
         raise error(f"{shown}: cannot read ({exc.strerror or exc})") from None
+
+
+_REQUIRED = object()
+
+
+def typed_field(table: dict, key: str, kind: type, where: str, error: type[Exception],
+                default=_REQUIRED):
+    """``table[key]``, checked to be a ``kind`` (``str``, ``int``, ``float``, ``list``,
+    ``dict``; a TOML integer is taken as a float, a boolean is never a number).
+
+    ``default`` is returned when the key is absent and a default is given. Raises ``error``
+    with one line, ``<where>: field `<key>`: missing`` or ``<where>: field `<key>`: expected
+    <kind>, got <value>`` (``where``: the file and table as messages name them).
+    """
+    if key not in table:
+        if default is _REQUIRED:
+            raise error(f"{where}: field `{key}`: missing")
+        return default
+    value = table[key]
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)
+    if not isinstance(value, kind) or isinstance(value, bool):
+        raise error(f"{where}: field `{key}`: expected {kind.__name__}, got {value!r}")
+    return value

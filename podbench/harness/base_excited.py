@@ -29,7 +29,6 @@ Study layer: it knows the structures, motions and methods; the methods see only 
 
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,6 +38,7 @@ import numpy as np
 from podbench.core.iorecords import IORecord, convert
 from podbench.core.resources import bundled_scenarios
 from podbench.core.threads import single_blas_thread
+from podbench.core.tomlfile import load_toml, typed_field
 from podbench.dynamics.base_excitation import influence_vector, simulate_base
 from podbench.errors import InputError
 from podbench.structures import load_structure
@@ -49,11 +49,6 @@ from podbench.sysid.methods.inputs import (
     mixed_response_io,
 )
 from podbench.sysid.methods.peers_io import ERAIO, DMDcIO, OpInfIO
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 __all__ = ["STUDY", "TABLE", "study_file", "load_study", "base_motion", "make_records",
            "run_study", "METHODS", "BaseStudy", "StructureSpec"]
@@ -97,14 +92,7 @@ def study_file() -> Path:
 
 
 def _need(where: str, table: dict, key: str, kind):
-    if key not in table:
-        raise InputError(f"{where}: field `{key}`: missing")
-    value = table[key]
-    if kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if not isinstance(value, kind) or isinstance(value, bool):
-        raise InputError(f"{where}: field `{key}`: expected {kind.__name__}, got {value!r}")
-    return value
+    return typed_field(table, key, kind, where, InputError)
 
 
 def _structure_spec(where: str, label: str, t: dict) -> StructureSpec:
@@ -129,11 +117,7 @@ def _structure_spec(where: str, label: str, t: dict) -> StructureSpec:
 def load_study(path=None) -> BaseStudy:
     """Read a base-excited study file (default: the bundled one); one line per error."""
     path = Path(path) if path is not None else study_file()
-    try:
-        with open(path, "rb") as fh:
-            spec = tomllib.load(fh)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
+    _, spec = load_toml(path, str(path), InputError)
     where = path.name
     if TABLE not in spec:
         raise InputError(f"{where}: table `[{TABLE}]`: missing")

@@ -8,15 +8,10 @@ A study with its own runner (``[study] runner = "substructuring"``,
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
+from podbench.core.tomlfile import load_toml, typed_field
 from podbench.errors import ScenarioFileError
 
 __all__ = ["SubstructuringPlan", "ComponentEntry", "load_substructuring", "TABLE"]
@@ -54,24 +49,11 @@ class SubstructuringPlan:
 
 
 def _read(path: Path) -> dict:
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ScenarioFileError(f"{path}: cannot be read ({exc})") from None
+    return load_toml(path, str(path), ScenarioFileError)[1]
 
 
-def _get(d: dict, key: str, kind, path: Path, default=None):
-    if key not in d:
-        if default is None:
-            raise ScenarioFileError(f"{path}: {TABLE}.{key} is missing")
-        return default
-    v = d[key]
-    if kind is float and isinstance(v, int) and not isinstance(v, bool):
-        v = float(v)
-    if not isinstance(v, kind) or isinstance(v, bool):
-        raise ScenarioFileError(f"{path}: {TABLE}.{key} must be {kind.__name__}, got {v!r}")
-    return v
+def _get(d: dict, key: str, kind, path: Path, *default):
+    return typed_field(d, key, kind, f"{path}: [{TABLE}]", ScenarioFileError, *default)
 
 
 def load_substructuring(path) -> SubstructuringPlan:

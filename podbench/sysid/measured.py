@@ -40,10 +40,11 @@ import io
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
+from podbench.core.iofiles import pyuff_module, read_uff58, uniform_dt
 from podbench.errors import InputError
 
 __all__ = ["MeasuredRecord", "read_record", "write_record", "FORMATS", "format_of"]
@@ -81,7 +82,7 @@ def format_of(path) -> str:
     return FORMATS[suffix]
 
 
-def _fail(path, var: str, message: str):
+def _fail(path, var: str, message: str) -> NoReturn:
     raise InputError(f"{path}: variable `{var}`: {message}")
 
 
@@ -184,14 +185,10 @@ def _channels(path, names: list[str], columns: dict) -> dict:
 
 
 def _dt_from_t(path, t: np.ndarray) -> float:
-    if t.size < 2:
-        _fail(path, "t", "expected at least 2 samples")
-    dt = float(t[1] - t[0])
-    ideal = np.arange(t.size) * dt
-    if abs(t[0]) > 1e-9 * abs(dt) or dt <= 0 or np.max(np.abs(t - ideal)) > 1e-6 * dt:
-        _fail(path, "t", f"expected uniform times t_j = j·dt from 0 (t[0] = {t[0]:g}, "
-                         f"t[1] = {t[1]:g})")
-    return dt
+    try:
+        return uniform_dt(t)
+    except ValueError as exc:
+        _fail(path, "t", str(exc))
 
 
 def _read_csv(path) -> MeasuredRecord:
@@ -223,23 +220,8 @@ def _read_csv(path) -> MeasuredRecord:
     return _build(path, {"W": ch["W"], "F": ch["F"], "dt": dt}, ch["sensors"])
 
 
-def _pyuff():
-    try:
-        import pyuff
-    except ImportError:
-        raise InputError("reading a UFF file needs pyuff: pip install 'podbench[measured]'") \
-            from None
-    return pyuff
-
-
 def _read_uff(path) -> MeasuredRecord:
-    pyuff = _pyuff()
-    try:
-        sets = pyuff.UFF(str(path)).read_sets()
-    except Exception as exc:  # noqa: BLE001 - pyuff raises anything on a malformed file
-        raise InputError(f"{path}: cannot read as UFF ({type(exc).__name__}: {exc})") from None
-    sets = [sets] if isinstance(sets, dict) else list(sets)
-    sets = [s for s in sets if s.get("type") == 58]
+    sets = read_uff58(path, path)
     if not sets:
         _fail(path, "W", "no dataset 58 (function at a node) in the file")
     names, cols, dts = [], {}, []
@@ -329,7 +311,7 @@ def write_record(path, record, *, sensors=None, sensor_positions=None) -> Path:
             buf.write(",".join(repr(float(x)) for x in row) + "\n")
         path.write_text(buf.getvalue(), encoding="utf-8")
         return path
-    pyuff = _pyuff()
+    pyuff = pyuff_module()
     if path.exists():
         path.unlink()
     uff = pyuff.UFF(str(path))

@@ -54,6 +54,10 @@ class ConvolutionSystem:
         Δt (s).
     vector : bool
         Whether ``B`` was given as a vector (solutions are then ``(k·n,)``).
+    n, n_cases, k : int
+        Samples per load case, load cases, modes (kernel rows per lag): ``G.shape``.
+    n_rhs : int
+        Right-hand sides ``r`` (columns of ``B``; 1 for a vector).
     """
 
     def __init__(self, Q_list, B, dt: float):
@@ -77,28 +81,10 @@ class ConvolutionSystem:
         self.dt = dt
         self.vector = vector
         self._B2 = B
+        self.n, self.n_cases, self.k = G.shape
+        self.n_rhs = B.shape[1]
 
     # ------------------------------------------------------------------ sizes
-    @property
-    def n(self) -> int:
-        """Samples per load case."""
-        return self.G.shape[0]
-
-    @property
-    def k(self) -> int:
-        """Modes (kernel rows per lag)."""
-        return self.G.shape[2]
-
-    @property
-    def n_cases(self) -> int:
-        """Load cases."""
-        return self.G.shape[1]
-
-    @property
-    def n_rhs(self) -> int:
-        """Right-hand sides ``r`` (columns of ``B``; 1 for a vector)."""
-        return self.Y.shape[2]
-
     @property
     def shape(self) -> tuple[int, int]:
         """Shape ``(n_cases·n, k·n)`` of ``A``."""

@@ -569,6 +569,32 @@ def select_basis(W: np.ndarray, n_modes, basis, *, energy: float | None = None):
     return full.modes[:, :n_modes], full.povs[:n_modes], full.pocs[:, :n_modes]
 
 
+def per_record_basis(Ws, n_modes, basis, rule: str, too_few: str):
+    """The basis of a method whose ``k`` may not exceed the number ``N`` of training records
+    (MDS, ML: :attr:`PODMethod.records_per_mode`), with the POVs and POCs of the first record
+    in it (:func:`select_basis`).
+
+    ``basis`` when given (``k`` its columns); else the ``k`` leading POMs (``k = n_modes``,
+    default ``N``) of the first record (``rule="first"``, the dissertation's) or of all
+    records side by side, ``[¹W ²W …]`` (``rule="all"``). Raises InputError with the
+    message ``too_few.format(k=k, n_sets=N)`` when ``k > N``, before any POD.
+    """
+    n_sets = len(Ws)
+    if basis is not None:
+        U, povs, pocs = select_basis(Ws[0], n_modes, basis)
+        k = U.shape[1]
+    else:
+        k = n_sets if n_modes is None else n_modes
+    if k > n_sets:
+        raise InputError(too_few.format(k=k, n_sets=n_sets))
+    if basis is not None:
+        return U, povs, pocs
+    if rule == "first":
+        return select_basis(Ws[0], k, None)
+    U_all, _, _ = select_basis(np.hstack(Ws), k, None)
+    return select_basis(Ws[0], None, U_all)
+
+
 def modal_share_too_small(a: np.ndarray, scale: float, tol: float) -> np.ndarray:
     """Boolean mask of ``|a_i| <= tol·scale`` (a divisor too small to use)."""
     return np.abs(a) <= tol * scale

@@ -22,7 +22,7 @@ import numpy as np
 
 from podbench.core.records import is_record
 from podbench.core.validation import as_finite_array
-from podbench.errors import DimensionError, IllConditionedError, InputError
+from podbench.errors import DimensionError, IllConditionedError
 from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
 from podbench.sysid.methods.base import (
     BASES,
@@ -46,6 +46,7 @@ from podbench.sysid.methods.base import (
     check_tol,
     make_method_solver,
     modal_share_too_small,
+    per_record_basis,
     select_basis,
     solve_deconvolution,
 )
@@ -88,13 +89,6 @@ N_LAGS: list = [None, Options("auto"), Interval("integer", 1)]
 
 def _check_n_lags(n_lags):
     return check_param(n_lags, "n_lags", N_LAGS)
-
-
-def _all_records_basis(Ws, k: int):
-    """The ``k`` leading POMs of all records side by side, ``[¹W ²W …]`` (``basis="all"``),
-    with the POVs and POCs of the first record in it."""
-    U_all, _, _ = select_basis(np.hstack(Ws), k, None)
-    return select_basis(Ws[0], None, U_all)
 
 
 def _relative_residual(Qs, X, B, dt) -> float:
@@ -466,21 +460,11 @@ class MultipleLoad(_ForcedMethod):
         n_modes = check_n_modes(self.n_modes)
         solver = make_method_solver(self.solver, self.solver_options)
         max_cond = check_max_cond(self.max_cond)
-        n_sets = len(Ws)
         n = Ws[0].shape[1]
-        if basis is not None:
-            U, povs, pocs = select_basis(Ws[0], n_modes, basis)
-            k = U.shape[1]
-        else:
-            k = n_sets if n_modes is None else n_modes
-        if k > n_sets:
-            raise InputError(
-                f"ML: fewer load cases ({n_sets}) than modes ({k}); C̄ has k²n unknowns and "
-                f"each load case adds only k·n equations (Eq. 3.48), so k = {k} cases are needed"
-            )
-        if basis is None:
-            U, povs, pocs = (select_basis(Ws[0], k, None) if self.basis == "first"
-                             else _all_records_basis(Ws, k))
+        U, povs, pocs = per_record_basis(Ws, n_modes, basis, self.basis, (
+            "ML: fewer load cases ({n_sets}) than modes ({k}); C̄ has k²n unknowns and each "
+            "load case adds only k·n equations (Eq. 3.48), so k = {k} cases are needed"))
+        k = U.shape[1]
         Qs = [U.T @ Fj for Fj in Fs]
         L = np.stack([Qj.ravel() for Qj in Qs])  # n_sets × k·n
         s = np.linalg.svd(L, compute_uv=False)

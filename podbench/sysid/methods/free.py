@@ -28,6 +28,7 @@ from podbench.sysid.methods.base import (
     check_snapshots,
     check_tol,
     modal_share_too_small,
+    per_record_basis,
     select_basis,
 )
 from podbench.sysid.params import Options
@@ -347,21 +348,10 @@ class MDS(_FreeMethod):
                 )
             x0 = [Wj[:, 0] for Wj in Ws]
         X0 = np.column_stack(check_profiles(x0, n_sets, m, "x0"))
-        if basis is not None:
-            U, povs, pocs = select_basis(Ws[0], n_modes, basis)
-            k = U.shape[1]
-        else:
-            k = n_sets if n_modes is None else n_modes
-        if k > n_sets:
-            raise InputError(
-                f"MDS: fewer data sets ({n_sets}) than modes ({k}); Φ (k × k) needs at least "
-                f"k = {k} responses to linearly independent initial {word}s (Eq. 3.26)"
-            )
-        if basis is None and self.basis == "all":
-            U_all, _, _ = select_basis(np.hstack(Ws), k, None)
-            U, povs, pocs = select_basis(Ws[0], None, U_all)
-        elif basis is None:
-            U, povs, pocs = select_basis(Ws[0], k, None)
+        too_few = ("MDS: fewer data sets ({n_sets}) than modes ({k}); Φ (k × k) needs at least "
+                   "k = {k} responses to linearly independent initial " + word + "s (Eq. 3.26)")
+        U, povs, pocs = per_record_basis(Ws, n_modes, basis, self.basis, too_few)
+        k = U.shape[1]
         V0 = U.T @ X0  # k × n_sets
         s = np.linalg.svd(V0, compute_uv=False)
         cond = condition_number(s)

@@ -19,7 +19,7 @@ from typing import cast
 
 import numpy as np
 
-from podbench.errors import InputError, NotFittedError
+from podbench.errors import InputError
 from podbench.sysid.methods.base import PODMethod, check_n_modes, select_basis
 from podbench.sysid.methods.forced import MultipleLoad
 from podbench.sysid.params import Interval
@@ -115,6 +115,12 @@ class PeerMethod(PODMethod):
     #: the hyperparameters, so a missing library fails when a scenario is read).
     _requires: tuple[str, str, str] | None = None
 
+    def __init__(self, *, n_modes=None, holdout=0.25):
+        # the hyperparameters every peer has and this base reads: the size of the basis
+        # (``_basis``) and the hold-out fraction of its rule (``_fit_by_rule``)
+        self.n_modes = n_modes
+        self.holdout = holdout
+
     def _validate_params(self) -> None:
         super()._validate_params()
         if self._requires is not None:
@@ -127,11 +133,11 @@ class PeerMethod(PODMethod):
         """ML in the peer's basis (the POD method that identifies the full kernel ``C(t)``
         without a model order: their difference is what the peer's model form loses)."""
 
-        return MultipleLoad(n_modes=getattr(self, "n_modes", None), solver="block")
+        return MultipleLoad(n_modes=self.n_modes, solver="block")
 
     def _basis(self, recs, basis):
         Wall = np.hstack([r.W for r in recs])
-        n_modes = check_n_modes(getattr(self, "n_modes", None))
+        n_modes = check_n_modes(self.n_modes)
         if basis is None and n_modes is None:
             n_modes = len(recs)
         if basis is not None:
@@ -211,13 +217,6 @@ class PeerMethod(PODMethod):
             raise InputError(f"Parameter `record.F`: {F.shape[0]} rows, the peer was fitted "
                              f"on {self.modes_.shape[0]} sensors")
         return self.modes_.T @ F
-
-    def _check_is_fitted(self) -> None:
-        if not hasattr(self, "modes_"):
-            raise NotFittedError(
-                f"This {type(self).__name__} instance is not fitted yet; call `fit` before "
-                "`predict`"
-            )
 
 
 def delay_coordinates(Ys, Us, delays: int):

@@ -87,11 +87,10 @@ class DMDc(PeerMethod):
 
     def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=None,
                  holdout=0.25):
-        self.n_modes = n_modes
+        super().__init__(n_modes=n_modes, holdout=holdout)
         self.delays = delays
         self.svd_rank = svd_rank
         self.svd_rank_omega = svd_rank_omega
-        self.holdout = holdout
 
     def _identify(self, Ys, Us, rank):
         dmdc = require("pydmd.dmdc", "DMDc", "PyDMD")

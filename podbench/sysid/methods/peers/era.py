@@ -231,11 +231,10 @@ class ERA(PeerMethod):
 
     def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
                  rcond=OKID_RCOND, excitation="forced"):
-        self.n_modes = n_modes
+        super().__init__(n_modes=n_modes, holdout=holdout)
         self.order = order
         self.max_order = max_order
         self.lags = lags
-        self.holdout = holdout
         self.rcond = rcond
         self.excitation = excitation
 

@@ -75,10 +75,9 @@ class OpInf(PeerMethod):
                               "regularizer": [None, Interval("number", 0)], "holdout": HOLDOUT}
 
     def __init__(self, *, n_modes=None, delays=2, regularizer=None, holdout=0.25):
-        self.n_modes = n_modes
+        super().__init__(n_modes=n_modes, holdout=holdout)
         self.delays = delays
         self.regularizer = regularizer
-        self.holdout = holdout
 
     def _identify(self, Ys, Us, rho):
         opinf = require("opinf", "OpInf", "opinf")
