@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from podbench.errors import PodbenchError
+from podbench.harness.digits import coverage_digits
 from podbench.sysid.methods.bands import interval_score
 
 __all__ = ["BAND_COLUMNS", "BAND_COVERAGE", "band_row", "band_prediction", "band_stats"]
@@ -37,7 +38,7 @@ def band_row(prediction, W) -> dict:
     if prediction is None or not hasattr(prediction, "lower"):
         return dict.fromkeys(BAND_COLUMNS, float("nan"))
     return {"error_estimate": float(prediction.error_estimate),
-            "coverage": float(prediction.covers(W))}
+            "coverage": coverage_digits(prediction.covers(W))}
 
 
 def band_stats(prediction, W) -> dict:

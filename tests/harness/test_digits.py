@@ -3,7 +3,7 @@
 import math
 from types import SimpleNamespace
 
-from podbench.harness.digits import diagnostic_digits
+from podbench.harness.digits import coverage_digits, diagnostic_digits
 from podbench.harness.tables import fits_table, table_csv
 
 
@@ -25,3 +25,9 @@ def test_fits_table_applies_them():
                                   "fit_residual": 0.25}])
     text = table_csv(fits_table([unit]))
     assert text.splitlines()[1] == "s,b,ML,340,0.25,280"
+
+
+def test_coverage_is_written_to_two_decimals():
+    # the pair measured on two OpenBLAS kernels (one sample of 12,500 on the band's edge)
+    assert coverage_digits(0.63792) == coverage_digits(0.638) == 0.64
+    assert coverage_digits(0.9) == 0.9 and math.isnan(coverage_digits(float("nan")))
