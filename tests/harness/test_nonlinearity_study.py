@@ -83,7 +83,8 @@ def test_swept_verdicts_say_over_which_slack_a_claim_holds(tmp_path):
     assert list(table.method) == ["band", "slack_0.25A", "slack_0.5A", "slack_1A",
                                   "prestretch_0.25A", "prestretch_0.5A", "prestretch_1A"]
     assert table.scaled_rms_change.iloc[1] == pytest.approx(-0.013)
-    assert table.lag_growth.iloc[2] == pytest.approx(14.9 * 0.75)
+    assert table.lag_growth.iloc[2] == pytest.approx(14.9 * 0.75, rel=1e-3)  # 4 digits
+    assert table.deviation.iloc[0] == 0.0  # 1e-13: round-off of the linear band, written 0
     p = _claims(tmp_path, ["band.lag_last > 0.01"], scenario="nonlinearity",
                 structure="rubber", target="undamped")
     claims = load_claims(p)[0]
@@ -111,11 +112,12 @@ def test_nonlinearity_claim_rows_against_the_raw_responses():
         d = r["data"]
         win = d.t <= r["period_s"] + 1e-12
         sc = d.tip[:, win] / d.impulses[:, None]
+        # four significant digits, round-off (< 1e-9) written as 0
         assert m["deviation"] == pytest.approx(
-            np.linalg.norm(sc[0] - sc[-1]) / np.linalg.norm(sc[-1]), rel=1e-9, abs=1e-15)
+            np.linalg.norm(sc[0] - sc[-1]) / np.linalg.norm(sc[-1]), rel=1e-3, abs=1e-9)
         rms = np.sqrt(np.mean(sc**2, axis=1))
         assert m["scaled_rms_change"] == pytest.approx((rms[-1] - rms[0]) / rms[0],
-                                                       abs=1e-12)
+                                                       rel=1e-3, abs=1e-9)
     band, slack, pre = table.to_dict("records")
     assert band["deviation"] < 1e-9 and abs(band["lag_last"]) < 1e-6
     # slack: stiffening, small loads lag (frequency rises with load); pre-stretch: the reverse
