@@ -90,7 +90,6 @@ COMMANDS: dict[str, object] = {
         SYNOPSIS,
     "python benchmarks/study_time.py --study chapter4 --jobs 1 [--tree OTHER_CHECKOUT] "
     "[--no-write]": SYNOPSIS,
-    "python benchmarks/study_time.py --study <study> --jobs 1 --no-write": SYNOPSIS,
     # quick commands
     "podbench list": RUN,
     "podbench methods": RUN,
@@ -585,9 +584,17 @@ def test_the_readme_states_every_studys_wall_time():
     studies = set(bundled_studies()) - {"sweeps"}
     assert studies <= {d.name for d in (ROOT / "scenarios").iterdir()}
     assert named == studies, (sorted(studies - named), sorted(named - studies))
-    assert any(ln.startswith("| `podbench sweep`") for ln in rows)
+    assert any(ln.startswith("| `podbench sweep") for ln in rows)
+    # every row's time is the one results/MANIFEST.toml holds for the same command
+    with (ROOT / "results" / "MANIFEST.toml").open("rb") as fh:
+        manifest = {e["command"]: e for e in tomllib.load(fh).values()}
     for ln in rows:
-        last = [c.strip() for c in ln.strip("|").split("|")][-1]
-        assert re.search(r"\d+(\.\d+)? (s|min)\b", last), ln
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        m = re.search(r"(\d+(?:\.\d+)?) (s|min)\b", cells[-1])
+        assert m, ln
+        minutes = float(m.group(1)) / (60.0 if m.group(2) == "s" else 1.0)
+        command = re.match(r"`([^`]+)`", cells[0]).group(1)
+        if command in manifest:
+            assert minutes == pytest.approx(manifest[command]["minutes"], abs=0.051), ln
     for words in ("measured", "2-core", "load"):
         assert words in section, words
