@@ -214,77 +214,29 @@ def _tls(A, B, rcond, noise_level, rank, scale=False):
         return X / da[:, None] * db[None, :], {**info, "scaled": True}
     M, r = A.shape[1], B.shape[1]
     Cmat = np.hstack([A, B])
+    _, s, Vt = scipy.linalg.svd(Cmat, full_matrices=False, lapack_driver="gesdd")
+    p = tls_rank(s, Cmat.shape, M, rcond=rcond, noise_level=noise_level, rank=rank)
     info = {
+        "rank": p,
         "rank_rule": (rank if isinstance(rank, str) else "rank" if rank is not None else
                       "noise_level" if noise_level is not None else "rcond"),
         "rcond": (DEFAULT_TLS_RCOND if rcond is None else float(rcond))
         if rank is None and noise_level is None else None,
+        "condition": float(s[0] / s[p - 1]) if p > 0 else None,
     }
-    if rank is None and noise_level is None and Cmat.shape[1] > 64:
-        # the rcond rule: only the few discarded directions are needed (X = −V12 V22⁺)
-        rcond = DEFAULT_TLS_RCOND if rcond is None else check_positive(rcond, "rcond")
-        if rcond >= 1:
-            raise InputError(f"Parameter `rcond`: must be below 1, got {rcond!r}")
-        p, cond, Vd = _tls_discarded(Cmat, rcond, M)
-        info.update(rank=p, condition=cond)
-        if p > 0:
-            V12, V22 = Vd[:M], Vd[M:]
-            return -V12 @ V22.T @ np.linalg.pinv(V22 @ V22.T, hermitian=True), info
+    if p == 0:
+        warnings.warn(
+            "truncated_tls: no singular value above the truncation level; returning X = 0",
+            PodbenchWarning,
+            stacklevel=3,
+        )
+        X = np.zeros((M, r))
     else:
-        _, s, Vt = scipy.linalg.svd(Cmat, full_matrices=False, lapack_driver="gesdd")
-        p = tls_rank(s, Cmat.shape, M, rcond=rcond, noise_level=noise_level, rank=rank)
-        info.update(rank=p, condition=float(s[0] / s[p - 1]) if p > 0 else None)
-        if p > 0:
-            V = Vt[:p].T  # (M + r) × p, the kept right singular vectors
-            V11, V21 = V[:M], V[M:]
-            G = np.eye(r) - V21 @ V21.T
-            return V11 @ V21.T @ np.linalg.pinv(G, hermitian=True), info
-    warnings.warn(
-        "truncated_tls: no singular value above the truncation level; returning X = 0",
-        PodbenchWarning,
-        stacklevel=3,
-    )
-    return np.zeros((M, r)), info
-
-
-def _largest_gram_eigenvalue(G: np.ndarray) -> float:
-    """``λ_1`` of the Gram matrix ``G = CᵀC`` (``σ_1²`` of ``C``): Lanczos to machine
-    precision from a fixed start (all eigenvalues directly when small)."""
-    n1 = G.shape[0]
-    if n1 <= 64:
-        return float(scipy.linalg.eigvalsh(G)[-1])
-    return float(scipy.sparse.linalg.eigsh(G, k=1, which="LA", v0=np.ones(n1), tol=0.0,
-                                           return_eigenvectors=False)[0])
-
-
-def _tls_discarded(C: np.ndarray, rcond: float, M: int):
-    """``(p, condition, V_d)`` of the truncated TLS with the rcond rule, from the Gram matrix.
-
-    The kept directions are the ``p = min(#{σ_i ≥ rcond σ_1}, M)`` leading right singular
-    vectors of ``C`` (:func:`tls_rank`); ``X = V11 V21ᵀ(I − V21 V21ᵀ)⁺ = −V12 V22⁺`` needs only
-    the discarded ones ``V_d = [V12; V22]`` (``V`` is orthogonal), the eigenvectors of
-    ``CᵀC`` with eigenvalue below ``(rcond σ_1)²`` — on the Chapter 5 systems about 1–2 %
-    of the columns. One LAPACK ``syevr`` on the bottom of the spectrum (the discarded and
-    the kept ones within a factor 4 of the cut, for ``σ_p``) instead of a full SVD; the
-    subspace is the SVD's to about ``ε σ_1²/gap`` (``tests/sysid/test_tls_gram.py``
-    compares with the SVD path). ``condition`` is ``σ_1/σ_p``.
-    """
-    n1 = C.shape[1]
-    G = C.T @ C
-    lam1 = _largest_gram_eigenvalue(G)
-    if not lam1 > 0:
-        return 0, None, np.eye(n1)
-    thr = lam1 * rcond * rcond
-    lam, V = scipy.linalg.eigh(G, subset_by_value=(-np.inf, 16.0 * thr), driver="evr")
-    n_disc = int(np.count_nonzero(lam < thr))
-    p = min(n1 - n_disc, M, C.shape[0])
-    if p <= 0:
-        return 0, None, V
-    if n1 - p > n_disc or n1 - p >= lam.size:  # the cap at M: the smallest n1 − p discarded
-        lam, V = scipy.linalg.eigh(G, subset_by_index=(0, n1 - p), driver="evr")
-    lam_p = float(lam[n1 - p])  # the smallest kept eigenvalue
-    cond = float(np.sqrt(lam1 / lam_p)) if lam_p > 0 else float("inf")
-    return p, cond, V[:, :n1 - p]
+        V = Vt[:p].T  # (M + r) × p, the kept right singular vectors
+        V11, V21 = V[:M], V[M:]
+        G = np.eye(r) - V21 @ V21.T
+        X = V11 @ V21.T @ np.linalg.pinv(G, hermitian=True)
+    return X, info
 
 
 def truncated_tls(

@@ -163,60 +163,30 @@ class _Evidence:
         return V.T @ Sh  # z (k·m, r)
 
     def profile(self, d, z):
-        """Per column: the best ``log γ`` and ``−2 log L`` (σ² profiled out).
-
-        A grid of 65 values of ``log γ`` (all evaluated at once), then a bounded 1-D search
-        between the grid neighbours of the best one."""
+        """Per column: the best ``log γ`` and ``−2 log L`` (σ² profiled out)."""
         N = self.N
         z2 = z**2
         dmax = float(d.max()) if d.size and d.max() > 0 else 1.0
         grid = np.log(dmax) + np.linspace(np.log(1e-14), np.log(1e2), 65)
-        gg = np.exp(grid)
-        logdet = np.sum(np.log1p(d[None, :] / gg[:, None]), axis=1)  # (65,), every column's
+
+        def f(lg, col):
+            g = np.exp(lg)
+            Q = _quadratic(self.yy[col], d, z2[:, col], g)
+            Q = max(Q, 1e-300 * max(self.yy[col], 1e-300))
+            # Q = yᵀ(I + ΦΦᵀ/γ)⁻¹y; σ² = Q/N profiled out (constants N(1 + log 2π) dropped)
+            return N * np.log(Q / N) + np.sum(np.log1p(d / g))
+
         out_lg, out_f = [], []
         for col in range(z.shape[1]):
-            quad = _Quadratic(float(self.yy[col]), d, z2[:, col])
-            floor = 1e-300 * max(float(self.yy[col]), 1e-300)
-
-            def f(lg, quad=quad, floor=floor):
-                g = np.exp(lg)
-                Q = max(quad(g), floor)
-                # Q = yᵀ(I + ΦΦᵀ/γ)⁻¹y; σ² = Q/N profiled out (constants N(1 + log 2π) dropped)
-                return N * np.log(Q / N) + float(np.sum(np.log1p(d / g)))
-
-            vals = N * np.log(np.maximum(quad.many(gg), floor) / N) + logdet
+            vals = [f(lg, col) for lg in grid]
             i = int(np.argmin(vals))
             lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-            res = scipy.optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded",
+            res = scipy.optimize.minimize_scalar(f, bounds=(lo, hi), args=(col,),
+                                                 method="bounded",
                                                  options={"xatol": 1e-4})
             out_lg.append(float(res.x))
             out_f.append(float(res.fun))
         return np.array(out_lg), np.array(out_f)
-
-
-class _Quadratic:
-    """:func:`_quadratic` of one column with its γ-independent parts computed once:
-    ``Q(γ) = r⊥ + Σ_big z² γ/(d(d + γ)) − Σ_small z²/(d + γ)``."""
-
-    def __init__(self, yy: float, d: np.ndarray, z2: np.ndarray):
-        dmax = float(d.max()) if d.size else 0.0
-        big = d > 1e-12 * dmax if dmax > 0 else np.zeros(d.shape, dtype=bool)
-        self.db, self.ds = d[big], d[~big]
-        self.wb = z2[big] / self.db  # z²/d over the well-determined directions
-        self.zs = z2[~big]
-        self.r_perp = max(yy - float(np.sum(self.wb)), 0.0)
-
-    def __call__(self, g: float) -> float:
-        return (self.r_perp + float(np.sum(self.wb * g / (self.db + g)))
-                - float(np.sum(self.zs / (self.ds + g))))
-
-    def many(self, g: np.ndarray) -> np.ndarray:
-        """``Q`` at every ``γ`` of ``g`` (1-D)."""
-        G = g[:, None]
-        out = self.r_perp + (G / (self.db[None, :] + G)) @ self.wb
-        if self.ds.size:
-            out -= (1.0 / (self.ds[None, :] + G)) @ self.zs
-        return out
 
 
 def _noise_and_scale(ev: _Evidence, d, z, lg):
