@@ -25,8 +25,13 @@ def test_run_writes_tables_figures_and_is_byte_identical_when_repeated(study, tm
     assert cli.main(args) == 0
     files = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     assert "summary.csv" in files and "summary.md" in files
-    # two prediction figures and the calibration plot (issue 21)
-    assert sum(f.startswith("figures/") and f.endswith(".png") for f in files) == 3
+    # two prediction figures, the calibration plot (issue 21) and each scenario's stacked-bar
+    # error decomposition (issue 23)
+    figs = sorted(f for f in files if f.startswith("figures/") and f.endswith(".png"))
+    assert figs == ["figures/calibration.png", "figures/chain_forced__chain_coupled__f6.png",
+                    "figures/chain_forced__decomposition.png",
+                    "figures/chain_free__chain_coupled__x6.png",
+                    "figures/chain_free__decomposition.png"]
     assert "CALIBRATION.md" in files and "calibration.csv" in files
     df = pd.read_csv(out / "summary.csv")
     assert list(df.columns[:15]) == [
