@@ -118,3 +118,48 @@ def test_interval_score_rewards_cover_and_sharpness():
     lo, up = -np.ones((2, 4)), np.ones((2, 4))
     assert interval_score(W, lo, up, 0.9) == pytest.approx(2.0)
     assert interval_score(W + 2, lo, up, 0.9) == pytest.approx(2.0 + 20.0)
+
+
+def test_the_folds_reuse_the_full_fits_regularization():
+    """ML with Tikhonov CGLS (reg by GCV): frozen_params fixes the GCV choice, a model fitted
+    with it equals the GCV fit (same reg, same kernel), and the band's refits run at that
+    reg (the fold's solver reports reg_rule 'fixed' and the same reg) instead of a new
+    GCV search; reuse_choices=False restores the search."""
+    from podbench.sysid.methods import bands
+
+    case = forced_case("coupled")
+    rng = np.random.default_rng(3)
+    recs = [Record(W=W + 1e-3 * np.std(W) * rng.standard_normal(W.shape), F=F, dt=case.dt)
+            for W, F in zip(case.W, case.F, strict=True)]
+    model = MultipleLoad(n_modes=3, solver="cgls").fit(recs)
+    info = model.solver_info_
+    assert info["reg_rule"] == "gcv" and info["reg"] > 0
+    frozen = model.frozen_params()
+    assert frozen == {"solver": "cgls", "solver_options": {"reg": info["reg"]}}
+    again = MultipleLoad(n_modes=3, **frozen).fit(recs)
+    assert again.solver_info_["reg_rule"] == "fixed"
+    np.testing.assert_allclose(again.kernel_, model.kernel_, rtol=1e-6,
+                               atol=1e-6 * np.max(np.abs(model.kernel_)))
+    fold = bands._refit(model, recs[1:], basis=model.modes_, frozen=frozen)
+    assert fold.solver_info_["reg_rule"] == "fixed"
+    assert fold.solver_info_["reg"] == info["reg"]
+    free = bands._refit(model, recs[1:], basis=model.modes_)
+    assert free.solver_info_["reg_rule"] == "gcv"
+    p = model.predict(Record(W=case.W_new, F=case.F_new, dt=case.dt), coverage=0.9)
+    assert p.source == "cross-validation" and np.isfinite(p.error_estimate)
+
+
+def test_frozen_solver_rules():
+    from podbench.sysid.methods.base import frozen_solver
+
+    assert frozen_solver("ls", None, {"rank": 4}) is None
+    assert frozen_solver("cgls", {"tol": 1e-8}, {"reg": 0.01, "reg_rule": "fixed"}) is None
+    assert frozen_solver("fft", {"pad": 3.0}, {"reg": 0.02, "reg_rule": "gcv"}) == \
+        ("fft", {"pad": 3.0, "reg": 0.02})
+    assert frozen_solver("realization", None, {"order": 8, "order_rule": "holdout"}) == \
+        ("realization", {"order": 8})
+    assert frozen_solver("auto", None, {"choice": "block"}) == ("block", {})
+    assert frozen_solver("auto", {"kernel": "tc", "threshold": 3.0},
+                         {"choice": "kernel", "reg_rule": "evidence", "lam": 0.9,
+                          "rho": 0.5, "gamma": 2.0}) == \
+        ("kernel", {"kernel": "tc", "lam": 0.9, "rho": 0.5, "gamma": 2.0})
