@@ -231,3 +231,28 @@ def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitu
     # below the training range: not an extrapolation (the linearization error grows with
     # amplitude) unless EXTRAPOLATE_BELOW
     assert bands.extrapolation(0.25, 1.0, 4.0) == (4.0 if bands.EXTRAPOLATE_BELOW else 1.0)
+
+
+@pytest.mark.parametrize("excitation", ["forced", "displacement"])
+def test_peers_bands_reuse_the_chosen_order(excitation):
+    """ERA chooses its order by hold-out; the band's folds reuse it (frozen_params holds
+    exactly the order, nothing else ERA derives, e.g. its lag count), and the band is
+    finite. OpInf likewise freezes its regularizer."""
+    from podbench.sysid.methods.peers import ERA, OpInf
+
+    if excitation == "forced":
+        case = forced_case("coupled")
+        recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
+        target = Record(W=case.W_new, F=case.F_new, dt=case.dt)
+    else:
+        case = free_case("coupled", "displacement")
+        recs = [Record(W=W, w0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
+        target = Record(W=case.W_new, w0=case.x0_new, dt=case.dt)
+    era = ERA(excitation=excitation, n_modes=3).fit(recs)
+    assert era.frozen_params() == {"order": era.order_}
+    p = era.predict(target, coverage=0.9)
+    assert p.source == "cross-validation" and np.isfinite(p.error_estimate)
+    if excitation == "forced":
+        op = OpInf().fit(recs)
+        assert op.frozen_params() == {"regularizer": op.regularizer_}
+        assert np.isfinite(op.predict(target, coverage=0.9).error_estimate)

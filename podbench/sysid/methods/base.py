@@ -119,10 +119,9 @@ class PODMethod(ParamsMixin):
         ``get_params() | frozen_params()`` re-identifies the dynamics on its records at the
         full fit's regularization instead of choosing it again. The rules:
 
-        * a hyperparameter left to the data (``None``, ``"auto"`` or ``"gcv"``) whose
-          fitted value the model keeps as ``<name>_`` (ERA's ``order_``, OpInf's
-          ``regularizer_``, ``n_lags_``) takes that value (``n_modes``/``energy`` excepted:
-          the band fixes the basis itself);
+        * a hyperparameter of :data:`DATA_CHOSEN` left to the data (``None``, ``"auto"`` or
+          ``"gcv"``) whose fitted value the model keeps as ``<name>_`` (ERA's ``order_``,
+          OpInf's ``regularizer_``, ``n_lags_``) takes that value;
         * a deconvolution solved once (ML; not SL/MR, one solve per mode) freezes the
           solver's own choice (:func:`frozen_solver`): the GCV ``reg`` of ``"cgls"``,
           ``"fft"``, ``"stls"``, the hold-out ``order`` of ``"realization"`` /
@@ -134,7 +133,7 @@ class PODMethod(ParamsMixin):
         params = self.get_params(deep=False)
         out: dict = {}
         for name, value in params.items():
-            if name in ("n_modes", "energy") or not (
+            if name not in DATA_CHOSEN or not (
                     value is None or (isinstance(value, str) and value in ("auto", "gcv"))):
                 continue
             fitted = getattr(self, name + "_", None)
@@ -527,6 +526,11 @@ def amplification(Q_list, X, B, dt: float) -> float:
 def check_max_growth(max_growth) -> float:
     return check_param(max_growth, "max_growth", MAX_GROWTH)
 
+
+DATA_CHOSEN = ("order", "regularizer", "n_lags")
+"""Hyperparameters that a fit chooses from the data when left at None/"auto" and keeps as
+``<name>_`` (:meth:`PODMethod.frozen_params`): a realization's order (ERA), OpInf's
+regularizer, a kernel's lag count."""
 
 FROZEN_CHOICES = {"gcv": ("reg",), "holdout": ("order",), "evidence": ("lam", "rho", "gamma")}
 """Solver diagnostics that record a choice from the data (``reg_rule``/``order_rule``) →
