@@ -140,6 +140,10 @@ COMMANDS: dict[str, object] = {
         "below is run (slow)"),
     "python benchmarks/robust.py --sizes 1000x6 --solvers subspace,auto,kernel,realization,"
     "cgls --seeds 0,1,2,3,4": SLOW,
+    "python benchmarks/bands.py": NOT_RUN(
+        "times a band against the plain fit for nine method cases at two noise levels "
+        "(minutes; speed is measured, never asserted); the bands themselves are tested in "
+        "tests/sysid/test_bands.py"),
     "python benchmarks/study_time.py": NOT_RUN(
         "times a cold `podbench run chapter5` (35 min on the shared 2-core machine) and "
         "appends to results/benchmarks.csv; `podbench run chapter5` itself is run (slow)"),

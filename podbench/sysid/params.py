@@ -237,6 +237,10 @@ def check_names(given: Iterable[str], valid: Iterable[str], *, where: str,
                         f"{', '.join(valid) or 'none'})", **error_kw)
 
 
+_PARAM_NAMES: dict = {}
+"""Constructor → its keyword parameter names (:meth:`ParamsMixin._get_param_names`)."""
+
+
 class ParamsMixin:
     """``get_params`` / ``set_params`` / ``repr`` / ``_validate_params`` from the constructor's
     signature and the class's ``_parameter_constraints`` (shared by methods and solvers)."""
@@ -248,11 +252,16 @@ class ParamsMixin:
     @classmethod
     def _get_param_names(cls) -> list[str]:
         """Names of the constructor's keyword parameters (the hyperparameters), in order."""
-        if cls.__init__ is object.__init__:
+        init = cls.__init__
+        if init is object.__init__:
             return []
-        sig = inspect.signature(cls.__init__)
-        return [p.name for p in sig.parameters.values()
-                if p.name != "self" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        names = _PARAM_NAMES.get(init)
+        if names is None:  # inspect.signature is slow: the bands' refits call this often
+            sig = inspect.signature(init)
+            names = tuple(p.name for p in sig.parameters.values() if p.name != "self"
+                          and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD))
+            _PARAM_NAMES[init] = names
+        return list(names)
 
     def get_params(self, deep: bool = True) -> dict:
         """Hyperparameters as given to the constructor (``deep``: also ``name__param`` of

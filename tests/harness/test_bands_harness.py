@@ -15,7 +15,9 @@ from podbench.report.calibration import (
 )
 
 
-def test_every_row_gets_an_error_estimate_and_a_coverage(write_scenario):
+def test_every_row_gets_an_error_estimate_and_a_coverage(write_scenario, monkeypatch):
+    from podbench.sysid.methods import bands
+
     p = write_scenario(CHAIN_FREE)
     res = run_unit(p, "chain_coupled")
     assert {"error_estimate", "coverage"} <= set(COLUMNS)
@@ -23,9 +25,15 @@ def test_every_row_gets_an_error_estimate_and_a_coverage(write_scenario):
     for m in ("POVR", "MDS"):
         assert 0.0 <= rows[m]["coverage"] <= 1.0
         assert math.isfinite(rows[m]["error_estimate"]) and rows[m]["error_estimate"] >= 0
-    # POVR on the coupled chain: one record, the band cannot see the diagonal assumption
-    assert rows["POVR"]["coverage"] < 0.85
+    # POVR on the coupled chain: one record; its in-sample residual cannot see the diagonal
+    # assumption (coverage < 0.85 without the diagonal term), the target's modal pattern
+    # against the training one (bands.diagonal_inconsistency) can
+    assert rows["POVR"]["coverage"] >= 0.85
     assert {s["source"] for s in res.band_stats} == {"in-sample", "cross-validation"}
+    monkeypatch.setattr(bands, "DIAGONAL_TERM", False)
+    off = {r["method"]: r for r in run_unit(p, "chain_coupled").rows}
+    assert off["POVR"]["coverage"] < 0.85
+    assert off["POVR"]["error_estimate"] < rows["POVR"]["error_estimate"]
 
 
 def test_a_sweep_point_computes_no_band(write_scenario):

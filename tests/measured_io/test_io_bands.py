@@ -117,3 +117,19 @@ def test_predict_refuses_a_bad_coverage_before_writing(tmp_path, capsys, args, w
     err = capsys.readouterr().err
     assert words in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_the_folds_reuse_the_lags_and_tc_prior_chosen_by_the_full_fit():
+    """ML-TC chooses n_lags from its grid and (τ, γ) from TC_GRID by leave-one-record-out;
+    frozen_params gives both, and a model given them is the same fit (no search)."""
+    rng = np.random.default_rng(5)
+    train = [_rec(rng, n, 0.02, f"r{n}")[0] for n in (300, 340, 260)]
+    model = MultipleLoadIO(prior="tc", lag_grid=(0.1, 0.2, 0.3)).fit(train)
+    frozen = model.frozen_params()
+    assert frozen == {"n_lags": model.info_["n_lags"],
+                      "prior": (model.info_["tc_tau"], model.info_["tc_gamma"])}
+    fixed = MultipleLoadIO(**{**model.get_params(), **frozen}).fit(train)
+    np.testing.assert_allclose(fixed.theta_, model.theta_, rtol=1e-10, atol=1e-14)
+    assert fixed.cv_errors_ == {}
+    with pytest.raises(InputError, match="prior"):
+        MultipleLoadIO(prior=(0.1, -1.0), n_lags=10).fit(train)

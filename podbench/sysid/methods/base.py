@@ -92,11 +92,12 @@ class PODMethod(ParamsMixin):
             cls.predict = _banded_predict(cls.__dict__["predict"])
 
     def calibrate_band(self, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
-                       cross_validate: bool = True):
+                       cross_validate: bool = True, reuse_choices: bool = True):
         """Calibrate the prediction band on the training records (done on first use of
         ``predict(..., coverage=c)`` with the defaults; call it to set the noise level
         ``noise_std`` (per channel, in the units of ``W``), the number of noise refits
-        ``n_draws``, or ``cross_validate=False`` for the noise part alone). Returns the
+        ``n_draws``, ``cross_validate=False`` for the noise part alone, or
+        ``reuse_choices=False`` to let every refit choose its regularization again). Returns the
         :class:`~podbench.sysid.methods.bands.BandCalibration`."""
         self._check_is_fitted()
         recs = getattr(self, "training_records_", None)
@@ -107,9 +108,44 @@ class PODMethod(ParamsMixin):
                 "fitted from arrays or from one record list per part (a superposition)"
             )
         self.band_calibration_ = calibrate(self, recs, noise_std=noise_std, n_draws=n_draws,
-                                           seed=seed, cross_validate=cross_validate)
+                                           seed=seed, cross_validate=cross_validate,
+                                           reuse_choices=reuse_choices)
         return self.band_calibration_
 
+
+    def frozen_params(self) -> dict:
+        """Hyperparameters that fix this fit's data-driven choices, for the refits of the
+        prediction band (:mod:`podbench.sysid.methods.bands`): a fold refitted with
+        ``get_params() | frozen_params()`` re-identifies the dynamics on its records at the
+        full fit's regularization instead of choosing it again. The rules:
+
+        * a hyperparameter of :data:`DATA_CHOSEN` left to the data (``None``, ``"auto"`` or
+          ``"gcv"``) whose fitted value the model keeps as ``<name>_`` (ERA's ``order_``,
+          OpInf's ``regularizer_``, ``n_lags_``) takes that value;
+        * a deconvolution solved once (ML; not SL/MR, one solve per mode) freezes the
+          solver's own choice (:func:`frozen_solver`): the GCV ``reg`` of ``"cgls"``,
+          ``"fft"``, ``"stls"``, the hold-out ``order`` of ``"realization"`` /
+          ``"subspace"``, the evidence hyperparameters of ``"kernel"``, and what ``"auto"``
+          chose.
+
+        Needs a fitted model; ``{}`` when nothing was chosen from the data."""
+        self._check_is_fitted()
+        params = self.get_params(deep=False)
+        out: dict = {}
+        for name, value in params.items():
+            if name not in DATA_CHOSEN or not (
+                    value is None or (isinstance(value, str) and value in ("auto", "gcv"))):
+                continue
+            fitted = getattr(self, name + "_", None)
+            if isinstance(fitted, (int, float, np.integer, np.floating)) and \
+                    not isinstance(fitted, bool):
+                out[name] = fitted.item() if isinstance(fitted, np.generic) else fitted
+        info = getattr(self, "solver_info_", None)
+        if isinstance(params.get("solver"), str) and isinstance(info, dict):
+            frozen = frozen_solver(params["solver"], params.get("solver_options"), info)
+            if frozen is not None:
+                out["solver"], out["solver_options"] = frozen
+        return out
 
     def _validate_params(self) -> None:
         """Check the declared hyperparameters (:mod:`podbench.sysid.params`) and, for a
@@ -489,6 +525,44 @@ def amplification(Q_list, X, B, dt: float) -> float:
 
 def check_max_growth(max_growth) -> float:
     return check_param(max_growth, "max_growth", MAX_GROWTH)
+
+
+DATA_CHOSEN = ("order", "regularizer", "n_lags")
+"""Hyperparameters that a fit chooses from the data when left at None/"auto" and keeps as
+``<name>_`` (:meth:`PODMethod.frozen_params`): a realization's order (ERA), OpInf's
+regularizer, a kernel's lag count."""
+
+FROZEN_CHOICES = {"gcv": ("reg",), "holdout": ("order",), "evidence": ("lam", "rho", "gamma")}
+"""Solver diagnostics that record a choice from the data (``reg_rule``/``order_rule``) →
+the options that fix it (:func:`frozen_solver`)."""
+
+
+def frozen_solver(solver: str, options, info: dict):
+    """``(solver, options)`` that repeat the choice a solver made from the data (its
+    diagnostics ``info``): the GCV ``reg`` (``"cgls"``, ``"fft"``, ``"stls"``), the hold-out
+    ``order`` (``"realization"``, ``"subspace"``), the evidence ``lam``, ``rho``, ``gamma``
+    (``"kernel"``); for ``"auto"`` the solver it returned (``info["choice"]``) with that
+    solver's choice fixed. None when nothing was chosen from the data. The options stay
+    scale-free where the solver's are (``reg`` is relative to the system's largest
+    singular value)."""
+    opts = dict(options or {})
+    name = solver
+    if solver == "auto":
+        choice = info.get("choice")
+        if not isinstance(choice, str):
+            return None
+        name, opts = choice, {}
+        if choice == "kernel":  # auto's kernel keeps auto's prior and grid
+            opts = {key: opts_value for key, opts_value in (options or {}).items()
+                    if key in ("kernel", "n_hyper")}
+    chosen = {}
+    for rule_key in ("reg_rule", "order_rule"):
+        for key in FROZEN_CHOICES.get(str(info.get(rule_key)), ()):
+            if isinstance(info.get(key), (int, float)) and not isinstance(info[key], bool):
+                chosen[key] = info[key]
+    if not chosen and name == solver:
+        return None
+    return name, {**opts, **chosen}
 
 
 def solve_deconvolution(solver, Q_list, B, dt: float, max_growth: float = np.inf,

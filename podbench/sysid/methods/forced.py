@@ -24,6 +24,7 @@ from podbench.core.records import is_record
 from podbench.core.validation import as_finite_array
 from podbench.errors import DimensionError, IllConditionedError
 from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
+from podbench.sysid.methods.bands import diagonal_inconsistency
 from podbench.sysid.methods.base import (
     BASES,
     ENERGY,
@@ -298,6 +299,8 @@ class SingleLoad(_ForcedMethod):
         k, n = U.shape[1], W.shape[1]
         Vh = U.T @ W
         Q = U.T @ F
+        # the training load's modal-force direction (its dominant left singular vector)
+        self.force_pattern_ = np.linalg.svd(Q, full_matrices=False)[0][:, 0]
         scale = float(np.linalg.norm(F))
         if scale == 0:
             raise IllConditionedError("Parameter `F`: the force matrix is zero")
@@ -324,6 +327,14 @@ class SingleLoad(_ForcedMethod):
         self.kernel_ = self._truncate(kernel)
         self.fit_residual_ = float(np.sqrt(num) / nv) if nv > 0 else float(np.sqrt(num))
         return self
+
+    def diagonal_inconsistency(self, record) -> float:
+        """How far the new load's modal forces ``UᵀF'`` are from the training load's
+        pattern (:func:`~podbench.sysid.methods.bands.diagonal_inconsistency`): the
+        model-form term of SL's band, which one record cannot cross-validate."""
+        self._check_is_fitted()
+        F = self._check_new_force(self._new_force(record))
+        return diagonal_inconsistency(self.force_pattern_, self.modes_.T @ F)
 
     def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
         """``ṽ_i = c_ii * q̃_i`` (Eq. 3.44), the diagonal of the kernel only."""

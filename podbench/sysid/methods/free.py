@@ -11,6 +11,7 @@ import numpy as np
 from podbench.core.records import Record, is_record
 from podbench.core.validation import condition_number
 from podbench.errors import IllConditionedError, InputError
+from podbench.sysid.methods.bands import diagonal_inconsistency
 from podbench.sysid.methods.base import (
     BASES,
     ENERGY,
@@ -235,6 +236,15 @@ class POVR(_FreeMethod):
         self._check_is_fitted()
         x = check_profile(x0_new, self.modes_.shape[0], "x0_new")
         return self.povs_ * (self.modes_.T @ x) / self.initial_coordinates_
+
+    def diagonal_inconsistency(self, record) -> float:
+        """How far the new initial profile's modal coordinates ``Uᵀx0'`` are from the
+        training ones ``Uᵀx0`` in pattern
+        (:func:`~podbench.sysid.methods.bands.diagonal_inconsistency`): the model-form term
+        of POVR's band, which one record cannot cross-validate."""
+        self._check_is_fitted()
+        x = check_profile(self._new_profile(record), self.modes_.shape[0], "x0_new")
+        return diagonal_inconsistency(self.initial_coordinates_, self.modes_.T @ x)
 
     def _modal_histories(self, x: np.ndarray) -> np.ndarray:
         """``σ̃_j v_j`` (Eq. 3.11), ``(k, n)``."""

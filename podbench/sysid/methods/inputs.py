@@ -137,6 +137,17 @@ def _simplest(scored):
     return next(c for c, e in scored if e <= best + CV_FLOOR * max(1.0, best))
 
 
+def _fixed_tc(prior) -> bool:
+    """``prior`` is a given TC prior ``(τ s, γ)``, both finite and > 0."""
+    if isinstance(prior, str) or not isinstance(prior, (tuple, list)) or len(prior) != 2:
+        return False
+    try:
+        vals = [float(v) for v in prior]
+    except (TypeError, ValueError):
+        return False
+    return all(np.isfinite(v) and v > 0 for v in vals)
+
+
 def _tc_factor(n_lags: int, n_in: int, dt: float, tau: float) -> np.ndarray:
     """``R`` with ``R Rᵀ = P`` (the TC prior, :func:`tc_prior`): ``K = λ^max(p,q)`` factors
     as ``R_K[p, q] = sqrt(λ^q − λ^(q+1))`` for ``q ≥ p`` (``sqrt(λ^(L−1))`` in the last
@@ -226,22 +237,24 @@ class IOMethod(PODMethod):
         info = {"n_lags": L, "first_lag": first}
         if prior is None:
             theta = solve_ls(A, B)
-        elif prior == "tc":
-            if len(recs) < 2:
+        elif prior == "tc" or _fixed_tc(prior):
+            grid = TC_GRID if prior == "tc" else (tuple(float(v) for v in prior),)
+            if len(grid) > 1 and len(recs) < 2:
                 raise InputError("Parameter `prior`: 'tc' chooses its weight by "
                                  "leave-one-record-out and needs at least 2 training records")
             # θ = R φ with R Rᵀ = P: the TC prior is a ridge on φ (posterior mean
             # φ = (RᵀAR + γ·s·I)⁻¹ RᵀB, s = trace(RᵀAR)/rows)
             sub = [(g[0][:rows, :rows], g[1][:rows], g[2]) for g in grams]
             best = None
-            for tau in sorted({t for t, _ in TC_GRID}):
+            for tau in sorted({t for t, _ in grid}):
                 R = _tc_factor(L, n_in, dt, tau)
                 white = _whiten(sub, R)
-                for t2, g in TC_GRID:
+                for t2, g in grid:
                     if t2 != tau:
                         continue
-                    e = _cv_error(white, rows, ridge=g)
-                    cv[("tc", tau, g)] = e
+                    e = _cv_error(white, rows, ridge=g) if len(grid) > 1 else 0.0
+                    if len(grid) > 1:
+                        cv[("tc", tau, g)] = e
                     if best is None or e < best[0] - CV_FLOOR * max(1.0, best[0]):
                         best = (e, tau, g, R, white)
             _, tau, g, R, white = best
@@ -250,7 +263,8 @@ class IOMethod(PODMethod):
             theta = R @ solve_ls(M + g * float(np.trace(M)) / rows * np.eye(rows), N)
             info.update(tc_tau=tau, tc_gamma=g)
         else:
-            raise InputError(f"Parameter `prior`: expected None or 'tc', got {prior!r}")
+            raise InputError(f"Parameter `prior`: expected None, 'tc' or (tau_s, gamma) > 0, "
+                             f"got {prior!r}")
         info["cv_error"] = min(cv.values()) if cv else float("nan")
         self.cv_errors_ = cv
         return theta, info
@@ -275,8 +289,9 @@ class MultipleLoadIO(IOMethod):
         "auto" (from ``lag_grid`` by leave-one-record-out; default).
     lag_grid : tuple of float
         Lag lengths (s) for ``n_lags="auto"`` (:data:`LAG_GRID`).
-    prior : None or "tc"
-        Kernel regularization (TC prior, :data:`TC_GRID` by leave-one-record-out).
+    prior : None, "tc" or (tau, gamma)
+        Kernel regularization: the TC prior, its decay ``τ`` (s) and relative weight ``γ``
+        chosen from :data:`TC_GRID` by leave-one-record-out (``"tc"``) or given.
     feedthrough : "auto", True or False
         Keep lag 0 ("auto": for acceleration outputs).
     solver : str
@@ -339,6 +354,19 @@ class MultipleLoadIO(IOMethod):
         self.info_ = info
         self.reference_ = recs[0]
         return self
+
+    def frozen_params(self) -> dict:
+        """The choices of this fit as hyperparameters (the band's refits,
+        :meth:`PODMethod.frozen_params`): ``n_lags`` chosen from ``lag_grid`` and the TC
+        prior's ``(τ, γ)`` chosen from :data:`TC_GRID`."""
+        self._check_is_fitted()
+        params = self.get_params(deep=False)
+        out: dict = {}
+        if params.get("n_lags") == "auto":
+            out["n_lags"] = int(self.info_["n_lags"])
+        if params.get("prior") == "tc" and "tc_tau" in self.info_:
+            out["prior"] = (float(self.info_["tc_tau"]), float(self.info_["tc_gamma"]))
+        return out
 
     def _fit_full(self, recs, U):
         n = recs[0].n_samples

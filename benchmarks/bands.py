@@ -1,0 +1,169 @@
+"""Cost of a 90 % prediction band against the plain fit and predict (issue 21 target: ≤ 5×).
+
+The LTI beam of §4.1 at the calibration study's designs (``scenarios/calibration``:
+rectangular 500-lbf, 0.5-ms pulses, n = 500 samples, Δt = 1e-4 s): ML6 fits 4 modes on the
+loads at 2, 6, 10, 14, 18, 22 in; ML4 is Chapter 4's design (2, 7, 11, 16 in); SL fits the
+load at 2 in; MDS5 / POVR the free-response designs (static deflections). The input/output
+methods (FIR-LS, ML-TC) take one input channel, the load at 14 in, in six records of other
+pulse shapes, durations and hits (lag grid 10, 20, 40 ms). Each case is run on the clean
+records and, with ``--noise``, on records with per-channel noise
+(:func:`podbench.noise.noisy`, seed 0).
+
+For each case, in this process, one BLAS thread, best of ``--repeat``:
+``plain`` = fit + ``predict(target)``; ``band`` = fit + ``predict(target, coverage=0.9)``
+(the calibration: leave-one-record-out refits and/or noise refits, then the band).
+The ratio band / plain is the cost target of issue 21::
+
+    python benchmarks/bands.py                   # every case, clean and 1 % noise
+    python benchmarks/bands.py --cases ML6-cgls ML4-cgls --repeat 5
+
+Speed is measured here only, never asserted in the tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+ROOT = Path(__file__).resolve().parents[1]
+if __package__ in (None, ""):
+    sys.path.insert(0, str(ROOT))
+
+N, DT = 500, 1.0e-4
+ML6 = (2.0, 6.0, 10.0, 14.0, 18.0, 22.0)
+ML4 = (2.0, 7.0, 11.0, 16.0)
+IO_LAGS = (0.01, 0.02, 0.04)
+"""Lag grid (s) of the input/output methods (100, 200, 400 samples of the 500)."""
+FREE = ([(17.0, 300.0), (18.0, 200.0), (24.0, -260.0)], [(24.0, 100.0)], [(8.0, -300.0)],
+        [(12.0, 250.0), (20.0, -150.0)], [(5.0, 400.0), (22.0, 80.0)])
+
+
+def _forced(s, positions):
+    import podbench as pb
+    from podbench.dynamics.excitations import Pulse
+
+    return [pb.simulate(s, n_samples=N, dt=DT, force=Pulse(x, 500.0, 5e-4)) for x in positions]
+
+
+def _cases():
+    """``{label: (make_method, train, target)}`` on the LTI beam."""
+    import numpy as np
+
+    import podbench as pb
+    from podbench.core.iorecords import IORecord
+    from podbench.dynamics.excitations import Pulse, StaticDisplacement
+    from podbench.sysid.methods import MDS, POVR, MultipleLoad, SingleLoad
+    from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO
+
+    s = pb.load_structure("lti_beam")
+    ml6, ml4 = _forced(s, ML6), _forced(s, ML4)
+    forced_target = pb.simulate(s, n_samples=N, dt=DT,
+                                force=Pulse(8.0, 500.0, 5e-4, hits=[[3.0e-3, 0.4]]))
+    free = [pb.simulate(s, n_samples=N, dt=DT, initial_displacement=StaticDisplacement(
+        loads, reference=s)) for loads in FREE]
+    free_target = pb.simulate(s, n_samples=N, dt=DT, initial_displacement=StaticDisplacement(
+        [(15.0, 200.0), (24.0, 120.0)], reference=s))
+    # one input channel (the load at 14 in): six pulses of other shapes, durations, hits
+    io_forces = [Pulse(14.0, 500.0, d, shape=sh) for d, sh in
+                 ((5e-4, "rectangular"), (1e-3, "rectangular"), (2e-3, "rectangular"),
+                  (1e-3, "half_sine"), (3e-3, "half_sine"))]
+    io_forces.append(Pulse(14.0, 500.0, 5e-4, hits=[[2.0e-3, 0.5]]))
+    io_sims = [pb.simulate(s, n_samples=N, dt=DT, force=f) for f in io_forces]
+    row = int(np.argmax(np.abs(io_sims[0].F).sum(axis=1)))
+    io6 = [IORecord(u=r.F[row:row + 1], y=r.W, dt=DT, input_units="lbf", output_units="in")
+           for r in io_sims]
+    io_target = pb.simulate(s, n_samples=N, dt=DT,
+                            force=Pulse(14.0, 300.0, 5e-4, hits=[[3.0e-3, 0.4]]))
+    io_target = IORecord(u=io_target.F[row:row + 1], y=io_target.W, dt=DT,
+                         input_units="lbf", output_units="in")
+    return {
+        "ML6-cgls": (lambda: MultipleLoad(n_modes=4, solver="cgls"), ml6, forced_target),
+        "ML6-fft": (lambda: MultipleLoad(n_modes=4, solver="fft"), ml6, forced_target),
+        "ML4-cgls": (lambda: MultipleLoad(solver="cgls"), ml4, forced_target),
+        "ML4-block": (lambda: MultipleLoad(solver="block"), ml4, forced_target),
+        "SL-cgls": (lambda: SingleLoad(n_modes=4, solver="cgls"), ml6[:1], forced_target),
+        "MDS5": (lambda: MDS(n_modes=3), free, free_target),
+        "POVR": (lambda: POVR(n_modes=3), free[:1], free_target),
+        "FIR-LS (IO)": (lambda: FIRLeastSquares(lag_grid=IO_LAGS), io6, io_target),
+        "ML-TC (IO)": (lambda: MultipleLoadIO(prior="tc", lag_grid=IO_LAGS), io6, io_target),
+    }
+
+
+def _noisy(recs, label, level):
+    from dataclasses import replace
+
+    import numpy as np
+
+    from podbench.core.iorecords import IORecord
+    from podbench.sysid.noise import NoiseSpec, noisy
+
+    spec = NoiseSpec(level=level, seed=0)
+    out = []
+    for j, r in enumerate(recs):
+        if isinstance(r, IORecord):  # per-channel noise on y (and u) of an IO record
+            rng = np.random.default_rng(j)
+            y = r.y + level * np.sqrt(np.mean(r.y ** 2, axis=1, keepdims=True)) * \
+                rng.standard_normal(r.y.shape)
+            out.append(replace(r, y=y))
+        else:
+            out.append(noisy(r, spec, "bands_bench", "lti_beam", f"{label}{j}"))
+    return out
+
+
+def _best(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def measure(labels, levels, repeat: int):
+    import numpy as np
+
+    cases = _cases()
+    for label in labels:
+        make, train, target = cases[label]
+        for level in levels:
+            recs = train if level == 0 else _noisy(train, label, level)
+            truth = np.asarray(target.y if hasattr(target, "y") else target.W)
+            try:
+                t_plain = _best(lambda m=make, r=recs, x=target: m().fit(r).predict(x),
+                                repeat)
+                t_band = _best(lambda m=make, r=recs, x=target:
+                               m().fit(r).predict(x, coverage=0.9), repeat)
+                p = make().fit(recs).predict(target, coverage=0.9)
+            except Exception as exc:  # a failed fit is a row of the table
+                yield (label, level, float("nan"), float("nan"), float("nan"),
+                       f"{type(exc).__name__}", float("nan"), float("nan"), float("nan"))
+                continue
+            yield (label, level, t_plain, t_band, t_band / t_plain, p.source,
+                   p.covers(truth), p.error_estimate,
+                   float(np.linalg.norm(p.mean - truth) / np.linalg.norm(truth)))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", nargs="*", default=None)
+    ap.add_argument("--noise", nargs="*", type=float, default=[0.0, 0.01],
+                    help="training noise levels (fraction of each channel's RMS)")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+    labels = args.cases or list(_cases())
+    print("| case | noise | plain (s) | band (s) | band / plain | source | coverage | "
+          "estimate | realized |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for row in measure(labels, args.noise, args.repeat):
+        label, level, tp, tb, ratio, source, cov, est, real = row
+        print(f"| {label} | {level:g} | {tp:.3g} | {tb:.3g} | {ratio:.2f}× | {source} | "
+              f"{cov:.3f} | {est:.3g} | {real:.3g} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
