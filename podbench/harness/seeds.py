@@ -85,8 +85,9 @@ def _varied(exp, scenario, cases) -> dict | None:
 def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
               progress=None) -> SeedRows | None:
     """The comparisons' rows on every seed of ``claims_file.noise_seeds`` (None without
-    them): the records of the other seeds generated from the experiment file beside the
-    claims file, the compared methods refitted on them (``jobs`` processes)."""
+    them, or without a comparison among the claims of ``scenarios``): the records of the
+    other seeds generated from the experiment file beside the claims file, the compared
+    methods refitted on them (``jobs`` processes)."""
     seeds = tuple(claims_file.noise_seeds)
     if not seeds:
         return None
@@ -100,8 +101,11 @@ def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
         raise ScenarioFileError(f"{claims_file.path}: field `noise_seeds`: the first seed must "
                                 f"be the committed records' ({EXPERIMENT_FILE}'s noise_seed "
                                 f"= {exp.noise_seed}), got {seeds[0]}")
+    compared = comparison_rows(claims, set(scenarios))
+    if not compared:  # no comparison judged in this run (a part of the study)
+        return None
     units, wanted, varied = [], set(), set()
-    for (name, structure), (methods, targets) in comparison_rows(claims, set(scenarios)).items():
+    for (name, structure), (methods, targets) in compared.items():
         sc = scenarios.get(name)
         if sc is None:
             continue
