@@ -48,6 +48,7 @@ from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
 from podbench.harness.runner import plan, response_counts, run_study
+from podbench.harness.seeds import run_seeds
 from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
@@ -57,7 +58,7 @@ from podbench.report.painter_street import write_study as write_painter_street
 from podbench.report.study import figure_tasks, write_study
 from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
-from podbench.study.claims import load_claims_file
+from podbench.study.claims import load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.hints import did_you_mean
 from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
@@ -349,10 +350,13 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     results = run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                         progress=progress, keep_series=figures)
     seconds = time.perf_counter() - t0
-    linked = nonlinearity = None
+    linked = nonlinearity = seeds = None
     if claims_file is not None:  # the claims' sensitivity study, judged with the same code
         linked = run_linked(claims_file, scenarios, jobs=jobs, cache_dir=cache_dir,
                             engine=engine, progress=progress)
+        # the comparisons on the other noise seeds (claims.toml's noise_seeds)
+        seeds = run_seeds(claims_file, claims_file.claims, scenarios, jobs=jobs,
+                          progress=progress)
         if claims_file.nonlinearity is not None and _whole_study(claims, scenarios):
             spec = claims_file.nonlinearity  # §5.2's checks: only on a whole-study run
             nonlinearity = (spec, run_checks(spec, jobs=jobs, progress=progress,
@@ -362,7 +366,7 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=figures, jobs=jobs, figure_format=figure_format,
                                 progress=progress, command=command, sensitivity=linked,
-                                nonlinearity=nonlinearity)
+                                nonlinearity=nonlinearity, seeds=seeds)
     n_sim, n_cached = response_counts(results)
     drawn = sorted((out / "figures").glob(f"*.{figure_format}")) if figures else []
     return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
@@ -386,6 +390,9 @@ def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) ->
                          "over the unstated parameters)")
         if claims_file.nonlinearity is not None and _whole_study(claims, scenarios):
             parts.append("the §5.2 nonlinearity checks")
+        if claims_file.noise_seeds:
+            parts.append(f"the claims' comparisons over noise "
+                         f"{seed_names(claims_file.noise_seeds)}")
     parts.append("figures and report.html" if figures else "report.html")
     return "podbench: running " + "; then ".join(parts)
 

@@ -24,6 +24,7 @@ from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
+from podbench.study.claims import TIE
 from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 from podbench.sysid.deconvolution import available_solvers
@@ -135,7 +136,8 @@ def _add_run(sub) -> None:
         "Simulate the truth data (cached), fit every method of every scenario, "
         "predict every target and write OUT/summary.csv, OUT/summary.md, "
         "OUT/fits.csv, OUT/figures/*.png and (with a claims.toml beside the "
-        "scenarios) OUT/FINDINGS.md. OUT is replaced as a whole only when "
+        "scenarios) OUT/FINDINGS.md, and OUT/seeds.csv when the claims file "
+        "judges its comparisons over noise_seeds. OUT is replaced as a whole only when "
         "everything is written. A part of a study (a scenario file given alone) "
         "is written to its own folder, results/<file name>, never over the "
         "study's results/<study>; an existing OUT that holds scenarios this run "
@@ -415,7 +417,9 @@ def cmd_run(args) -> int:
           f"{res.cached} from the cache) -> {out}/summary.csv")
     if res.claims is not None:
         n_ok = sum(e["verdict"] == "reproduced" for e in res.claims)
-        print(f"claims: {n_ok} of {len(res.claims)} reproduced -> {out}/FINDINGS.md")
+        n_tie = sum(e["verdict"] == TIE for e in res.claims)
+        ties = f", {n_tie} {TIE}" if n_tie else ""
+        print(f"claims: {n_ok} of {len(res.claims)} reproduced{ties} -> {out}/FINDINGS.md")
     failed = df[df.status != "ok"]
     if len(failed):
         see = "summary.md" if (out / "summary.md").is_file() else "summary.csv"

@@ -32,7 +32,7 @@ from podbench.harness import metrics
 from podbench.report.decomposition import CAPTION
 from podbench.report.figures import percent
 from podbench.report.markdown import inline_html, markdown_to_html
-from podbench.study.claims import NOT_CHECKABLE, text_claims
+from podbench.study.claims import NOT_CHECKABLE, TIE, TIE_CHECK, text_claims
 
 __all__ = ["as_percent", "provenance", "render_report", "text_to_html"]
 
@@ -129,6 +129,7 @@ figcaption { font-size: .82rem; color: var(--muted); padding: 4px 4px 0; }
 .badge.reproduced { background: #c8ebc3; color: #1d4d18; }
 .badge.not-reproduced { background: #f5aaa6; color: #6b1411; }
 .badge.not-measured { background: #e3e6ea; color: #3b444d; }
+.badge.tie-within-the-noise-seeds-spread { background: #f7e3a1; color: #5c4400; }
 article.claim { border-left: 4px solid var(--line); padding: 2px 0 2px 14px; margin: 22px 0; }
 article.claim.reproduced { border-color: #5fb257; }
 article.claim.not-reproduced { border-color: #d9534f; }
@@ -138,6 +139,7 @@ ul.checks { font-size: .9rem; padding-left: 20px; }
 ul.checks li.holds::marker { content: "✓  "; color: #2e7d32; }
 ul.checks li.fails::marker { content: "✗  "; color: #c62828; }
 ul.checks li.unmeasured::marker { content: "?  "; color: #6b7580; }
+ul.checks li.tie::marker { content: "≈  "; color: #8a6d00; }
 dl.prov { display: grid; grid-template-columns: max-content 1fr; gap: 4px 18px;
   font-size: .92rem; }
 dl.prov dt { font-weight: 600; } dl.prov dd { margin: 0; word-break: break-all; }
@@ -335,7 +337,8 @@ def _findings(evaluated, remarks, claims_path) -> str:
                 "scenarios: nothing to check.</p>")
     n = len(evaluated)
     counts = {k: sum(e["verdict"] == k for e in evaluated)
-              for k in ("reproduced", "not reproduced", "not measured")}
+              for k in ("reproduced", "not reproduced", "not measured", TIE)}
+    ties = f", {counts[TIE]} {TIE}" if counts[TIE] else ""
     out = [f"<p>Each claim of <code>{_e(claims_path)}</code> checked against this run's "
            "summary table (the same evaluation as <code>FINDINGS.md</code>). The words were "
            "translated into thresholds before any run; the structures and methods were not "
@@ -344,15 +347,17 @@ def _findings(evaluated, remarks, claims_path) -> str:
            "<code>FINDINGS.md</code>, where an error written as a bare number is a fraction "
            "of ‖W‖<sub>F</sub> (0.05 = 5 %).</p>",
            f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
-           f"{counts['not reproduced']} not reproduced, {counts['not measured']} not "
+           f"{counts['not reproduced']} not reproduced{ties}, {counts['not measured']} not "
            "measured.</strong></p>"]
     if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
            for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
         texts = text_claims(evaluated)
         tc = {k: sum(v == k for _, _, v in texts)
-              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE)}
+              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE, TIE)}
+        tties = f", {tc[TIE]} {TIE}" if tc[TIE] else ""
         out[-1] = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
-                   f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced, "
+                   f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced"
+                   f"{tties}, "
                    f"{tc['not measured']} not measured, {tc[NOT_CHECKABLE]} "
                    f"{NOT_CHECKABLE}.</strong> The table lists every entry, the variants "
                    f"({sum(1 for e in evaluated if e['claim'].variant)} entries: other "
@@ -378,7 +383,7 @@ def _findings(evaluated, remarks, claims_path) -> str:
         items = []
         for d in e["details"]:
             mark = {True: ("holds", "holds"), False: ("fails", "fails"),
-                    None: ("unmeasured", "not measured")}[d["holds"]]
+                    None: ("unmeasured", "not measured"), TIE_CHECK: ("tie", "tie")}[d["holds"]]
             items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
                          f'<code title="{_e(d["check"])}">{_e(as_percent(d["check"]))}</code>'
                          f' → {_e(as_percent(d["shown"]))}: {mark[1]}</li>')

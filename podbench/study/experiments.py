@@ -89,7 +89,7 @@ peak — another BLAS kernel moves the last bits).
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -100,8 +100,8 @@ from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import MISSING, Table
 
 __all__ = ["EXPERIMENT_FILE", "Experiment", "TestCampaign", "load_experiment",
-           "level_folder", "generate", "strike_forces", "write_experiment",
-           "check_experiment"]
+           "level_folder", "generate", "generate_seeds", "seed_dependent", "strike_forces",
+           "write_experiment", "check_experiment"]
 
 from podbench.core.threads import single_blas_thread
 from podbench.dynamics import simulate
@@ -282,47 +282,80 @@ def _round(a: np.ndarray, precision: str) -> np.ndarray:
 def generate(exp: Experiment) -> dict:
     """The records of every test, level and case: ``{(test, level_folder, case):
     Response}`` in a fixed order (tests, levels, cases)."""
+    return {key[1:]: rec for key, rec in generate_seeds(exp, (exp.noise_seed,)).items()}
 
-    out = {}
+
+def seed_dependent(test: TestCampaign, level: float) -> bool:
+    """Whether the records of ``test`` at noise ``level`` change with the noise seed (noise,
+    or strike scatter drawn from the seed)."""
+    return level > 0 or test.amplitude_scatter > 0 or test.hit_jitter > 0
+
+
+def generate_seeds(exp: Experiment, seeds, wanted=None) -> dict:
+    """The records of every seed in ``seeds`` (each as :func:`generate` with ``noise_seed``
+    that seed): ``{(seed, test, level_folder, case): Response}`` in a fixed order (seeds,
+    tests, levels, cases). ``wanted`` (a set of ``(test, level_folder)``, default all)
+    limits the tests and levels. A simulation is shared by the seeds whose strikes are the
+    same (a test without strike scatter is simulated once), so more seeds cost only their
+    noise."""
+
+    tests = [t for t in exp.tests.values()
+             if wanted is None or any(w[0] == t.name for w in wanted)]
+    structures = {t.name: _structure(exp, t) for t in tests}
     loads = {}  # every structure and load checked before anything is simulated
-    for test in exp.tests.values():
-        s = _structure(exp, test)
-        for cname, forces in test.cases.items():
-            per_strike = strike_forces(exp, test, s, cname, forces)
-            Fs = []
-            for strike in per_strike:
-                F = np.zeros((s.n_sensors, test.n_samples))
-                for i, d in enumerate(strike):
-                    try:
-                        F += excitation_from_dict(d).sample(s, test.n_samples, test.dt)
-                    except InputError as exc:
-                        raise ScenarioFileError(
-                            f"{exp.path}: field `tests.{test.name}.cases.{cname}.force"
-                            f"{f'[{i}]' if len(forces) > 1 else ''}`: {exc}") from None
-                Fs.append(F)
-            loads[(test.name, cname)] = (s, Fs)
-    for test in exp.tests.values():
-        clean = {}
-        for cname in test.cases:
-            s, Fs = loads[(test.name, cname)]
-            clean[cname] = _strike_responses(s, test, cname, Fs, simulate)
-        for level in test.noise_levels or exp.noise_levels:
-            folder = level_folder(level)
-            spec = NoiseSpec(level, seed=exp.noise_seed, on=exp.noise_on)
-            f_spec = NoiseSpec(level, seed=exp.noise_seed,
-                               on=("F",) if "F" in exp.noise_on else ())
-            for cname, (r, Fs) in clean.items():
-                m = noisy(r, spec, exp.name, s.name, cname)  # W rows; strike 1's load cell
-                F = np.asarray(m.F)
-                if test.strikes == "per_sensor" and test.force_record == "mean":
-                    cells = [F] + [np.asarray(noisy(_record(np.zeros_like(Fk), Fk, test.dt,
-                                                            cname), f_spec, exp.name,
-                                                    s.name, cname, f"strike{k}").F)
-                                   for k, Fk in enumerate(Fs[1:], start=2)]
-                    F = np.mean(cells, axis=0)
-                W, F = _round(np.asarray(m.W), exp.precision), _round(F, exp.precision)
-                out[(test.name, folder, cname)] = _record(W, F, test.dt, cname)
+    for seed in seeds:
+        e = replace(exp, noise_seed=int(seed))
+        for test in tests:
+            s = structures[test.name]
+            for cname, forces in test.cases.items():
+                loads[(seed, test.name, cname)] = _strike_loads(e, test, s, cname, forces)
+    out = {}
+    runs: dict = {}  # (test, force bytes) -> clean simulation, shared by the seeds
+    for seed in seeds:
+        for test in tests:
+            s = structures[test.name]
+            clean = {cname: _strike_responses(s, test, cname, loads[(seed, test.name, cname)],
+                                              simulate, runs)
+                     for cname in test.cases}
+            for level in test.noise_levels or exp.noise_levels:
+                folder = level_folder(level)
+                if wanted is None or (test.name, folder) in wanted:
+                    for cname, (r, Fs) in clean.items():
+                        out[(seed, test.name, folder, cname)] = _noisy_record(
+                            exp, test, s, cname, r, Fs, level, int(seed))
     return out
+
+
+def _strike_loads(exp: Experiment, test: TestCampaign, s, cname: str, forces) -> list:
+    """The sampled force of every strike of a case (errors name the case's force field)."""
+    Fs = []
+    for strike in strike_forces(exp, test, s, cname, forces):
+        F = np.zeros((s.n_sensors, test.n_samples))
+        for i, d in enumerate(strike):
+            try:
+                F += excitation_from_dict(d).sample(s, test.n_samples, test.dt)
+            except InputError as exc:
+                raise ScenarioFileError(
+                    f"{exp.path}: field `tests.{test.name}.cases.{cname}.force"
+                    f"{f'[{i}]' if len(forces) > 1 else ''}`: {exc}") from None
+        Fs.append(F)
+    return Fs
+
+
+def _noisy_record(exp: Experiment, test: TestCampaign, s, cname: str, r, Fs, level: float,
+                  seed: int) -> Response:
+    """The record of one case at one noise level and seed, rounded to the precision."""
+    spec = NoiseSpec(level, seed=seed, on=exp.noise_on)
+    f_spec = NoiseSpec(level, seed=seed, on=("F",) if "F" in exp.noise_on else ())
+    m = noisy(r, spec, exp.name, s.name, cname)  # W rows; strike 1's load cell
+    F = np.asarray(m.F)
+    if test.strikes == "per_sensor" and test.force_record == "mean":
+        cells = [F] + [np.asarray(noisy(_record(np.zeros_like(Fk), Fk, test.dt, cname),
+                                        f_spec, exp.name, s.name, cname, f"strike{k}").F)
+                       for k, Fk in enumerate(Fs[1:], start=2)]
+        F = np.mean(cells, axis=0)
+    W, F = _round(np.asarray(m.W), exp.precision), _round(F, exp.precision)
+    return _record(W, F, test.dt, cname)
 
 
 def strike_forces(exp: Experiment, test: TestCampaign, structure, case: str,
@@ -365,14 +398,15 @@ def strike_forces(exp: Experiment, test: TestCampaign, structure, case: str,
     return out
 
 
-def _strike_responses(s, test: TestCampaign, cname: str, Fs, simulate):
+def _strike_responses(s, test: TestCampaign, cname: str, Fs, simulate, runs=None):
     """``(Response, strike forces)``: the clean record of a case, its ``W`` row ``i`` from
     strike ``i + 1`` (one strike per sensor row) and ``F`` the first strike's load. Identical
-    strikes are simulated once."""
-    runs = {}
+    strikes are simulated once (``runs``: the simulations so far, keyed by test and force,
+    shared between calls)."""
+    runs = {} if runs is None else runs
 
     def run(F):
-        key = F.tobytes()
+        key = (test.name, F.tobytes())
         if key not in runs:
             runs[key] = simulate(s, n_samples=test.n_samples, dt=test.dt, force=F, label=cname)
         return runs[key]

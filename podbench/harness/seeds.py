@@ -1,0 +1,221 @@
+"""The comparisons of a study's claims on other noise seeds (issue 24 item 8: near ties).
+
+A virtual experiment's noisy records are one realization of the noise (the experiment
+file's ``noise_seed``). A claims file with ``noise_seeds = [0, 1, 2, 3, 4]`` has every
+*comparison* ("A more accurate than B", "TLS at or below LS", "e_noisy <= 1.1 × e_clean")
+judged on each seed (:mod:`podbench.study.claims`: holds on all, fails on all, else a
+tie). The first seed's rows are the study's table (the committed records); for the others
+this module regenerates the records the comparisons read from the same experiment file
+with the noise (and any strike scatter) redrawn
+(:func:`podbench.study.experiments.generate_seeds`, in memory: the committed files stay
+one realization) and refits only the methods the comparisons name, predicting only the
+targets they compare: no bands, no coupled or linear twins, no figures. A scenario whose
+records no seed changes (the clean ones) is not refitted: its rows are the same on every
+seed.
+
+The rows (``seeds.csv`` of the study's output) are those of ``summary.csv`` for the
+comparisons' (scenario, structure, method, target), with a ``seed`` column, on every seed
+(the first seed's copied from the study's table).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from podbench.core.response import Response
+from podbench.errors import PodbenchError, ScenarioFileError
+from podbench.harness.executor import execute
+from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
+from podbench.harness.progress import as_stage
+from podbench.harness.runner import read_case
+from podbench.study.claims import SeedRows, comparison_rows, seed_names
+from podbench.study.estimators import all_cases, build_estimator, training_records
+from podbench.study.experiments import (
+    generate_seeds,
+    level_folder,
+    load_experiment,
+    seed_dependent,
+)
+from podbench.study.resolve import resolve_structure
+from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
+from podbench.sysid.conditioning import WindowCorrected, condition
+
+__all__ = ["run_seeds", "seed_table", "SEED_COLUMNS"]
+
+SEED_COLUMNS = ("scenario", "structure", "method", "target", "seed", *ERROR_COLUMNS,
+                *NORM_COLUMNS, "status")
+"""Columns of ``seeds.csv`` in order."""
+
+_EXPECTED = (PodbenchError, np.linalg.LinAlgError)
+
+
+def _record_key(exp, scenario, case: str):
+    """``(test, level folder, case stem)`` of a case's record file when the experiment
+    writes it (``data/<test>/noise_<p>pct/<case>.npz`` beside the experiment file), else
+    None."""
+    f = scenario.cases[case].file
+    if f is None:
+        return None
+    path = Path(f)
+    path = (path if path.is_absolute() else scenario.folder / path).resolve()
+    try:
+        rel = path.relative_to((exp.folder / "data").resolve())
+    except ValueError:
+        return None
+    if len(rel.parts) != 3 or rel.suffix != ".npz" or rel.parts[0] not in exp.tests:
+        return None
+    return rel.parts[0], rel.parts[1], rel.stem
+
+
+def _varied(exp, scenario, cases) -> dict | None:
+    """``case → (test, level folder, case stem)`` of a scenario whose records the seed
+    changes (a noisy level, or strike scatter), None for one it does not change."""
+    keys = {c: _record_key(exp, scenario, c) for c in cases}
+    levels = {level_folder(lv): lv for t in exp.tests.values()
+              for lv in (t.noise_levels or exp.noise_levels)}
+    if not any(k is not None and k[1] in levels
+               and seed_dependent(exp.tests[k[0]], levels[k[1]]) for k in keys.values()):
+        return None
+    return keys
+
+
+def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
+              progress=None) -> SeedRows | None:
+    """The comparisons' rows on every seed of ``claims_file.noise_seeds`` (None without
+    them, or without a comparison among the claims of ``scenarios``): the records of the
+    other seeds generated from the experiment file beside the claims file, the compared
+    methods refitted on them (``jobs`` processes)."""
+    seeds = tuple(claims_file.noise_seeds)
+    if not seeds:
+        return None
+    folder = Path(claims_file.path).parent
+    if not (folder / EXPERIMENT_FILE).is_file():
+        raise ScenarioFileError(f"{claims_file.path}: field `noise_seeds`: needs the "
+                                f"virtual experiment's {EXPERIMENT_FILE} beside it (the "
+                                "records of the other seeds are generated from it)")
+    exp = load_experiment(folder)
+    if exp.noise_seed != seeds[0]:
+        raise ScenarioFileError(f"{claims_file.path}: field `noise_seeds`: the first seed must "
+                                f"be the committed records' ({EXPERIMENT_FILE}'s noise_seed "
+                                f"= {exp.noise_seed}), got {seeds[0]}")
+    compared = comparison_rows(claims, set(scenarios))
+    if not compared:  # no comparison judged in this run (a part of the study)
+        return None
+    units, wanted, varied = [], set(), set()
+    for (name, structure), (methods, targets) in compared.items():
+        sc = scenarios.get(name)
+        if sc is None:
+            continue
+        cases = set(targets)
+        for label in methods:
+            if any(m.label == label for m in sc.methods):
+                cases |= all_cases(sc.method(label), sc.method)
+        keys = _varied(exp, sc, sorted(cases))
+        if keys is None:
+            continue
+        varied.add(name)
+        wanted |= {k[:2] for k in keys.values() if k is not None}
+        units += [(str(sc.path), structure, k, methods, targets, keys) for k in seeds[1:]]
+    records = generate_seeds(exp, seeds[1:], wanted) if units else {}
+    args = [(*u, {c: _arrays(records[(u[2], *key)]) for c, key in u[5].items()
+                  if key is not None}) for u in units]
+    stage = as_stage(progress, f"comparisons over noise {seed_names(seeds)}", len(args),
+                     "unit")
+    with stage:
+        rows = execute(_seed_unit, args, jobs=jobs,
+                       progress=lambda *_: stage.advance())
+    table = pd.DataFrame([r for unit in rows for r in unit], columns=list(SEED_COLUMNS))
+    return SeedRows(seeds, table, frozenset(varied))
+
+
+def _arrays(rec: Response) -> tuple[np.ndarray, np.ndarray]:
+    return np.asarray(rec.W, dtype=float), np.asarray(rec.F, dtype=float)
+
+
+def _response(scenario, structure, case: str, arrays) -> Response:
+    """A generated record as :func:`podbench.harness.runner.read_case` reads a file."""
+    W, F = arrays
+    n = W.shape[1]
+    return Response(t=np.arange(n) * scenario.dt, W=W, F=F, w0=W[:, 0].copy(),
+                    v0=np.zeros(W.shape[0]), dt=scenario.dt, structure=structure.name,
+                    engine="measured", label=case)
+
+
+def _seed_unit(task) -> list[dict]:
+    """One (scenario, structure, seed): fit the compared methods on the seed's records,
+    predict the compared targets; rows of :data:`SEED_COLUMNS`."""
+    path, entry, seed, methods, targets, keys, arrays = task
+    sc = load_scenario(path)
+    structure = resolve_structure(entry, sc)
+    recs: dict = {}
+
+    def get(case: str) -> Response:
+        if case not in recs:
+            recs[case] = (_response(sc, structure, case, arrays[case]) if case in arrays
+                          else read_case(sc, case, structure))
+        return recs[case]
+
+    def train(case: str) -> Response:
+        r = get(case)
+        return condition(r, sc.conditioning) if _conditioned(sc) else r
+
+    rows = []
+    for label in methods:
+        base = {"scenario": sc.name, "structure": structure.name, "method": label,
+                "seed": int(seed)}
+        rows += _method_rows(sc, label, base, targets, get, train)
+    return rows
+
+
+def _conditioned(sc) -> bool:
+    return sc.conditioning is not None and not sc.conditioning.is_identity
+
+
+def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
+    """The rows of one method: fitted on ``train``'s records, each target predicted."""
+    try:
+        spec = sc.method(label)
+        est = build_estimator(spec, sc.method, sc.folder)
+        est = est.fit(training_records(spec, sc.method, train))
+        if _conditioned(sc) and sc.conditioning.exponential_window is not None:
+            est = WindowCorrected(est, sc.conditioning.exponential_window)
+        preds = {t: np.asarray(est.predict(get(t)), dtype=float) for t in targets}
+    except KeyError:
+        status = f"failed: no method {label!r} in the scenario"
+        return [{**base, "target": t, "status": status} for t in targets]
+    except _EXPECTED as exc:
+        status = "failed: " + " ".join(f"{type(exc).__name__}: {exc}".split())[:290]
+        return [{**base, "target": t, "status": status} for t in targets]
+    U = getattr(est, "modes_", None)
+    U = None if U is None else np.asarray(U, dtype=float)
+    coupled = bool(getattr(est, "coupled", False))
+    rows = []
+    for t in targets:
+        W = get(t).W
+        row = {**base, "target": t}
+        row.update(decompose(W, preds[t], U, coupled=coupled, nonlinear=True))
+        row.update(norm_summaries(W, preds[t]))
+        row["status"] = "ok"
+        rows.append(row)
+    return rows
+
+
+def seed_table(table: pd.DataFrame, seeds: SeedRows | None) -> pd.DataFrame | None:
+    """``seeds.csv``: the compared rows on every seed — the first seed's from the study's
+    ``table`` (the same (scenario, structure, method, target) as the other seeds' rows),
+    then the others' — sorted by scenario, structure, method, target and seed."""
+    if seeds is None or seeds.table.empty:
+        return None
+    other = seeds.table
+    keys = other[["scenario", "structure", "method", "target"]].drop_duplicates()
+    first = table.merge(keys, on=["scenario", "structure", "method", "target"])
+    first = first.assign(seed=seeds.seeds[0])
+    both = pd.concat([first[[c for c in SEED_COLUMNS if c in first.columns]], other],
+                     ignore_index=True)
+    order = {k: i for i, k in enumerate(seeds.seeds)}
+    both = both.assign(_o=both.seed.map(order)).sort_values(
+        ["scenario", "structure", "method", "target", "_o"], kind="stable")
+    return both.drop(columns="_o").reset_index(drop=True)[list(SEED_COLUMNS)]
