@@ -11,7 +11,7 @@ from podbench.study.substructuring import load_substructuring
 
 pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
-STUDY = """
+HEADER = """
 [study]
 runner = "substructuring"
 
@@ -22,17 +22,19 @@ dt = 1.0e-4
 n_samples = 500
 load = { location = 16.0, amplitude = 500.0, duration = 5.0e-4 }
 noise = [0.01]
-seeds = [0]
-horizon = 2
-
-[[substructuring.components]]
-name = "tip_mass"
-structure = "ltv_beam"
-tip_mass = true
-
-[substructuring.identification]
-ltv_records = [2]
 """
+
+
+def _study(seed: int, horizon: int, component: str, identification: str) -> str:
+    """A one-component study file: the shared header, ``seeds = [seed]``, ``horizon``."""
+    return (f"{HEADER}seeds = [{seed}]\nhorizon = {horizon}\n\n[[substructuring.components]]\n"
+            f"{component}\n[substructuring.identification]\n{identification}")
+
+
+STUDY = _study(0, 2, 'name = "tip_mass"\nstructure = "ltv_beam"\ntip_mass = true\n',
+               "ltv_records = [2]\n")
+HEAVY = _study(2, 20, 'name = "chain_heavy"\nstructure = "chain_coupled"\ncomponent_dof = 4\n',
+               "lti_records = 4\nlti_samples = 1000\n")
 
 REQUIRED = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise",
             "total_error", "diverged_at_step", "growth"]
@@ -58,31 +60,6 @@ def test_reduced_study_runs_through_podbench_run(tmp_path):
     assert ltv.total_error.iloc[0] < 0.02
     assert (tmp_path / "out" / "FINDINGS.md").read_text(encoding="utf-8").count("Chapter 6")
     assert len(res.summary) == len(df)
-
-
-HEAVY = """
-[study]
-runner = "substructuring"
-
-[substructuring]
-parent = "lti_beam"
-interface_dof = 46
-dt = 1.0e-4
-n_samples = 500
-load = { location = 16.0, amplitude = 500.0, duration = 5.0e-4 }
-noise = [0.01]
-seeds = [2]
-horizon = 20
-
-[[substructuring.components]]
-name = "chain_heavy"
-structure = "chain_coupled"
-component_dof = 4
-
-[substructuring.identification]
-lti_records = 4
-lti_samples = 1000
-"""
 
 
 def test_passive_kernel_keeps_the_heavy_chain_stable(tmp_path):
