@@ -1,9 +1,11 @@
 """`podbench run substructuring` path on a reduced study file (issue 25)."""
 
 import math
+from pathlib import Path
 
 import pandas as pd
 import pytest
+import tomllib
 
 import podbench
 from podbench.api import own_study
@@ -33,8 +35,21 @@ def _study(seed: int, horizon: int, component: str, identification: str) -> str:
 
 STUDY = _study(0, 2, 'name = "tip_mass"\nstructure = "ltv_beam"\ntip_mass = true\n',
                "ltv_records = [2]\n")
+DESIGN = """lti_solver = "realization"
+lti_options = { n_pilot = 5000, blocks = 1000, rule = "min" }
+lti_records = 4
+lti_samples = 5000
+passive_fit = "kernel"
+"""
+"""The study's record design and order rule for time-invariant components
+(scenarios/substructuring/substructuring.toml; test_design_matches_the_study checks it)."""
+UNSEEN_BOUND = 0.03
+"""The issue's 1 %-noise target for the heavy chain, asked of a chain it was not set on."""
 HEAVY = _study(2, 20, 'name = "chain_heavy"\nstructure = "chain_coupled"\ncomponent_dof = 4\n',
-               "lti_records = 4\nlti_samples = 1000\n")
+               DESIGN)
+UNSEEN = _study(0, 20, 'name = "chain_unseen"\nstructure = "chain_ideal"\nscale = 0.01\n'
+                'component_dof = 4\n',
+                DESIGN + 'velocity_components = ["chain_unseen"]\nvelocity_noise = [0.01]\n')
 
 REQUIRED = ["parent", "component", "scheme", "kernel", "records", "n_records", "noise",
             "total_error", "diverged_at_step", "growth"]
@@ -62,18 +77,38 @@ def test_reduced_study_runs_through_podbench_run(tmp_path):
     assert len(res.summary) == len(df)
 
 
-def test_passive_kernel_keeps_the_heavy_chain_stable(tmp_path):
-    """The heavy chain's kernel from 1 %-noise acceleration records: as fitted it grows
-    (growth > 1, the 10 000-step run leaves 10× the truth's peak); made passive its growth
-    factor is 1 and the run stays bounded, within 6 % of the assembled truth."""
-    folder = tmp_path / "heavy"
+def _run(tmp_path, name: str, text: str) -> pd.DataFrame:
+    folder = tmp_path / name
     folder.mkdir()
-    (folder / "substructuring.toml").write_text(HEAVY, encoding="utf-8")
-    podbench.run(str(folder), out=tmp_path / "out", figures=False)
-    df = pd.read_csv(tmp_path / "out" / "summary.csv")
-    imp = df[(df.scheme == "implicit") & (df.noise == 0.01)]
-    raw = imp[imp.kernel == "lti"].iloc[0]
-    pas = imp[imp.kernel == "lti_passive"].iloc[0]
-    assert raw.growth > 1 + 1e-4 and raw.diverged_at_step > 500
+    (folder / "substructuring.toml").write_text(text, encoding="utf-8")
+    podbench.run(str(folder), out=tmp_path / f"{name}_out", figures=False)
+    return pd.read_csv(tmp_path / f"{name}_out" / "summary.csv")
+
+
+def test_design_matches_the_study():
+    study = tomllib.loads(Path("scenarios/substructuring/substructuring.toml")
+                          .read_text(encoding="utf-8"))["substructuring"]["identification"]
+    for key, value in tomllib.loads(DESIGN).items():
+        assert study[key] == value, key
+
+
+def test_passive_kernel_keeps_the_heavy_chain_stable(tmp_path):
+    """The heavy chain's kernel from 1 %-noise acceleration records (the study's design:
+    4 × 0.5 s records, the realization solver's hold-out order rule), made passive: growth
+    factor 1, the 10 000-step run bounded, within the issue's 3 % of the assembled truth."""
+    df = _run(tmp_path, "heavy", HEAVY)
+    pas = df[(df.scheme == "implicit") & (df.kernel == "lti_passive")].iloc[0]
     assert pas.growth <= 1 + 1e-6 and math.isnan(pas.diverged_at_step)
-    assert pas.total_error < 0.06
+    assert pas.total_error < 0.03
+
+
+def test_the_rule_on_a_chain_not_in_the_study(tmp_path):
+    """The same design on a chain the study does not contain (chain_ideal × 0.01: equal
+    masses 0.01 lbf·s²/in, springs 10 lbf/in, modes 1.4–9.7 Hz against the study chain's
+    4–41 Hz), from acceleration and velocity records at 1 % noise: made passive, stable
+    over 10 000 steps and within UNSEEN_BOUND of the assembled truth."""
+    df = _run(tmp_path, "unseen", UNSEEN)
+    pas = df[(df.scheme == "implicit") & (df.kernel == "lti_passive")]
+    assert set(pas.records) == {"acceleration", "velocity"}
+    assert (pas.growth <= 1 + 1e-6).all() and pas.diverged_at_step.isna().all()
+    assert (pas.total_error < UNSEEN_BOUND).all()
