@@ -158,6 +158,25 @@ def _targets(med: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
+RECORD_DESIGN = (
+    "- Record design, the same for every time-invariant component: 4 records of "
+    "5000 samples (0.5 s) of white interface force; the `realization` solver's "
+    "pilot spans the record and its Hankel matrix 1000 block rows (lags up to "
+    "0.2 s: the chains' 4 Hz mode shows nearly a cycle); the order is the "
+    "solver's hold-out rule with `rule = \"min\"` (orders 2–40 fitted on the first "
+    "75 % of every record, the one whose error on the held-out last 25 % is "
+    "smallest; the default one-standard-error rule estimates that error's spread "
+    "from 4 groups, one per record, and kept 2 poles on a chain not in the study, "
+    "3.6 % against 1.2 % at the best order). With 0.1 s records (1000 samples) the "
+    "heavy chain's 1 % median was 4.07 % (6 poles; 4.0–4.9 % on two seeds with "
+    "the kernel-closest passive fit); with 0.5 s records but the solver's default "
+    "600-row Hankel window, 11 %: the window over the record, not the noise, was "
+    "the limit. The time-varying tip's records stay on its own clock (one 0.05 s "
+    "period of its mass law, 500 samples): a longer record would ask the temporal "
+    "basis for times the coupled run never reaches.")
+"""The FINDINGS remark on the record design of the time-invariant components."""
+
+
 def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
     refused = df[df.outcome == "refused"]
     ref = refused.detail.iloc[0] if len(refused) else "(none refused)"
@@ -211,21 +230,7 @@ def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
               "`passive_fit = \"records\"`) let the moved poles' error over the 0.5 s "
               "records pull the other residues: 12 % against 0.2 % on the heavy chain "
               "(seed 1, 1 %).",
-              "- Record design, the same for every time-invariant component: 4 records of "
-              "5000 samples (0.5 s) of white interface force; the `realization` solver's "
-              "pilot spans the record and its Hankel matrix 1000 block rows (lags up to "
-              "0.2 s: the chains' 4 Hz mode shows nearly a cycle); the order is the "
-              "solver's hold-out rule with `rule = \"min\"` (orders 2–40 fitted on the first "
-              "75 % of every record, the one whose error on the held-out last 25 % is "
-              "smallest; the default one-standard-error rule estimates that error's spread "
-              "from 4 groups, one per record, and kept 2 poles on a chain not in the study, "
-              "3.6 % against 1.2 % at the best order). With 0.1 s records (1000 samples) the "
-              "heavy chain's 1 % median was 4.07 % (6 poles; 4.0–4.9 % on two seeds with "
-              "the kernel-closest passive fit); with 0.5 s records but the solver's default "
-              "600-row Hankel window, 11 %: the window over the record, not the noise, was "
-              "the limit. The time-varying tip's records stay on its own clock (one 0.05 s "
-              "period of its mass law, 500 samples): a longer record would ask the temporal "
-              "basis for times the coupled run never reaches.",
+              RECORD_DESIGN,
               "- Displacement records: made passive the coupled runs no longer diverge, but "
               "the error stays large: the interface mass that dominates the heavy chain's "
               "effect is the kernel's high-frequency limit, where a displacement record's "
