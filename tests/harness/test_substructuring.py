@@ -36,7 +36,7 @@ def _study(seed: int, horizon: int, component: str, identification: str) -> str:
 STUDY = _study(0, 2, 'name = "tip_mass"\nstructure = "ltv_beam"\ntip_mass = true\n',
                "ltv_records = [2]\n")
 DESIGN = """lti_solver = "realization"
-lti_options = { n_pilot = 5000, blocks = 1000, rule = "min" }
+lti_options = { n_pilot = 5000, blocks = 1000 }
 lti_records = 4
 lti_samples = 5000
 passive_fit = "kernel"
