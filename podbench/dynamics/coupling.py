@@ -10,9 +10,10 @@ response::
     y_c[n] = Σ_{k=0}^{L−1} H[n, k] g[n−k]       (time-varying, H (n_t, L, p, p))
 
 ``y_c`` the interface acceleration (``quantity="acceleration"``, ``H[0] ≠ 0``: direct
-feedthrough) or displacement (``"displacement"``). No ``Δt`` factor (a kernel of
-:mod:`podbench.sysid.deconvolution` is ``H/Δt``). Convention: the component is at rest at
-``t_0`` and ``g_0 = 0`` (podbench's ``f_0 = 0``; the interface must be at rest at ``t_0``).
+feedthrough), velocity (``"velocity"``) or displacement (``"displacement"``). No ``Δt``
+factor (a kernel of :mod:`podbench.sysid.deconvolution` is ``H/Δt``). Convention: the
+component is at rest at ``t_0`` and ``g_0 = 0`` (podbench's ``f_0 = 0``; the interface
+must be at rest at ``t_0``).
 
 The parent is integrated with average-acceleration Newmark (β = 1/4, γ = 1/2) as
 :mod:`podbench.dynamics.newmark`: ``S a_{n+1} = f_{n+1} − K q̃ − C ṽ − B g_{n+1}``, so
@@ -21,7 +22,8 @@ The parent is integrated with average-acceleration Newmark (β = 1/4, γ = 1/2) 
 ``"implicit"`` (default)
     compatibility at the current step, ``Bᵀa_{n+1} = H[0] g_{n+1} + r_{n+1}`` (``r`` the
     history part of the convolution), gives
-    ``g_{n+1} = (BᵀS⁻¹B + H[0])⁻¹ (Bᵀa* − r_{n+1})`` (displacement kernels:
+    ``g_{n+1} = (BᵀS⁻¹B + H[0])⁻¹ (Bᵀa* − r_{n+1})`` (velocity kernels:
+    ``(γ h BᵀS⁻¹B + H_v[0])⁻¹ (Bᵀ(ṽ + γ h a*) − r)``; displacement kernels:
     ``(β h² BᵀS⁻¹B + H_d[0])⁻¹ (Bᵀ(q̃ + β h² a*) − r)``). With the exact Newmark-discrete
     kernel of a component (:func:`newmark_kernel`) this is Newmark on the assembled system
     (to round-off): impulse-based substructuring (Rixen; van der Valk & Rixen) in the time
@@ -62,7 +64,7 @@ __all__ = ["Component", "CoupledResult", "UnstableCouplingError", "couple", "gro
 
 SCHEMES = ("implicit", "two-step")
 """The coupling schemes: implicit interface solve (default), the dissertation's two-step."""
-QUANTITIES = ("acceleration", "displacement")
+QUANTITIES = ("acceleration", "velocity", "displacement")
 GROWTH_TOL = 1e-6
 """A growth factor up to ``1 + GROWTH_TOL`` counts as stable (round-off of the eigenvalues of
 an undamped structure, which lie on the unit circle)."""
@@ -80,7 +82,7 @@ class Component:
 
     ``kernel``: (L, p, p) time-invariant or (n_t, L, p, p) time-varying (row ``n`` the
     kernel at ``t_n``; beyond ``n_t`` the last row); ``quantity``: the response the kernel
-    gives (``"acceleration"`` or ``"displacement"``); ``realization``: optionally
+    gives (``"acceleration"``, ``"velocity"`` or ``"displacement"``); ``realization``: optionally
     ``(A, B, C, D)`` of a time-invariant kernel (``x[n+1] = A x[n] + B g[n]``,
     ``y[n] = C x[n] + D g[n]``: ``H[0] = D``, ``H[k] = C A^{k−1} B``), the component's memory
     beyond the kernel's L lags: when every component has one, the coupling keeps ``x``
@@ -183,11 +185,15 @@ class _Coupler:
         self.B[all_dofs, np.arange(self.P)] = 1.0
         self.SB = scipy.linalg.cho_solve(self.S, self.B)
         self.BSB = self.B.T @ self.SB
-        # rows of the compatibility: accelerations as they are, displacements scaled by βh²
-        self.scale = np.concatenate([np.full(c.p, 1.0 if c.quantity == "acceleration"
-                                             else self.bh2) for c in self.comps] + [[]])
+        # rows of the compatibility: accelerations as they are, velocities scaled by γh,
+        # displacements by βh² (the weight of a_{n+1} in v_{n+1}, q_{n+1})
+        weight = {"acceleration": 1.0, "velocity": self.gh, "displacement": self.bh2}
+        self.scale = np.concatenate([np.full(c.p, weight[c.quantity]) for c in self.comps]
+                                    + [[]])
         self.disp = np.concatenate([np.full(c.p, c.quantity == "displacement")
                                     for c in self.comps] + [np.zeros(0, bool)])
+        self.vel = np.concatenate([np.full(c.p, c.quantity == "velocity")
+                                   for c in self.comps] + [np.zeros(0, bool)])
         self._cache: dict = {}
         self.time_varying = any(c.time_varying for c in self.comps)
         self.ss = bool(self.comps) and all(c.realization is not None for c in self.comps)
@@ -256,14 +262,16 @@ class _Coupler:
         Ainv = self.matrices(n, scheme)
         sc = self.scale if astar.ndim == 1 else self.scale[:, None]
         dsp = self.disp if astar.ndim == 1 else self.disp[:, None]
+        vel = self.vel if astar.ndim == 1 else self.vel[:, None]
         if scheme == "implicit":
-            y = sc * (self.B.T @ astar) + np.where(dsp, self.B.T @ qp, 0.0)
+            y = sc * (self.B.T @ astar) + np.where(dsp, self.B.T @ qp, 0.0) \
+                + np.where(vel, self.B.T @ vp, 0.0)
             g = Ainv @ (y - r)
             a = astar - self.SB @ g
         else:
             a = astar - self.SB @ g_prev
-            qn = qp + self.bh2 * a
-            y = np.where(dsp, self.B.T @ qn, self.B.T @ a)
+            qn, vn = qp + self.bh2 * a, vp + self.gh * a
+            y = np.where(dsp, self.B.T @ qn, np.where(vel, self.B.T @ vn, self.B.T @ a))
             g = Ainv @ (y - r)
         q = qp + self.bh2 * a
         v = vp + self.gh * a
@@ -281,7 +289,7 @@ class _FastStep:
         self.SC = scipy.linalg.cho_solve(cp.S, cp.C) if cp.damped else None
         self.Sf = scipy.linalg.cho_solve(cp.S, f)
         self.idx = np.array([d for c in cp.comps for d in c.dofs], dtype=np.int64)
-        self.any_disp = bool(np.any(cp.disp))
+        self.any_offset = bool(np.any(cp.disp) or np.any(cp.vel))
         self.unit = bool(np.all(cp.scale == 1.0))
         self.Ainv = None if cp.time_varying or not cp.P else cp.matrices(0, scheme)
 
@@ -298,14 +306,15 @@ class _FastStep:
         idx = self.idx
         if self.scheme == "implicit":
             y = astar[idx] if self.unit else cp.scale * astar[idx]
-            if self.any_disp:
-                y = y + np.where(cp.disp, qp[idx], 0.0)
+            if self.any_offset:
+                y = y + np.where(cp.disp, qp[idx], 0.0) + np.where(cp.vel, vp[idx], 0.0)
             g = Ainv @ (y - r)
             a = astar - cp.SB @ g
         else:
             a = astar - cp.SB @ g_prev
-            y = np.where(cp.disp, qp[idx] + cp.bh2 * a[idx], a[idx]) if self.any_disp \
-                else a[idx]
+            y = np.where(cp.disp, qp[idx] + cp.bh2 * a[idx],
+                         np.where(cp.vel, vp[idx] + cp.gh * a[idx], a[idx])) \
+                if self.any_offset else a[idx]
             g = Ainv @ (y - r)
         return qp + cp.bh2 * a, vp + cp.gh * a, a, g
 
@@ -373,7 +382,9 @@ def _checked_growth(cp, scheme: str, dt: float) -> float:
     growth = _growth(cp, scheme, None)
     if growth > 1.0 + GROWTH_TOL:
         mp = 1.0 / np.diag(cp.BSB)
-        mc = [1.0 / abs(c.at(0)[0][i, i]) for c in cp.comps for i in range(c.p)]
+        # the interface mass a lag-0 kernel shows: weight / H[0] (1, γh or βh², as the rows)
+        h0 = np.abs(np.diag(cp.h0(0)))
+        mc = cp.scale / np.where(h0 > 0, h0, np.inf)
         raise UnstableCouplingError(
             f"couple: the {scheme} scheme diverges here (growth factor {growth:.4g} > 1 at "
             f"dt = {dt:g} s; component interface mass {max(mc):.3g} vs the parent's "
@@ -480,6 +491,7 @@ def newmark_kernel(M, C, K, dofs, n_lags: int, dt: float, *,
     """The exact Newmark-discrete kernel (n_lags, p, p) of a linear component (M, C, K its
     own matrices, ``dofs`` its interface DOFs): the interface response to a unit force at
     one sample, the component at rest before it (so ``H[0] = Eᵀ S⁻¹ E`` for accelerations,
+    ``γh EᵀS⁻¹E`` for velocities, ``βh² EᵀS⁻¹E`` for displacements,
     ``S = M + h/2 C + h²/4 K``)."""
     M, K = (np.asarray(x.toarray() if hasattr(x, "toarray") else x, dtype=float) for x in (M, K))
     C = np.zeros_like(M) if C is None else np.asarray(
@@ -497,7 +509,7 @@ def newmark_kernel(M, C, K, dofs, n_lags: int, dt: float, *,
     q, v = bh2 * a, gh * a
     H = np.empty((n_lags, p, p))
     for k in range(n_lags):
-        H[k] = (a if quantity == "acceleration" else q)[dofs]
+        H[k] = {"acceleration": a, "velocity": v, "displacement": q}[quantity][dofs]
         qp, vp = q + h * v + bh2 * a, v + gh * a
         a = scipy.linalg.cho_solve(Sf, -(K @ qp) - C @ vp)
         q, v = qp + bh2 * a, vp + gh * a
@@ -525,8 +537,12 @@ def newmark_realization(M, C, K, dofs, dt: float, *, quantity: str = "accelerati
     SE = scipy.linalg.cho_solve(Sf, E)
     A = np.vstack([Pq + bh2 * Ma, Pv + gh * Ma, Ma])
     B = np.vstack([bh2 * SE, gh * SE, SE])
+    if quantity not in QUANTITIES:
+        raise InputError(f"newmark_realization: quantity must be one of {QUANTITIES}")
     if quantity == "acceleration":
         return A, B, E.T @ Ma, E.T @ SE
+    if quantity == "velocity":
+        return A, B, E.T @ (Pv + gh * Ma), gh * (E.T @ SE)
     return A, B, E.T @ (Pq + bh2 * Ma), bh2 * (E.T @ SE)
 
 

@@ -11,8 +11,8 @@ For every component of the plan (:mod:`podbench.study.substructuring`):
 * identified kernels from interface records of the component alone (white force from
   rest; per-channel noise ``level × channel RMS`` on force and response, streams keyed by
   :func:`podbench.sysid.noise.noise_generator`): time-invariant
-  (:func:`podbench.sysid.components.identify_kernel`, acceleration and displacement
-  records) and time-varying (:func:`podbench.sysid.components.identify_lagged`).
+  (:func:`podbench.sysid.components.identify_kernel`, acceleration, velocity and
+  displacement records) and time-varying (:func:`podbench.sysid.components.identify_lagged`).
 
 Every coupled run continues unloaded to ``horizon × n_samples`` steps; a run whose
 displacements exceed ``divergence ×`` the truth's peak there has diverged: its error is NaN
@@ -192,13 +192,15 @@ def _identified_rows(case: _Case, ident: dict, noise_levels, seeds, progress):
                     progress(f"{e.name}: {n_rec} records, noise {lev:g}, seed {seed}")
         return rows
     plans = [("acceleration", lev) for lev in noise_levels]
-    if e.name in ident.get("displacement_components", []):
-        plans += [("displacement", lev) for lev in ident.get("displacement_noise", [])]
+    for quantity in ("velocity", "displacement"):
+        if e.name in ident.get(f"{quantity}_components", []):
+            plans += [(quantity, lev) for lev in ident.get(f"{quantity}_noise", [])]
     n_rec = int(ident.get("lti_records", 4))
     for quantity, lev in plans:
         for seed in (seeds if lev > 0 else seeds[:1]):
             F, Y = case.records(n_rec, int(ident.get("lti_samples", 2 * n)), quantity, lev, seed)
-            fit = identify_kernel(F, Y, dt, n_lags=n, solver=ident.get("lti_solver", "realization"))
+            fit = identify_kernel(F, Y, dt, n_lags=n, solver=ident.get("lti_solver", "realization"),
+                                  options=dict(ident.get("lti_options", {})) or None)
             for kind, comp, detail in _lti_components(case, fit, quantity, (F, Y), ident):
                 for scheme in ("implicit", "two-step"):
                     row = case.run([comp], scheme)
@@ -212,13 +214,17 @@ def _identified_rows(case: _Case, ident: dict, noise_levels, seeds, progress):
 
 def _lti_components(case: _Case, fit, quantity: str, records, ident: dict):
     """The identified time-invariant component as fitted (``"lti"``) and made passive
-    (``"lti_passive"``, :func:`podbench.sysid.passivity.enforce_passivity`: the records'
-    least squares with the poles fixed, subject to discrete passivity), with a detail."""
+    (``"lti_passive"``, :func:`podbench.sysid.passivity.enforce_passivity` with the poles
+    fixed: the passive kernel closest to the fitted one over the coupled run's ``n`` lags
+    (``passive_fit = "kernel"``, default) or the records' passivity-constrained least squares
+    (``"records"``)), with a detail."""
     n, name = case.plan.n_samples, case.entry.name
     out = [("lti", Component((case.dof,), fit.kernel, quantity=quantity, name=name,
                              realization=fit.realization), "")]
     if ident.get("passive", True) and fit.realization is not None:
-        pr = enforce_passivity(fit.realization, quantity, n_lags=n, records=records)
+        by_records = ident.get("passive_fit", "kernel") == "records"
+        pr = enforce_passivity(fit.realization, quantity, n_lags=n,
+                               records=records if by_records else None)
         i = pr.info
         detail = (f"made passive (margin before {i['margin_before']:.3g}, poles moved "
                   f"{i['poles_moved']}, kernel change {i['kernel_change']:.3g})")

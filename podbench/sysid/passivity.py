@@ -19,14 +19,17 @@ the kernel's z-transform ``Σ_k H[k] z^{−k}``, ``Ψ(X) = (X − Xᴴ)/(2j)`` t
 * acceleration kernels: ``Y(z) = (h/2)(z+1)/(z−1) H(z)``, positive real iff
   ``Ψ(H(e^{jω})) ⪰ 0`` on ``0 < ω < π`` and ``H(1) + H(1)ᵀ ⪰ 0`` (its pole at ``z = 1``:
   a free mass's ``1/m``; a grounded component has ``H(1) = 0``);
+* velocity kernels: ``Y(z) = H(z)`` (the trapezoidal means of force and velocity carry the
+  same factor ``(1 + z⁻¹)/2``), positive real iff ``Φ(H(e^{jω})) ⪰ 0`` on ``0 ≤ ω ≤ π``,
+  ``Φ(X) = (X + Xᴴ)/2`` the Hermitian "real part" (checked on the grid and at ``z = 1``);
 * displacement kernels: ``Y(z) = (2/h)(z−1)/(z+1) H(z)``, positive real iff
   ``Ψ(H(e^{jω})) ⪯ 0`` on ``0 < ω < π`` and ``H(−1) + H(−1)ᵀ ⪰ 0`` (its pole at
   ``z = −1``).
 
-These are the continuous conditions ``Im A(jΩ) ≥ 0`` (accelerance) and ``Im X(jΩ) ≤ 0``
-(receptance) carried through the bilinear (trapezoidal) map, which preserves positive
-realness; ``Δt`` does not appear (``ω`` is per sample), nor do the units of force or
-response (the conditions are homogeneous).
+These are the continuous conditions ``Im A(jΩ) ≥ 0`` (accelerance), ``Re V(jΩ) ≥ 0``
+(mobility) and ``Im X(jΩ) ≤ 0`` (receptance) carried through the bilinear (trapezoidal)
+map, which preserves positive realness; ``Δt`` does not appear (``ω`` is per sample), nor
+do the units of force or response (the conditions are homogeneous).
 
 **Enforcement** (:func:`enforce_passivity`) of a state-space kernel ``(A, B, C, D)``
 (``H[0] = D``, ``H[k] = C A^{k−1} B``) by residue perturbation with the poles fixed
@@ -39,8 +42,9 @@ frequencies, with points spaced by each pole's bandwidth). Poles on or outside t
 circle are first moved to the radius ``ρ`` at which the kernel changes by at most
 :data:`POLE_LOSS` over its ``L`` lags, ``ρ^L = 1 − POLE_LOSS`` (a pole on the circle carries
 no measured damping; a lossless pole would need its residue exactly right); ``C`` is
-refitted to the identified kernel by least squares before the program. ``D`` is kept
-(it enters only the pole conditions at ``z = ±1``).
+refitted to the identified kernel by least squares before the program. ``D`` is refitted
+with ``C`` (it enters the acceleration and displacement conditions only at ``z = ±1``, the
+velocity condition at every frequency).
 """
 
 from __future__ import annotations
@@ -55,7 +59,7 @@ from podbench.errors import DimensionError, InputError
 __all__ = ["PassivityResult", "passivity_margin", "enforce_passivity", "realization_kernel",
            "QUANTITIES", "POLE_LOSS"]
 
-QUANTITIES = ("acceleration", "displacement")
+QUANTITIES = ("acceleration", "velocity", "displacement")
 POLE_LOSS = 0.01
 """A pole on or outside the unit circle is moved inside to the radius at which the kernel
 changes by this fraction over its lags (``ρ^L = 1 − POLE_LOSS``)."""
@@ -123,21 +127,28 @@ def _grid(lam, n: int) -> np.ndarray:
     return np.unique(w[(w > 0) & (w < np.pi)])
 
 
-def _psi(G, sign: float):
-    """``sign · Ψ(G)`` for a stack (m, p, p) of complex matrices."""
-    return sign * (G - np.conj(np.transpose(G, (0, 2, 1)))) / 2j
+def _psi(G, quantity: str):
+    """The condition's Hermitian matrices for a stack (m, p, p) of complex responses:
+    ``Ψ(G)`` (acceleration), ``Φ(G)`` (velocity), ``−Ψ(G)`` (displacement)."""
+    Gh = np.conj(np.transpose(G, (0, 2, 1)))
+    if quantity == "velocity":
+        return (G + Gh) / 2
+    return _sign(quantity) * (G - Gh) / 2j
+
+
+def _sign(quantity: str) -> float:
+    return -1.0 if quantity == "displacement" else 1.0
 
 
 def _pole_points(quantity: str):
-    return np.array([1.0 + 0j]) if quantity == "acceleration" else np.array([-1.0 + 0j])
+    return np.array([-1.0 + 0j]) if quantity == "displacement" else np.array([1.0 + 0j])
 
 
 def _eig_parts(modal, C, D, w, quantity):
     """Smallest eigenvalues and eigenvectors of the condition's matrices on ``w`` and at
     the pole point (the last row)."""
-    sign = 1.0 if quantity == "acceleration" else -1.0
     G = modal.response(C, D, np.exp(1j * w))
-    Pm = _psi(G, sign)
+    Pm = _psi(G, quantity)
     G0 = modal.response(C, D, _pole_points(quantity)).real
     P0 = (G0 + np.transpose(G0, (0, 2, 1))) / 2
     lam_w, U_w = np.linalg.eigh(Pm)
@@ -163,7 +174,7 @@ def passivity_margin(realization, quantity: str = "acceleration", *, n_grid: int
     scale = _peak(modal, C, D, w)
     i = int(np.argmin(lw))
     if l0[0] < lw[i]:
-        m, at = float(l0[0] / scale), 0.0 if quantity == "acceleration" else float(np.pi)
+        m, at = float(l0[0] / scale), float(np.pi) if quantity == "displacement" else 0.0
     else:
         m, at = float(lw[i] / scale), float(w[i])
     return (0.0 if abs(m) < TOL else m), at  # within ±TOL: round-off of a passive kernel
@@ -177,7 +188,6 @@ def _peak(modal, C, D, w) -> float:
 def _constraint_rows(modal, C, D, w, quantity, tol):
     """Linear constraints ``a · vec(C) ≥ b`` at the violating points of ``w`` (and the
     pole point), from the eigenvector of the smallest eigenvalue there."""
-    sign = 1.0 if quantity == "acceleration" else -1.0
     lw, Uw, l0, U0 = _eig_parts(modal, C, D, w, quantity)
     rows, rhs = [], []
     bad = np.flatnonzero(lw < tol)
@@ -185,9 +195,15 @@ def _constraint_rows(modal, C, D, w, quantity, tol):
         K = modal.K(np.exp(1j * w[bad]))                          # (m, n, p)
         u = Uw[bad]                                               # (m, p)
         Ku = np.einsum("mnp,mp->mn", K, u)                        # (m, n)
-        # uᴴ C K u = Σ_{r,n} conj(u_r) C_{rn} (K u)_n; its imaginary part (× sign)
-        coef = sign * np.imag(np.einsum("mr,mn->mrn", np.conj(u), Ku))
-        coef = np.concatenate([coef, np.zeros((bad.size, C.shape[0], C.shape[0]))], axis=2)
+        # uᴴ (C K + D) u = Σ_{r,n} conj(u_r) C_{rn} (K u)_n + Σ_{r,c} conj(u_r) D_{rc} u_c:
+        # its imaginary part (× sign; D real: none) or, velocity, its real part
+        cu = np.einsum("mr,mn->mrn", np.conj(u), Ku)
+        if quantity == "velocity":
+            coef = np.concatenate([cu.real, np.einsum("mr,mc->mrc", np.conj(u), u).real],
+                                  axis=2)
+        else:
+            coef = np.concatenate([_sign(quantity) * cu.imag,
+                                   np.zeros((bad.size, C.shape[0], C.shape[0]))], axis=2)
         rows.append(coef.reshape(bad.size, -1))
         rhs.append(np.zeros(bad.size))
     if l0[0] < tol:

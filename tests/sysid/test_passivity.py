@@ -26,7 +26,8 @@ def _exact(quantity, scale=1.0):
 
 def _supply(real, quantity, g):
     """Σ h v̄ ḡ from rest (the energy the component receives), ``v`` from the kernel's
-    response by the trapezoidal rule (acceleration) or the displacement difference."""
+    response by the trapezoidal rule (acceleration), the mean (velocity) or the displacement
+    difference."""
     g = np.concatenate([[0.0], g[1:]])  # podbench's convention: g_0 = 0, from rest
     A, B, C, D = real
     x, y = np.zeros(A.shape[0]), np.empty(g.size)
@@ -37,6 +38,8 @@ def _supply(real, quantity, g):
     if quantity == "acceleration":
         v = np.concatenate([[0.0], np.cumsum(DT / 2 * (y[1:] + y[:-1]))])
         vbar = (v[1:] + v[:-1]) / 2
+    elif quantity == "velocity":
+        vbar = (y[1:] + y[:-1]) / 2
     else:
         vbar = np.diff(y) / DT
     return DT * np.cumsum(vbar * gbar)
@@ -48,14 +51,14 @@ def _nonpassive(quantity):
     return H, (A, B, C * (1 + 0.3 * rng.standard_normal(C.shape)), D)
 
 
-@pytest.mark.parametrize("quantity", ["acceleration", "displacement"])
+@pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 @pytest.mark.parametrize("scale", [0.01, 1.0])
 def test_exact_newmark_kernels_are_passive(quantity, scale):
     _, real = _exact(quantity, scale)
     assert passivity_margin(real, quantity)[0] >= -1e-9
 
 
-@pytest.mark.parametrize("quantity", ["acceleration", "displacement"])
+@pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_the_frequency_condition_is_the_energy_balance(quantity):
     """An independent check of the criterion: driven at the frequency where the margin is
     most negative, a non-passive kernel gives back more energy than it received (the
@@ -72,7 +75,7 @@ def test_the_frequency_condition_is_the_energy_balance(quantity):
         assert s.min() >= -1e-9 * np.abs(s).max()
 
 
-@pytest.mark.parametrize("quantity", ["acceleration", "displacement"])
+@pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_enforcement_makes_the_coupling_stable(quantity):
     beam = load_structure("lti_beam")
     H, bad = _nonpassive(quantity)
@@ -90,7 +93,7 @@ def test_enforcement_makes_the_coupling_stable(quantity):
     assert np.linalg.norm(Hp - Hb) < np.linalg.norm(Hb - H)
 
 
-@pytest.mark.parametrize("quantity", ["acceleration", "displacement"])
+@pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_a_passive_kernel_is_left_alone_and_units_do_not_matter(quantity):
     _, real = _exact(quantity)
     H = realization_kernel(real, L)
@@ -109,4 +112,4 @@ def test_a_passive_kernel_is_left_alone_and_units_do_not_matter(quantity):
 def test_bad_quantity():
     _, real = _exact("acceleration")
     with pytest.raises(InputError, match="quantity must be one of"):
-        enforce_passivity(real, "velocity", n_lags=L)
+        enforce_passivity(real, "jerk", n_lags=L)
