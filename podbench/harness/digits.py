@@ -25,11 +25,12 @@ DIAGNOSTIC_COLUMNS = ("condition_number", "solver_condition", "solver_amplificat
                       "solver_growth", "solver_iterations", "solver_solves")
 
 
-#: Relative floors that are round-off on clean data, written as 0 below
-#: :data:`ROUNDOFF_FLOOR` and to two significant digits above: ``auto``'s kernel test (the
-#: Hankel floor of the exact kernel, 1e-17…2e-13 on clean records, digits that are round-off
-#: and differ between BLAS kernels; at least 2.7e-7 with 0.3 % noise).
-ROUNDOFF_COLUMNS = ("solver_kernel_floor",)
+#: Estimates that are round-off on clean data, written as 0 below :data:`ROUNDOFF_FLOOR`
+#: (and to two significant digits above): ``auto``'s noise floor from its kernel test is a
+#: ratio of Hankel singular values, 1e-15…1e-13 on clean double-precision records (digits
+#: that are round-off and differ between BLAS kernels), 1e-7…5e-7 on records rounded to
+#: single precision, at least 5e-3 with 0.3 % noise.
+ROUNDOFF_COLUMNS = ("solver_noise_floor",)
 ROUNDOFF_FLOOR = 1e-12
 
 

@@ -118,7 +118,7 @@ def test_auto_picks_exact_on_clean_and_robust_on_noisy():
     Qs, B, dt, X = _chain()
     clean = dc.deconvolve(Qs, B, dt, "auto", return_info=True)
     assert clean.info["choice"] == "block" and clean.info["noise_test"] == "kernel"
-    assert clean.info["kernel_floor"] < 1e-12  # the exact kernel's Hankel floor: round-off
+    assert clean.info["noise_floor"] < 1e-12  # the exact kernel's Hankel floor: round-off
     np.testing.assert_allclose(clean.X, dc.deconvolve(Qs, B, dt, "block"), rtol=0, atol=0)
     Qs, B, dt, X = _chain(noise=0.01)
     noisy = dc.deconvolve(Qs, B, dt, "auto", return_info=True)

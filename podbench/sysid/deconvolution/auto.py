@@ -8,14 +8,17 @@ exact block solution runs first — it is the answer on clean data and costs
 ``O(k³ n log² n)`` — and its kernel is tested: records of a linear system of finite order
 give as exact kernel that system's impulse response, whose block Hankel matrix has rank at
 most the order, so its trailing singular values are round-off; noise enters the exact
-kernel as ``A⁻¹E``, of full rank, and lifts them. The test statistic is
-:func:`kernel_floor`, ``σ_j/σ_1`` at ``j = ⌊0.9·N⌋`` of the Hankel matrix of the kernel (at
-most 256 × 256, one SVD without vectors); the data are clean when it is at most
-``rank_tol`` (default :data:`AUTO_RANK_TOL`, 1e-10). Measured (benchmarks/auto_test.py;
-eight structures — 150- and 40-storey shear frames, the LTI beam at 10 kHz and 1 kHz, the
-truss, two chains, the aluminium beam — four load shapes, ML and SL): at most 2e-13 on
-every clean record, at least 2.7e-7 with 0.3 % noise on the responses, 5e-9 at 0.01 %. Its
-cost on the 150-DOF frame (n = 1000, k = 4): 3 ms, 0.08× the ML fit with ``"block"``
+kernel as ``A⁻¹E``, of full rank, and lifts them (:func:`hankel_floor`, ``σ_j`` at
+``j = ⌊0.9·N⌋`` of a Hankel matrix of at most 256 × 256, one SVD without vectors). The
+floor is read as a noise level by comparing it with the floor of reference noise, white at
+``threshold`` × each column's RMS, through the same block solve
+(:func:`kernel_noise_floor`): ``noise_floor = threshold · σ_j(data) / σ_j(reference)``; the
+data are clean when it is at most ``threshold``. Measured (benchmarks/auto_test.py; eight
+structures — 150- and 40-storey shear frames, the LTI beam at 10 kHz and 1 kHz, the truss,
+two chains, the aluminium beam — four load shapes, ML and SL, noise per measured channel on
+the responses): round-off (< 1e-12) on every exact record, 1e-7…5e-7 on records rounded to
+single precision, and 1–10× the true level on noisy ones (0.3 %: 5e-3 and more). Its cost
+on the 150-DOF frame (n = 1000, k = 4) is a second block solve and two SVDs
 (benchmarks/defaults.py). A clean record of a *nonlinear* structure has no finite-order
 kernel and may be judged noisy (the robust solution is then returned).
 
@@ -59,8 +62,8 @@ The subspace path is the only one within 10× of ``block`` at n = 8000, k = 16 a
 or close to best on the ML sets of Chapter 4 and on Chapter 5's linear beam; on the
 rubber-band beam's ML records cgls is better.
 ``info["choice"]`` records the solver whose solution was returned, ``info["noise_test"]``
-the test that decided (``"kernel"`` or ``"evidence"``) and ``info["kernel_floor"]`` or
-``info["noise_floor"]`` its statistic.
+the test that decided (``"kernel"`` or ``"evidence"``) and ``info["noise_floor"]`` its
+estimate of the relative noise level.
 """
 
 from __future__ import annotations
@@ -81,19 +84,15 @@ from podbench.sysid.deconvolution.subspace import Subspace
 from podbench.sysid.deconvolution.system import ConvolutionSystem
 from podbench.sysid.params import COUNT, POSITIVE, Options
 
-__all__ = ["Auto", "AUTO_THRESHOLD", "AUTO_TEST_UNKNOWNS", "AUTO_RANK_TOL", "KERNEL_TEST_SIZE",
-           "kernel_floor"]
-
-AUTO_RANK_TOL = 1e-10
-"""Default ``rank_tol`` of :class:`Auto`: the largest relative Hankel floor of the exact
-kernel (:func:`kernel_floor`) treated as clean. Measured (benchmarks/auto_test.py): at most
-2e-13 on clean records, at least 2.7e-7 with 0.3 % noise per measured channel."""
+__all__ = ["Auto", "AUTO_THRESHOLD", "AUTO_TEST_UNKNOWNS", "KERNEL_TEST_SIZE", "hankel_floor",
+           "kernel_noise_floor"]
 
 KERNEL_TEST_SIZE = 256
-"""Largest side of the kernel test's Hankel matrix (:func:`kernel_floor`)."""
+"""Largest side of the kernel test's Hankel matrix (:func:`hankel_floor`)."""
 
 AUTO_THRESHOLD = 1e-3
-"""Default ``threshold`` of :class:`Auto`: a relative noise floor below 0.1 % counts as clean."""
+"""Default ``threshold`` of :class:`Auto`: a relative noise level ``σ/rms(y)`` below 0.1 %
+counts as clean (either test)."""
 
 AUTO_TEST_UNKNOWNS = 256
 """Unknowns ``k·m`` of the noise-floor test's evidence window by default (``m = max(16,
@@ -108,9 +107,10 @@ class Auto(Solver):
     Parameters
     ----------
     threshold : float
-        Largest relative noise floor ``σ/rms(y)`` (the kernel solver's evidence estimate,
-        smallest over the columns of ``B``) treated as clean by the evidence test, used
-        when ``"block"`` refuses the system (default :data:`AUTO_THRESHOLD`).
+        Largest relative noise level ``σ/rms(y)`` treated as clean (default
+        :data:`AUTO_THRESHOLD`): by the kernel test (:func:`kernel_noise_floor`, when
+        ``"block"`` solves the system), else the kernel solver's evidence estimate (smallest
+        over the columns of ``B``).
     max_growth : float
         Largest growth ``‖A‖‖X‖/‖B‖`` of the block substitution accepted (default 1e4;
         measured 1.5 on the clean LTI beam, overflow with 0.01 % noise on the forces).
@@ -122,28 +122,23 @@ class Auto(Solver):
         for the test, the kernel solver's own default with ``robust="kernel"``).
     robust : {"subspace", "kernel", "realization"}
         The solver used on noisy data (default ``"subspace"``; each with its defaults).
-    rank_tol : float
-        Largest relative Hankel floor of the exact block kernel (:func:`kernel_floor`)
-        treated as clean (default :data:`AUTO_RANK_TOL`, 1e-10).
 
     Diagnostics: those of the solver chosen, plus ``choice`` (``"block"``, ``"ls"``,
     ``"subspace"``, ``"realization"`` or ``"kernel"``), ``noise_test`` (``"kernel"`` or
-    ``"evidence"``), ``kernel_floor`` (kernel test) or ``noise_floor`` (evidence test, and
-    with ``robust="kernel"``), ``threshold``, ``rank_tol``.
+    ``"evidence"``), ``noise_floor`` (the deciding test's estimate; with ``robust="kernel"``
+    after the kernel test also ``evidence_noise_floor``), ``threshold``.
     """
 
     name = "auto"
     structured = True
     _parameter_constraints = {"threshold": [POSITIVE], "max_growth": [POSITIVE],
                               "kernel": [Options("dc", "tc")], "n_hyper": [None, COUNT],
-                              "robust": [Options("subspace", "kernel", "realization")],
-                              "rank_tol": [POSITIVE]}
+                              "robust": [Options("subspace", "kernel", "realization")]}
 
     def __init__(self, *, threshold: float = AUTO_THRESHOLD, max_growth: float = 1e4,
                  kernel: str = "dc", n_hyper: int | None = DEFAULT_N_HYPER,
-                 robust: str = "subspace", rank_tol: float = AUTO_RANK_TOL):
+                 robust: str = "subspace"):
         self.threshold = threshold
-        self.rank_tol = rank_tol
         self.max_growth = max_growth
         self.kernel = kernel
         self.n_hyper = n_hyper
@@ -159,13 +154,12 @@ class Auto(Solver):
         return KernelRegularized(kernel=self.kernel, n_hyper=m)
 
     def _solve(self, system: ConvolutionSystem):
-        extra: dict[str, object] = {"threshold": float(self.threshold),
-                                    "rank_tol": float(self.rank_tol)}
+        extra: dict[str, object] = {"threshold": float(self.threshold)}
         exact = self._block(system)
-        if exact is not None:  # the kernel test: is the exact kernel of finite order?
-            floor = kernel_floor(system.blocks(exact.X), exact.info["shift"])
-            extra.update(noise_test="kernel", kernel_floor=floor)
-            if floor <= self.rank_tol:
+        if exact is not None:  # the kernel test, calibrated by reference noise
+            floor = kernel_noise_floor(system, exact, self.threshold)
+            extra.update(noise_test="kernel", noise_floor=floor)
+            if floor <= self.threshold:
                 return exact.X, {**_info(exact), "choice": "block", **extra}
             return self._robust(system, None, extra)
         robust = self._test(system)  # block refused: the kernel solver's evidence decides
@@ -199,7 +193,7 @@ class Auto(Solver):
         robust, hyper = evidence if evidence is not None else (self._test(system), None)
         if hyper is None:
             hyper = robust.hyperparameters(system)
-            extra = {**extra, "noise_floor": hyper["noise_floor_min"]}
+            extra = {**extra, "evidence_noise_floor": hyper["noise_floor_min"]}
         X, info = robust._solve(system, hyper)
         return X, {**info, "choice": "kernel", **extra}
 
@@ -208,30 +202,65 @@ def _info(result) -> dict:
     return {k: v for k, v in result.info.items() if k not in ("solver", "residual")}
 
 
-def kernel_floor(X: np.ndarray, shift: int = 0, size: int = KERNEL_TEST_SIZE) -> float:
-    """Relative floor ``σ_j/σ_1`` (``j = ⌊0.9·N⌋``, 0-based) of the block Hankel matrix of
-    the exact kernel ``X`` (``(n, k, r)`` samples, lags ``1 … n−1−shift``), the noise test
-    of :class:`Auto`.
+def hankel_floor(X: np.ndarray, shift: int = 0, size: int = KERNEL_TEST_SIZE,
+                 blocks: tuple[int, int] | None = None) -> float:
+    """Singular value ``σ_j`` (``j = ⌊0.9·N⌋``, 0-based) of the block Hankel matrix of the
+    kernel ``X`` (``(n, k, r)`` samples, lags ``1 … n−1−shift``); 0 for a kernel too short.
 
     ``H[i, j] = X[1 + i + j]`` (block ``k × r``), ``L = min(size // k, n'/2)`` block rows
     and ``J = min(size // r, n' − L)`` block columns (``N = min(L·k, J·r)`` singular
-    values; at most ``size × size``). The kernel of records from a linear system of finite
-    order is the impulse response of that system, whose Hankel matrix has rank at most its
-    order: its trailing singular values are round-off. Noise in the records enters the
-    exact kernel as ``A⁻¹E``, of full rank, and lifts them. Dimensionless (the ratio is
-    unchanged when the forces or the responses change units).
+    values; at most ``size × size``, one SVD without vectors; ``blocks=(L, J)`` imposes
+    them, for ``L + J`` lags or more). The kernel of records from a
+    linear system of finite order is the impulse response of that system, whose Hankel
+    matrix has rank at most its order: its trailing singular values are round-off. Noise in
+    the records enters the exact kernel as ``A⁻¹E``, of full rank, and lifts them.
     """
     n, k, r = X.shape
     X = X[1 : n - shift]
     m = X.shape[0]
     if m < 4:
         return 0.0
-    L = max(1, min(size // k, m // 2))
-    J = max(1, min(size // r, m - L))
+    L, J = _hankel_blocks(m, k, r, size) if blocks is None else blocks
     H = np.empty((L * k, J * r))
     for i in range(L):
         H[i * k : (i + 1) * k] = X[i : i + J].transpose(1, 0, 2).reshape(k, J * r)
     sv = np.linalg.svd(H, compute_uv=False)
-    if not sv[0] > 0:
-        return 0.0
-    return float(sv[int(0.9 * len(sv))] / sv[0])
+    return float(sv[int(0.9 * len(sv))])
+
+
+def _hankel_blocks(m: int, k: int, r: int, size: int) -> tuple[int, int]:
+    """Block rows and columns of :func:`hankel_floor`'s matrix for ``m`` lags."""
+    L = max(1, min(size // k, m // 2))
+    return L, max(1, min(size // r, m - L))
+
+
+def kernel_noise_floor(system: ConvolutionSystem, exact, threshold: float) -> float:
+    """The kernel test's noise estimate: ``threshold · σ_j(H(X)) / σ_j(H(X_ref))``.
+
+    ``X`` is the exact block kernel of the records (``exact``, a solved
+    :class:`~podbench.deconvolution.BlockSubstitution` result) and ``X_ref = A⁻¹E_ref`` the
+    exact kernel of reference noise alone: white, standard normal (a fixed stream, seed 0),
+    scaled per load case and column of ``B`` to ``threshold`` × that column's RMS — noise
+    at the level the test accepts, through the same triangular solve. ``σ_j`` is
+    :func:`hankel_floor`. The estimate is at most ``threshold`` when the records' Hankel
+    floor is no higher than that of noise at ``threshold``. Noise floors scale with the
+    noise level, so the estimate reads as a relative noise level ``σ/rms(y)``; it is
+    unchanged when the forces or the responses change units.
+    """
+    Y = system.Y  # (n, n_cases, r)
+    shift = exact.info["shift"]
+    n, n_cases, r = Y.shape
+    # the Hankel matrix reads lags 1 … L+J−1 only, which the first shift + L + J equations fix
+    L, J = _hankel_blocks(max(n - shift - 1, 1), system.k, r, KERNEL_TEST_SIZE)
+    n_ref = min(n, shift + L + J + 1)
+    rms = np.sqrt(np.mean(Y**2, axis=0))  # (n_cases, r), over the whole record
+    E = np.random.default_rng(0).standard_normal((n_ref, n_cases, r)) * (threshold * rms)
+    ref_system = ConvolutionSystem([q[:, :n_ref] for q in system.Q_list],
+                                   E.transpose(1, 0, 2).reshape(-1, r), system.dt)
+    with np.errstate(all="ignore"):
+        ref = BlockSubstitution(max_growth=1e300).solve(ref_system)
+    f_data = hankel_floor(system.blocks(exact.X), shift, blocks=(L, J))
+    f_ref = hankel_floor(ref_system.blocks(ref.X), shift, blocks=(L, J))
+    if not f_ref > 0:
+        return 0.0 if f_data == 0 else float("inf")
+    return float(threshold * f_data / f_ref)
