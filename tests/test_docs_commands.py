@@ -127,6 +127,15 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/study_time.py --baseline-tree PREVIOUS_CHECKOUT": NOT_RUN(
         "times two checkouts of a whole study against the reference workload (tens of "
         "minutes); the study commands themselves are run (slow)"),
+    "python benchmarks/defaults.py": NOT_RUN(
+        "the default-solver benchmark on a 150-DOF frame (minutes, dense `ls` included); its "
+        "solvers are tested in tests/sysid/test_default_solver.py"),
+    "python benchmarks/defaults.py --n 2000 --k 4 --no-ls --dt 1e-4": NOT_RUN(
+        "as above, at n = 2000"),
+    "python benchmarks/auto_test.py": NOT_RUN(
+        "the noise test's whole confusion table (tens of minutes: the robust solver runs on "
+        "every noisy point); its reduced form below is run"),
+    "python benchmarks/auto_test.py --cases truss,frame40 --loads rect5 --on W": SLOW,
     "python -m podbench.report.nonlinearity": SLOW,
     "python -m tests.sysid.noise_study": SLOW,
     "python benchmarks/run.py --quick": SLOW,
@@ -171,6 +180,8 @@ BLOCKS: dict[tuple[str, str], object] = {
      "# n=1000,k=6 and n=8000,k=16 at 1 %, subspace and auto"): "shell",
     ("benchmarks/README.md", "python benchmarks/study_time.py                     # podbench "
      "run chapter5, --jobs 2, no figures"): "shell",
+    ("benchmarks/README.md", "python benchmarks/defaults.py                        # n = 1000, "
+     "k = 4, dt = 1e-3 s"): "shell",
     # Python blocks
     ("README.md", "p = model.predict(target, coverage=0.9)     # model.predict(target) still "
      "returns the array"): "python",

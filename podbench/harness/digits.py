@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "COVERAGE_DECIMALS", "diagnostic_digits",
-           "coverage_digits"]
+__all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDOFF_FLOOR",
+           "COVERAGE_DECIMALS", "diagnostic_digits", "coverage_digits"]
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
@@ -25,11 +25,24 @@ DIAGNOSTIC_COLUMNS = ("condition_number", "solver_condition", "solver_amplificat
                       "solver_growth", "solver_iterations", "solver_solves")
 
 
+#: Estimates that are round-off on clean data, written as 0 below :data:`ROUNDOFF_FLOOR`
+#: (and to two significant digits above): ``auto``'s noise floor from its kernel test is a
+#: ratio of Hankel singular values, 1e-15…8e-11 on exact double-precision records (digits
+#: that are round-off and differ between BLAS kernels), 3e-8…8e-5 on records rounded to
+#: single precision, at least 2.5e-3 with 0.3 % noise (benchmarks/auto_test.py).
+ROUNDOFF_COLUMNS = ("solver_noise_floor",)
+ROUNDOFF_FLOOR = 1e-9
+
+
 def diagnostic_digits(name: str, value):
     """``value`` of diagnostic ``name`` at the digits the tables write (:data:`ESTIMATE_COLUMNS`,
-    :data:`DIAGNOSTIC_COLUMNS`: two significant digits); other values unchanged."""
-    if name in ESTIMATE_COLUMNS + DIAGNOSTIC_COLUMNS and isinstance(value, (int, float)) \
-            and not isinstance(value, bool) and np.isfinite(value) and value != 0:
+    :data:`DIAGNOSTIC_COLUMNS`: two significant digits; :data:`ROUNDOFF_COLUMNS`: 0 below
+    :data:`ROUNDOFF_FLOOR`, else two significant digits); other values unchanged."""
+    if name in ESTIMATE_COLUMNS + DIAGNOSTIC_COLUMNS + ROUNDOFF_COLUMNS \
+            and isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and np.isfinite(value) and value != 0:
+        if name in ROUNDOFF_COLUMNS and abs(value) < ROUNDOFF_FLOOR:
+            return 0.0
         return float(f"{value:.2g}")
     return value
 

@@ -13,6 +13,11 @@ def test_conditioning_and_iterations_are_written_to_two_digits():
         "solver_iterations", 189) == 190.0
     assert diagnostic_digits("condition_number", 117.568) == 120.0
     assert diagnostic_digits("solver_noise_floor", 1.87089e-06) == 1.9e-06
+    # auto's noise floor: round-off written as 0 (2.7e-15 and 3.1e-15 can be the same fit on
+    # two kernels), an estimate above 1e-9 to two digits
+    assert diagnostic_digits("solver_noise_floor", 2.7e-15) == 0.0
+    assert diagnostic_digits("solver_noise_floor", 8.3e-11) == 0.0
+    assert diagnostic_digits("solver_noise_floor", 2.7412e-07) == 2.7e-07
     # other columns, zeros and NaN are left alone
     assert diagnostic_digits("fit_residual", 0.123456) == 0.123456
     assert diagnostic_digits("solver_iterations", 0) == 0

@@ -28,7 +28,7 @@ class MySL:
     """A method of one's own: the contract is fit(records, *, basis=None) -> self,
     predict(record) -> (m, n), modes_; nothing else is required."""
 
-    def __init__(self, *, n_modes=None, solver="ls"):
+    def __init__(self, *, n_modes=None, solver="auto"):  # SL's own default
         self.n_modes = n_modes
         self.solver = solver
 

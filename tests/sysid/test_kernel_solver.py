@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import sklearn.base
 
-from podbench.errors import InputError
+from podbench.errors import IllConditionedError, InputError
 from podbench.sysid import deconvolution as dc
 from podbench.sysid.deconvolution.kernel import _apply_S, _apply_St, _factor, _scales
 
@@ -117,19 +117,24 @@ def test_evidence_is_true_and_maximized():
 def test_auto_picks_exact_on_clean_and_robust_on_noisy():
     Qs, B, dt, X = _chain()
     clean = dc.deconvolve(Qs, B, dt, "auto", return_info=True)
-    assert clean.info["choice"] == "block" and clean.info["noise_floor"] < 1e-4
+    assert clean.info["choice"] == "block" and clean.info["noise_test"] == "kernel"
+    assert clean.info["noise_floor"] < 1e-12  # the exact kernel's Hankel floor: round-off
     np.testing.assert_allclose(clean.X, dc.deconvolve(Qs, B, dt, "block"), rtol=0, atol=0)
     Qs, B, dt, X = _chain(noise=0.01)
     noisy = dc.deconvolve(Qs, B, dt, "auto", return_info=True)
-    assert noisy.info["choice"] == "subspace" and noisy.info["noise_floor"] > 1e-3
+    # noise amplified past max_growth: block refuses, the kernel solver's evidence decides
+    with pytest.raises(IllConditionedError):
+        dc.deconvolve(Qs, B, dt, dc.BlockSubstitution(max_growth=1e4))
+    assert noisy.info["noise_test"] == "evidence" and noisy.info["noise_floor"] > 1e-3
+    assert noisy.info["choice"] == "subspace"
     np.testing.assert_allclose(noisy.X, dc.deconvolve(Qs, B, dt, "subspace"), rtol=0, atol=0)
     assert noisy.info["order"] == dc.deconvolve(Qs, B, dt, "subspace",
                                                 return_info=True).info["order"]
     kern = dc.deconvolve(Qs, B, dt, dc.Auto(robust="kernel"), return_info=True)
-    assert kern.info["choice"] == "kernel" and kern.info["noise_floor"] > 1e-3
+    assert kern.info["noise_floor"] > 1e-3 and kern.info["choice"] == "kernel"
     np.testing.assert_allclose(kern.X, dc.deconvolve(Qs, B, dt, "kernel"), rtol=0, atol=0)
     real = dc.deconvolve(Qs, B, dt, dc.Auto(robust="realization"), return_info=True)
-    assert real.info["choice"] == "realization" and real.info["noise_floor"] > 1e-3
+    assert real.info["noise_floor"] > 1e-3 and real.info["choice"] == "realization"
     np.testing.assert_allclose(real.X, dc.deconvolve(Qs, B, dt, "realization"), rtol=0, atol=0)
     assert real.info["order"] == dc.deconvolve(Qs, B, dt, "realization",
                                                return_info=True).info["order"]

@@ -197,11 +197,14 @@ class SingleLoad(_ForcedMethod):
         Cumulative energy fraction (Eq. 2.3, σ-based) when ``n_modes`` is None (0.99).
     solver : str
         Deconvolution solver name (:func:`podbench.deconvolution.available_solvers`):
-        ``"ls"`` (default, Eq. 3.76) or ``"tls"`` (Eqs. 3.78–3.80), dense; or a structured
-        solver that never forms the convolution matrix: ``"block"`` (exact, equals ``"ls"``
-        for forces that start with zeros), ``"fft"`` or ``"cgls"`` (Tikhonov-regularized,
-        for noisy data), ``"stls"`` (structured total least squares: the kernel and a
-        correction of the force samples); all: :func:`podbench.deconvolution.available_solvers`.
+        ``"auto"`` (default: the exact ``"block"``, else ``"ls"``, on data its noise test
+        finds clean, the noise-robust ``"subspace"`` otherwise;
+        :class:`~podbench.deconvolution.Auto`); ``"ls"`` (Eq. 3.76, the dissertation's dense
+        least squares) or ``"tls"`` (Eqs. 3.78–3.80), dense; or a structured solver that
+        never forms the convolution matrix: ``"block"`` (exact, equals ``"ls"`` for forces
+        that start with zeros), ``"fft"`` or ``"cgls"`` (Tikhonov-regularized, for noisy
+        data), ``"stls"`` (structured total least squares: the kernel and a correction of
+        the force samples); all: :func:`podbench.deconvolution.available_solvers`.
     solver_options : dict, optional
         Keyword options of the solver (e.g. ``{"rcond": 1e-3}`` or
         ``{"noise_level": 1e-4}`` for ``"tls"``).
@@ -244,7 +247,7 @@ class SingleLoad(_ForcedMethod):
     _parameter_constraints = {"n_modes": N_MODES, "energy": ENERGY, **SOLVER_PARAMS,
                               "tol": TOL, "max_growth": MAX_GROWTH, "n_lags": N_LAGS}
 
-    def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
+    def __init__(self, *, n_modes=None, energy=0.99, solver="auto", solver_options=None,
                  tol=1e-6, max_growth=1e8, n_lags=None):
         self.n_modes = n_modes
         self.energy = energy
@@ -362,9 +365,10 @@ class MultipleLoad(_ForcedMethod):
         ``k``; default the number of load cases (or ``basis.shape[1]``). Must not exceed it;
         more load cases than modes give an over-determined system (an extension).
     solver : str
-        ``"ls"`` (default) or ``"tls"`` (dense); ``"block"`` (exact, as many load cases as
-        modes), ``"fft"``, ``"cgls"``, ``"stls"`` (structured); see
-        :mod:`podbench.deconvolution`.
+        ``"auto"`` (default: exact on clean data, ``"subspace"`` on noisy data,
+        :class:`~podbench.deconvolution.Auto`), ``"ls"`` (the dissertation's) or ``"tls"``
+        (dense); ``"block"`` (exact, as many load cases as modes), ``"fft"``, ``"cgls"``,
+        ``"stls"`` (structured); see :mod:`podbench.deconvolution`.
     solver_options : dict, optional
         Keyword options of the solver.
     max_cond : float
@@ -421,7 +425,7 @@ class MultipleLoad(_ForcedMethod):
     _parameter_constraints = {"n_modes": N_MODES, **SOLVER_PARAMS, "max_cond": MAX_COND,
                               "max_growth": MAX_GROWTH, "basis": BASES, "n_lags": N_LAGS}
 
-    def __init__(self, *, n_modes=None, solver="ls", solver_options=None, max_cond=1e10,
+    def __init__(self, *, n_modes=None, solver="auto", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None):
         self.n_modes = n_modes
         self.solver = solver

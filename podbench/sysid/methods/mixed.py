@@ -102,8 +102,10 @@ class MixedResponse(PODMethod):
     energy : float
         Cumulative energy fraction (Eq. 2.3, σ-based) when ``n_modes`` is None (0.99).
     solver : str
-        Deconvolution solver, ``"ls"`` (default) or ``"tls"`` (dense); ``"block"``,
-        ``"fft"``, ``"cgls"`` (structured); see :mod:`podbench.deconvolution`.
+        Deconvolution solver: ``"auto"`` (default: exact on clean data, ``"subspace"`` on
+        noisy data, :class:`~podbench.deconvolution.Auto`), ``"ls"`` (the dissertation's) or
+        ``"tls"`` (dense); ``"block"``, ``"fft"``, ``"cgls"`` (structured); see
+        :mod:`podbench.deconvolution`.
     solver_options : dict, optional
         Keyword options of the solver.
     velocity_scaling : {"ratio", "finite_difference"}
@@ -162,7 +164,7 @@ class MixedResponse(PODMethod):
                               "velocity_scaling": [Options(*_SCALINGS)], "tol": TOL,
                               "max_growth": MAX_GROWTH}
 
-    def __init__(self, *, n_modes=None, energy=0.99, solver="ls", solver_options=None,
+    def __init__(self, *, n_modes=None, energy=0.99, solver="auto", solver_options=None,
                  velocity_scaling="finite_difference", tol=1e-6, max_growth=1e8):
         self.n_modes = n_modes
         self.energy = energy
