@@ -6,7 +6,7 @@ The choice is made from the training data only, by one of two noise tests.
 a well-conditioned first force sample, growth at most ``max_growth``, default 1e4). The
 exact block solution runs first — it is the answer on clean data and costs
 ``O(k³ n log² n)`` — and its kernel is tested: records of a linear system of finite order
-give as exact kernel that system's impulse response, whose block Hankel matrix has rank at
+give as their exact kernel that system's impulse response, whose block Hankel matrix has rank at
 most the order, so its trailing singular values are round-off; noise enters the exact
 kernel as ``A⁻¹E``, of full rank, and lifts them (:func:`hankel_floor`, ``σ_j`` at
 ``j = ⌊0.9·N⌋`` of a Hankel matrix of at most 256 × 256, one SVD without vectors). The

@@ -100,8 +100,9 @@ differs from the training one: SL and POVR scale each mode's training response b
 one's), exactly right when the target has the training pattern; the spread of the ``s_i``
 (:func:`diagonal_inconsistency`, ``D``) is added as a model-form part of relative RMS ``D``
 (half-width ``z·s_diag``, ``‖s_diag‖_F = D‖Ŵ‖_F``, Gaussian reading). Measured on the
-calibration study: Spearman(error_estimate, total_error) over all 402 predictions 0.47 →
-0.86, within a factor of 2 0.26 → 0.42 (SL's estimate/realized median 1.7); SL coverage
+calibration study (results/calibration, before → after): Spearman(error_estimate,
+total_error) over all 402 predictions 0.38 → 0.86, within a factor of 2 0.26 → 0.38 (SL's
+estimate/realized median 1.7); SL coverage
 0.48 → 1.0 (LTI), 0.53 → 0.83 (LTV); POVR 0.40 → 0.79 (LTV). It errs wide where a mode
 is barely excited by the training load (``u_i`` near 0: the truss's face-10 double hit,
 ``D`` = 5910 against a realized 49, which SL's regularized deconvolution tames);

@@ -112,7 +112,6 @@ class PODMethod(ParamsMixin):
                                            reuse_choices=reuse_choices)
         return self.band_calibration_
 
-
     def frozen_params(self) -> dict:
         """Hyperparameters that fix this fit's data-driven choices, for the refits of the
         prediction band (:mod:`podbench.sysid.methods.bands`): a fold refitted with
