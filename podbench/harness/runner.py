@@ -275,16 +275,22 @@ class _Truth:
         return r
 
 
-def _fit(spec, scenario: Scenario, truth: _Truth, linear: bool, basis=None):
-    """A fresh estimator of ``spec`` fitted on its training cases (of the linear twin of the
-    structure if ``linear``), in ``basis`` if given."""
+def fit_method(spec, scenario: Scenario, train_case, conditioning, basis=None):
+    """A fresh estimator of ``spec`` fitted on its training cases (``train_case(name)``: the
+    training record of a case, conditioned), in ``basis`` if given; wrapped so that its
+    predictions are un-windowed where ``conditioning`` applies an exponential window."""
     est = build_estimator(spec, scenario.method, scenario.folder)
-    train = training_records(spec, scenario.method, lambda c: truth.train(c, linear))
-    est = est.fit(train, basis=basis)
-    cond = truth.conditioning
-    if cond is not None and cond.exponential_window is not None:
-        return WindowCorrected(est, cond.exponential_window)  # predictions un-windowed
+    est = est.fit(training_records(spec, scenario.method, train_case), basis=basis)
+    if conditioning is not None and conditioning.exponential_window is not None:
+        return WindowCorrected(est, conditioning.exponential_window)  # predictions un-windowed
     return est
+
+
+def _fit(spec, scenario: Scenario, truth: _Truth, linear: bool, basis=None):
+    """:func:`fit_method` on the truth's training cases (of the linear twin of the structure
+    if ``linear``)."""
+    return fit_method(spec, scenario, lambda c: truth.train(c, linear), truth.conditioning,
+                      basis)
 
 
 _EXPECTED = (PodbenchError, np.linalg.LinAlgError)

@@ -30,9 +30,9 @@ from podbench.errors import PodbenchError, ScenarioFileError
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
-from podbench.harness.runner import read_case
+from podbench.harness.runner import fit_method, read_case
 from podbench.study.claims import SeedRows, comparison_rows, seed_names
-from podbench.study.estimators import all_cases, build_estimator, training_records
+from podbench.study.estimators import all_cases
 from podbench.study.experiments import (
     generate_seeds,
     level_folder,
@@ -41,7 +41,7 @@ from podbench.study.experiments import (
 )
 from podbench.study.resolve import resolve_structure
 from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
-from podbench.sysid.conditioning import WindowCorrected, condition
+from podbench.sysid.conditioning import condition
 
 __all__ = ["run_seeds", "seed_table", "SEED_COLUMNS"]
 
@@ -177,11 +177,8 @@ def _conditioned(sc) -> bool:
 def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
     """The rows of one method: fitted on ``train``'s records, each target predicted."""
     try:
-        spec = sc.method(label)
-        est = build_estimator(spec, sc.method, sc.folder)
-        est = est.fit(training_records(spec, sc.method, train))
-        if _conditioned(sc) and sc.conditioning.exponential_window is not None:
-            est = WindowCorrected(est, sc.conditioning.exponential_window)
+        est = fit_method(sc.method(label), sc, train,
+                         sc.conditioning if _conditioned(sc) else None)
         preds = {t: np.asarray(est.predict(get(t)), dtype=float) for t in targets}
     except KeyError:
         status = f"failed: no method {label!r} in the scenario"
