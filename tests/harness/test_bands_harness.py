@@ -26,8 +26,8 @@ def test_every_row_gets_an_error_estimate_and_a_coverage(write_scenario, monkeyp
         assert 0.0 <= rows[m]["coverage"] <= 1.0
         assert math.isfinite(rows[m]["error_estimate"]) and rows[m]["error_estimate"] >= 0
     # POVR on the coupled chain: one record; its in-sample residual cannot see the diagonal
-    # assumption (coverage < 0.85 without the diagonal term), the target's modal pattern
-    # against the training one (bands.diagonal_inconsistency) can
+    # assumption (coverage < 0.85 without the diagonal term), the split of the target's
+    # modal excitation into the training pattern and the rest (bands.diagonal_split) can
     assert rows["POVR"]["coverage"] >= 0.85
     assert {s["source"] for s in res.band_stats} == {"in-sample", "cross-validation"}
     monkeypatch.setattr(bands, "DIAGONAL_TERM", False)

@@ -24,7 +24,7 @@ from podbench.core.records import is_record
 from podbench.core.validation import as_finite_array
 from podbench.errors import DimensionError, IllConditionedError
 from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
-from podbench.sysid.methods.bands import diagonal_inconsistency
+from podbench.sysid.methods.bands import diagonal_inconsistency, diagonal_split
 from podbench.sysid.methods.base import (
     BASES,
     ENERGY,
@@ -338,6 +338,17 @@ class SingleLoad(_ForcedMethod):
         self._check_is_fitted()
         F = self._check_new_force(self._new_force(record))
         return diagonal_inconsistency(self.force_pattern_, self.modes_.T @ F)
+
+    def diagonal_parts(self, record) -> tuple[np.ndarray, np.ndarray]:
+        """``(Ŵ_⊥, T²)`` of :func:`~podbench.sysid.methods.bands.diagonal_split` for the
+        new load: SL's response (in) to the part of ``UᵀF'`` outside the training load's
+        modal pattern, and the squared response (in²) to each mode's share of that part
+        applied in the training pattern (Eq. 3.44, which is exact on that pattern)."""
+        self._check_is_fitted()
+        F = self._check_new_force(self._new_force(record))
+        kernel = self._kernel_for(F.shape[1])
+        return diagonal_split(self.force_pattern_, self.modes_.T @ F,
+                              lambda q: self.modes_ @ self._modal_response(kernel, q))
 
     def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
         """``ṽ_i = c_ii * q̃_i`` (Eq. 3.44), the diagonal of the kernel only."""

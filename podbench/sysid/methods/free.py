@@ -11,7 +11,7 @@ import numpy as np
 from podbench.core.records import Record, is_record
 from podbench.core.validation import condition_number
 from podbench.errors import IllConditionedError, InputError
-from podbench.sysid.methods.bands import diagonal_inconsistency
+from podbench.sysid.methods.bands import diagonal_inconsistency, diagonal_split
 from podbench.sysid.methods.base import (
     BASES,
     ENERGY,
@@ -245,6 +245,17 @@ class POVR(_FreeMethod):
         self._check_is_fitted()
         x = check_profile(self._new_profile(record), self.modes_.shape[0], "x0_new")
         return diagonal_inconsistency(self.initial_coordinates_, self.modes_.T @ x)
+
+    def diagonal_parts(self, record) -> tuple[np.ndarray, np.ndarray]:
+        """``(Ŵ_⊥, T²)`` of :func:`~podbench.sysid.methods.bands.diagonal_split` for the
+        new initial profile: POVR's response (in) to the part of ``Uᵀx0'`` outside the
+        training coordinates ``Uᵀx0``, and the squared response (in²) to each mode's share
+        of that part applied in the training pattern (Eq. 3.24, exact on that pattern)."""
+        self._check_is_fitted()
+        x = check_profile(self._new_profile(record), self.modes_.shape[0], "x0_new")
+        scale = self.povs_ / self.initial_coordinates_
+        return diagonal_split(self.initial_coordinates_, self.modes_.T @ x,
+                              lambda b: self.modes_ @ ((scale * b)[:, None] * self.pocs_.T))
 
     def _modal_histories(self, x: np.ndarray) -> np.ndarray:
         """``σ̃_j v_j`` (Eq. 3.11), ``(k, n)``."""
