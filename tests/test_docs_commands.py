@@ -153,6 +153,7 @@ COMMANDS: dict[str, object] = {
         "times a band against the plain fit for nine method cases at two noise levels "
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
+    "python benchmarks/dense_tls.py": SLOW,
     "python benchmarks/study_time.py": NOT_RUN(
         "times a cold `podbench run chapter5` (35 min on the shared 2-core machine) and "
         "appends to results/benchmarks.csv; `podbench run chapter5` itself is run (slow)"),
