@@ -50,6 +50,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import Pulse
+from podbench.dynamics.newmark import newmark
 from podbench.errors import InputError
 from podbench.harness.cache import TruthCache, structure_fingerprint
 from podbench.harness.executor import execute
@@ -145,21 +146,33 @@ def impulse_responses(structure: Structure, peaks=PEAKS, *, duration: float = PU
     for p in peaks:
         key = TruthCache.key(what="nonlinearity.impulse_responses", structure=fp,
                              peak=float(p), duration=float(duration),
-                             location=float(location), n=n, dt=float(dt))
+                             location=float(location), n=n, dt=float(dt),
+                             scheme="newmark-propagator")
         hit = cache.load(key, (1, n)) if cache is not None else None
         if hit is not None:  # W: the tip row; F: the impulse (lbf·s) in every entry
             tips.append(hit["W"][0])
             imps.append(float(hit["F"][0, 0]))
             continue
-        f = Pulse(location, float(p), duration, shape="half_sine")
-        r = simulate(structure, n_samples=n, dt=dt, force=f, dof_histories=False)
-        tips.append(r.W[-1])
-        imps.append(float(r.F.sum() * dt))
+        F = Pulse(location, float(p), duration, shape="half_sine").sample(structure, n, dt)
+        tips.append(_tip_response(structure, F, dt))
+        imps.append(float(F.sum() * dt))
         if cache is not None:
-            cache.store(key, {"W": r.W[-1][None, :], "F": np.full((1, n), imps[-1]),
+            cache.store(key, {"W": tips[-1][None, :], "F": np.full((1, n), imps[-1]),
                               "w0": np.zeros(1), "v0": np.zeros(1), "t": np.arange(n) * dt})
     return ImpulseSet(t=np.arange(n) * dt, peaks=tuple(float(p) for p in peaks),
                       impulses=np.array(imps), tip=np.array(tips))
+
+
+def _tip_response(structure: Structure, F: np.ndarray, dt: float) -> np.ndarray:
+    """The tip sensor's displacement (in) from rest under the sensor loads ``F`` (lbf): the
+    Newmark integration of :func:`podbench.dynamics.simulate`, with the linear part stepped
+    by its transition matrix (``propagator``: equal to round-off, about 2.5× faster on the
+    rubber-band beam), recording the last sensor only."""
+    S = structure.sensor_matrix()
+    zero = np.zeros(structure.n_dofs)
+    res = newmark(structure, zero, zero, F, dt, force_map=S.T, record=S[-1:],
+                  propagator=True)
+    return res.q[0]
 
 
 def _trend(values, rtol: float = 1e-6) -> str:
