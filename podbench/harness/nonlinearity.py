@@ -64,7 +64,7 @@ __all__ = [
     "PEAKS", "PULSE_DURATION", "LOCATION", "DT", "LAG_TIMES", "LAG_TIMES_SCALED",
     "FRACTIONS", "band_variant", "modal_damping", "reference_period", "impulse_responses",
     "superposition_check", "phase_lag", "phase_lags", "nonlinearity_table", "run_checks",
-    "ImpulseSet", "response_nonlinearity",
+    "ImpulseSet", "response_nonlinearity", "check_task", "check_tasks", "check_rows",
 ]
 
 PEAKS = (0.36, 0.72, 1.08, 1.44, 1.8)
@@ -358,7 +358,8 @@ def response_nonlinearity(structure: Structure, force, n_samples: int, dt: float
     return float(np.linalg.norm(W - Wl) / np.linalg.norm(W))
 
 
-def _task(args):
+def check_task(args) -> list[dict]:
+    """One task of :func:`run_checks`: ``(structure name, ζ, fraction, cache folder)``."""
     structure, zeta, frac, cache_dir = args
     return nonlinearity_table(load_structure(structure), fractions=(frac,), zetas=(zeta,),
                               cache=TruthCache(cache_dir) if cache_dir is not None else None)
@@ -367,16 +368,26 @@ def _task(args):
 _ORDER = {"none": 0, "slack": 1, "prestretch": 2}
 
 
+def check_tasks(spec: NonlinearitySpec, cache_dir=None) -> list[tuple]:
+    """The tasks of :func:`run_checks` for :func:`check_task`, one per (ζ, fraction)."""
+    return [(spec.structure, z, f, None if cache_dir is None else str(cache_dir))
+            for z in spec.zetas for f in spec.fractions]
+
+
+def check_rows(parts) -> list[dict]:
+    """The rows of :func:`run_checks` from its tasks' results, in a fixed order: ζ, then the
+    band's own row, the slacks and the pre-stretches by fraction."""
+    rows = [r for part in parts for r in part]
+    return sorted(rows, key=lambda r: (r["zeta"], _ORDER[r["kind"]], r["fraction"]))
+
+
 def run_checks(spec: NonlinearitySpec, *, jobs: int = 1, progress=None,
                cache_dir=None) -> list[dict]:
     """The rows of :func:`~podbench.harness.nonlinearity.nonlinearity_table` for ``spec``, one
     task per (ζ, fraction) (``jobs`` processes; ``progress`` as
     :func:`podbench.harness.progress.as_stage`; ``cache_dir``: the truth cache's folder, the
-    2.2-s responses are read back exactly on a rerun), in a fixed order: ζ, then the band's own
-    row, the slacks and the pre-stretches by fraction."""
-    tasks = [(spec.structure, z, f, None if cache_dir is None else str(cache_dir))
-             for z in spec.zetas for f in spec.fractions]
+    2.2-s responses are read back exactly on a rerun), in the order of :func:`check_rows`."""
+    tasks = check_tasks(spec, cache_dir)
     with as_stage(progress, "nonlinearity checks", len(tasks), "task") as stage:
-        parts = execute(_task, tasks, jobs=jobs, progress=lambda *_: stage.advance())
-    rows = [r for part in parts for r in part]
-    return sorted(rows, key=lambda r: (r["zeta"], _ORDER[r["kind"]], r["fraction"]))
+        parts = execute(check_task, tasks, jobs=jobs, progress=lambda *_: stage.advance())
+    return check_rows(parts)
