@@ -48,7 +48,7 @@ from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
 from podbench.harness.runner import SideTasks, plan, response_counts, run_study
-from podbench.harness.seeds import plan_seeds, seed_unit
+from podbench.harness.seeds import SeedPlan, plan_seeds, seed_unit
 from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
@@ -61,6 +61,7 @@ from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.hints import did_you_mean
+from podbench.study.nonlinearity import NonlinearitySpec
 from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
 from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
@@ -378,22 +379,26 @@ class _SideStages:
     def __init__(self, claims_file, claims, scenarios: dict, cache_dir):
         self.claims_file, self.claims, self.scenarios = claims_file, claims, scenarios
         self.cache_dir = cache_dir
-        self.seeds = self.seed_tasks = self.spec = self.check_tasks = None
+        self.seeds: SeedPlan | None = None
+        self.seed_tasks: SideTasks | None = None
+        self.spec: NonlinearitySpec | None = None
+        self.check_tasks: SideTasks | None = None
 
     def plan(self) -> list[SideTasks]:
         cf = self.claims_file
         if cf is None:
             return []
-        out = []
+        out: list[SideTasks] = []
         self.seeds = plan_seeds(cf, cf.claims, self.scenarios)
         if self.seeds is not None:
             self.seed_tasks = SideTasks(f"comparisons over noise {seed_names(self.seeds.seeds)}",
                                         seed_unit, self.seeds.tasks)
             out.append(self.seed_tasks)
         if cf.nonlinearity is not None and _whole_study(self.claims, self.scenarios):
-            self.spec = cf.nonlinearity
+            spec: NonlinearitySpec = cf.nonlinearity
+            self.spec = spec
             self.check_tasks = SideTasks("nonlinearity checks", check_task,
-                                         check_tasks(self.spec, self.cache_dir))
+                                         check_tasks(spec, self.cache_dir))
             out.append(self.check_tasks)
         return out
 
