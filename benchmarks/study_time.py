@@ -4,6 +4,7 @@
     python benchmarks/study_time.py --study chapter4 --jobs 1
     python benchmarks/study_time.py --tree /path/to/other/checkout   # time another commit
     python benchmarks/study_time.py --baseline-tree /path/to/previous/checkout  # speed-up
+    python benchmarks/study_time.py --keep /tmp/ch5 --no-write   # keep the tables to compare
 
 A shared machine's speed changes from minute to minute, so a study's wall time alone says
 little; this script times a fixed reference workload (:func:`reference`: a seeded dense SVD,
@@ -64,14 +65,17 @@ def reference(python: str) -> float:
     return float(out.stdout.strip())
 
 
-def run_study(python: str, tree: Path, study: str, jobs: int) -> float:
-    """Wall seconds of a cold ``podbench run STUDY --no-figures --jobs JOBS`` from ``tree``."""
+def run_study(python: str, tree: Path, study: str, jobs: int, keep: Path | None = None) -> float:
+    """Wall seconds of a cold ``podbench run STUDY --no-figures --jobs JOBS`` from ``tree``
+    (its output folder kept as ``keep`` if given, e.g. to compare the tables byte for byte
+    with the committed ones)."""
     env = _env()
     env["PYTHONPATH"] = str(tree)
     with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out" if keep is None else keep.resolve()
         cmd = [python, "-m", "podbench", "run", study, "--no-figures", "--quiet",
                "--jobs", str(jobs), "--cache", str(Path(tmp) / "cache"),
-               "--out", str(Path(tmp) / "out")]
+               "--out", str(out)]
         t = time.perf_counter()
         subprocess.run(cmd, check=True, env=env, cwd=tmp, stdout=subprocess.DEVNULL)
         return time.perf_counter() - t
@@ -90,6 +94,9 @@ def main(argv=None) -> int:
     ap.add_argument("--python", default=sys.executable)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "benchmarks.csv")
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--keep", type=Path, default=None,
+                    help="keep the timed run's output folder here (new or empty; the tables "
+                         "can then be compared with results/STUDY)")
     args = ap.parse_args(argv)
     base_note = ""
     if args.baseline_tree is not None:
@@ -100,7 +107,7 @@ def main(argv=None) -> int:
         base_note = (f"; baseline {args.baseline_tree.resolve().name}: {base:.1f} s wall, "
                      f"{base_units:.0f} reference units")
     ref0 = reference(args.python)
-    wall = run_study(args.python, args.tree.resolve(), args.study, args.jobs)
+    wall = run_study(args.python, args.tree.resolve(), args.study, args.jobs, args.keep)
     ref1 = reference(args.python)
     ref = 0.5 * (ref0 + ref1)
     case = f"podbench run {args.study} (cold, no figures, --jobs {args.jobs})"

@@ -42,13 +42,13 @@ from podbench.core.resources import (
 from podbench.errors import InputError, UnknownNameError
 from podbench.harness.base_excited import run_study as run_base_excited
 from podbench.harness.linked import linked_scenarios, run_linked
-from podbench.harness.nonlinearity import run_checks
+from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
 from podbench.harness.painter_street import run_study as run_painter_street
 from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
-from podbench.harness.runner import plan, response_counts, run_study
-from podbench.harness.seeds import run_seeds
+from podbench.harness.runner import SideTasks, plan, response_counts, run_study
+from podbench.harness.seeds import SeedPlan, plan_seeds, seed_unit
 from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
@@ -61,6 +61,7 @@ from podbench.report.sweep import write_sweep
 from podbench.study.claims import load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.hints import did_you_mean
+from podbench.study.nonlinearity import NonlinearitySpec
 from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
 from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
@@ -347,20 +348,15 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     if isinstance(progress, Progress):
         progress.note(_announcement(files, scenarios, claims_file, claims, figures))
     t0 = time.perf_counter()
+    side = _SideStages(claims_file, claims, scenarios, cache_dir)
     results = run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
-                        progress=progress, keep_series=figures)
+                        progress=progress, keep_series=figures, also=side.plan)
     seconds = time.perf_counter() - t0
-    linked = nonlinearity = seeds = None
+    linked = None
     if claims_file is not None:  # the claims' sensitivity study, judged with the same code
         linked = run_linked(claims_file, scenarios, jobs=jobs, cache_dir=cache_dir,
                             engine=engine, progress=progress)
-        # the comparisons on the other noise seeds (claims.toml's noise_seeds)
-        seeds = run_seeds(claims_file, claims_file.claims, scenarios, jobs=jobs,
-                          progress=progress)
-        if claims_file.nonlinearity is not None and _whole_study(claims, scenarios):
-            spec = claims_file.nonlinearity  # §5.2's checks: only on a whole-study run
-            nonlinearity = (spec, run_checks(spec, jobs=jobs, progress=progress,
-                                             cache_dir=cache_dir))
+    seeds, nonlinearity = side.seed_rows(), side.nonlinearity()
     if command is None:
         command = "podbench.run(" + ", ".join(repr(str(p)) for p in _as_list(study)) + ")"
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
@@ -372,6 +368,49 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
                        claims=evaluated, figures=drawn, scenarios=scenarios, seconds=seconds,
                        simulated=n_sim, cached=n_cached, _units=results)
+
+
+class _SideStages:
+    """The stages of a study run beside its units, in the units' pool (:func:`run`,
+    :class:`podbench.harness.runner.SideTasks`): the comparisons on the other noise seeds
+    (claims.toml's ``noise_seeds``, :func:`podbench.harness.seeds.plan_seeds`) and, on a
+    whole-study run, §5.2's nonlinearity checks (``[nonlinearity]``)."""
+
+    def __init__(self, claims_file, claims, scenarios: dict, cache_dir):
+        self.claims_file, self.claims, self.scenarios = claims_file, claims, scenarios
+        self.cache_dir = cache_dir
+        self.seeds: SeedPlan | None = None
+        self.seed_tasks: SideTasks | None = None
+        self.spec: NonlinearitySpec | None = None
+        self.check_tasks: SideTasks | None = None
+
+    def plan(self) -> list[SideTasks]:
+        cf = self.claims_file
+        if cf is None:
+            return []
+        out: list[SideTasks] = []
+        self.seeds = plan_seeds(cf, cf.claims, self.scenarios)
+        if self.seeds is not None:
+            self.seed_tasks = SideTasks(f"comparisons over noise {seed_names(self.seeds.seeds)}",
+                                        seed_unit, self.seeds.tasks)
+            out.append(self.seed_tasks)
+        if cf.nonlinearity is not None and _whole_study(self.claims, self.scenarios):
+            spec: NonlinearitySpec = cf.nonlinearity
+            self.spec = spec
+            self.check_tasks = SideTasks("nonlinearity checks", check_task,
+                                         check_tasks(spec, self.cache_dir))
+            out.append(self.check_tasks)
+        return out
+
+    def seed_rows(self):
+        if self.seeds is None or self.seed_tasks is None:
+            return None
+        return self.seeds.rows(self.seed_tasks.results)
+
+    def nonlinearity(self):
+        if self.spec is None or self.check_tasks is None:
+            return None
+        return self.spec, check_rows(self.check_tasks.results)
 
 
 def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) -> str:

@@ -15,6 +15,7 @@ derives the point's scenario (:func:`podbench.scenarios.apply_overrides`) and ``
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,8 +40,8 @@ from podbench.sysid.conditioning import Conditioning, WindowCorrected, condition
 from podbench.sysid.measured import read_record
 from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
-__all__ = ["run_study", "run_unit", "UnitResult", "COLUMNS", "response_counts", "NoiseSpec",
-           "noisy", "check_cases", "noise_generator"]
+__all__ = ["run_study", "run_unit", "UnitResult", "SideTasks", "COLUMNS", "response_counts",
+           "NoiseSpec", "noisy", "check_cases", "noise_generator"]
 
 COLUMNS = ("scenario", "structure", "method", "target", "n_modes", *ERROR_COLUMNS,
            *NORM_COLUMNS, *BAND_COLUMNS, "status")
@@ -523,6 +524,24 @@ def _unit_worker(args):
     return run_unit(*args)
 
 
+@dataclass
+class SideTasks:
+    """Tasks of another stage of a study run (the noise seeds' refits, the nonlinearity
+    checks) run in the same pool of processes as the units (:func:`run_study`'s ``also``):
+    ``func(task)`` for every task of ``tasks`` (``func`` a module-level function, the tasks
+    picklable), the results in task order in ``results`` afterwards."""
+
+    name: str
+    func: Callable
+    tasks: list
+    results: list = field(default_factory=list)
+
+
+def _dispatch(item):
+    func, task = item
+    return func(task)
+
+
 def plan(paths) -> list[tuple[Path, str]]:
     """The (scenario file, structure entry) units of the given scenario files, validated."""
     units = []
@@ -539,22 +558,39 @@ def plan(paths) -> list[tuple[Path, str]]:
 
 
 def run_study(paths, *, jobs: int = 1, cache_dir=None, engine: str | None = None,
-              progress=None, keep_series: bool = True) -> list[UnitResult]:
+              progress=None, keep_series: bool = True,
+              also: Callable[[], list[SideTasks]] | None = None) -> list[UnitResult]:
     """Run every unit of the scenario files ``paths`` (in ``jobs`` processes, see
     :func:`podbench.harness.executor.execute`); results in deterministic order.
     ``progress``: a :class:`~podbench.harness.progress.Progress` (a bar or lines per
-    finished unit) or a callable given one line per finished unit."""
+    finished unit) or a callable given one line per finished unit.
+
+    ``also``: called once the scenarios are validated, returns :class:`SideTasks` of other
+    stages to run in the same pool after the units (one pool and no barrier between the
+    stages: with ``jobs`` = 2 a core no longer waits for the last unit of a stage); their
+    results go to each ``SideTasks.results``. Every task computes what it would alone
+    (one BLAS thread), so nothing depends on ``jobs`` or on the grouping."""
     units = plan(paths)
-    stage = as_stage(progress, "simulating and fitting", len(units), "unit")
-
-    def report(done, total, elapsed, r):
-        stage.advance(f"{r.scenario} × {r.structure}",
-                      f"{r.simulated} simulated, {r.cached} from the cache, {r.seconds:.1f} s")
-
+    side = also() if also is not None else []
     args = [(str(p), e, None if cache_dir is None else str(cache_dir), engine, keep_series)
             for p, e in units]
+    items = [(_unit_worker, a) for a in args] + [(st.func, t) for st in side for t in st.tasks]
+    desc = ", ".join(["simulating and fitting", *(st.name for st in side if st.tasks)])
+    stage = as_stage(progress, desc, len(items), "task" if len(items) > len(args) else "unit")
+
+    def report(done, total, elapsed, r):
+        if isinstance(r, UnitResult):
+            stage.advance(f"{r.scenario} × {r.structure}", f"{r.simulated} simulated, "
+                          f"{r.cached} from the cache, {r.seconds:.1f} s")
+        else:
+            stage.advance()
+
     with stage:
-        return execute(_unit_worker, args, jobs=jobs, progress=report)
+        out = execute(_dispatch, items, jobs=jobs, progress=report)
+    k = len(args)
+    for st in side:
+        st.results, k = out[k:k + len(st.tasks)], k + len(st.tasks)
+    return out[:len(args)]
 
 
 def response_counts(results) -> tuple[int, int]:

@@ -20,6 +20,7 @@ comparisons' (scenario, structure, method, target), with a ``seed`` column, on e
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +44,7 @@ from podbench.study.resolve import resolve_structure
 from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
 from podbench.sysid.conditioning import condition
 
-__all__ = ["run_seeds", "seed_table", "SEED_COLUMNS"]
+__all__ = ["run_seeds", "plan_seeds", "seed_unit", "SeedPlan", "seed_table", "SEED_COLUMNS"]
 
 SEED_COLUMNS = ("scenario", "structure", "method", "target", "seed", *ERROR_COLUMNS,
                 *NORM_COLUMNS, "status")
@@ -82,12 +83,27 @@ def _varied(exp, scenario, cases) -> dict | None:
     return keys
 
 
-def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
-              progress=None) -> SeedRows | None:
-    """The comparisons' rows on every seed of ``claims_file.noise_seeds`` (None without
-    them, or without a comparison among the claims of ``scenarios``): the records of the
-    other seeds generated from the experiment file beside the claims file, the compared
-    methods refitted on them (``jobs`` processes)."""
+@dataclass
+class SeedPlan:
+    """The refits of :func:`run_seeds`, planned: ``tasks`` for :func:`seed_unit` (run them
+    anywhere, e.g. in the study's pool: :class:`podbench.harness.runner.SideTasks`), then
+    :meth:`rows` of their results."""
+
+    seeds: tuple
+    tasks: list
+    varied: frozenset
+
+    def rows(self, results) -> SeedRows:
+        """The :class:`SeedRows` of the tasks' results (in task order)."""
+        table = pd.DataFrame([r for unit in results for r in unit], columns=list(SEED_COLUMNS))
+        return SeedRows(self.seeds, table, self.varied)
+
+
+def plan_seeds(claims_file, claims, scenarios: dict) -> SeedPlan | None:
+    """The tasks of :func:`run_seeds` (None without ``noise_seeds`` or without a
+    comparison among the claims of ``scenarios``): the records of the other seeds generated
+    from the experiment file beside the claims file (in this process), one task per
+    (scenario, structure, seed)."""
     seeds = tuple(claims_file.noise_seeds)
     if not seeds:
         return None
@@ -122,13 +138,24 @@ def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
     records = generate_seeds(exp, seeds[1:], wanted) if units else {}
     args = [(*u, {c: _arrays(records[(u[2], *key)]) for c, key in u[5].items()
                   if key is not None}) for u in units]
-    stage = as_stage(progress, f"comparisons over noise {seed_names(seeds)}", len(args),
-                     "unit")
+    return SeedPlan(seeds, args, frozenset(varied))
+
+
+def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
+              progress=None) -> SeedRows | None:
+    """The comparisons' rows on every seed of ``claims_file.noise_seeds`` (None without
+    them, or without a comparison among the claims of ``scenarios``): the records of the
+    other seeds generated from the experiment file beside the claims file, the compared
+    methods refitted on them (``jobs`` processes; :func:`plan_seeds`)."""
+    sp = plan_seeds(claims_file, claims, scenarios)
+    if sp is None:
+        return None
+    stage = as_stage(progress, f"comparisons over noise {seed_names(sp.seeds)}",
+                     len(sp.tasks), "unit")
     with stage:
-        rows = execute(_seed_unit, args, jobs=jobs,
+        rows = execute(seed_unit, sp.tasks, jobs=jobs,
                        progress=lambda *_: stage.advance())
-    table = pd.DataFrame([r for unit in rows for r in unit], columns=list(SEED_COLUMNS))
-    return SeedRows(seeds, table, frozenset(varied))
+    return sp.rows(rows)
 
 
 def _arrays(rec: Response) -> tuple[np.ndarray, np.ndarray]:
@@ -144,7 +171,7 @@ def _response(scenario, structure, case: str, arrays) -> Response:
                     engine="measured", label=case)
 
 
-def _seed_unit(task) -> list[dict]:
+def seed_unit(task) -> list[dict]:
     """One (scenario, structure, seed): fit the compared methods on the seed's records,
     predict the compared targets; rows of :data:`SEED_COLUMNS`."""
     path, entry, seed, methods, targets, keys, arrays = task

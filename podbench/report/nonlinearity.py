@@ -13,7 +13,7 @@ import pandas as pd
 
 from podbench.harness.nonlinearity import ImpulseSet, nonlinearity_table
 from podbench.harness.tables import table_csv
-from podbench.study.nonlinearity import row_label, zeta_label
+from podbench.study.nonlinearity import ROUNDOFF_METRIC, row_label, zeta_label
 
 
 def _frequency_verdict(lags, tol: float = 0.01) -> str:
@@ -26,7 +26,13 @@ def _frequency_verdict(lags, tol: float = 0.01) -> str:
 
 
 def markdown_table(rows) -> str:
-    """The table of :func:`nonlinearity_table` in markdown (scaled values in in/(lbf·s))."""
+    """The table of :func:`nonlinearity_table` in markdown (scaled values in in/(lbf·s)).
+
+    Round-off is not printed: a deviation below
+    :data:`~podbench.study.nonlinearity.ROUNDOFF_METRIC` (a homogeneous band's, 1e-13…1e-12,
+    whose digits differ between OpenBLAS kernels: 4.09e-13 / 5.89e-13 for the undamped band)
+    is written 0, as in ``nonlinearity.csv``, and a lag that rounds to 0.00 % as +0.00
+    (its sign, at 1e-11 %, is round-off too)."""
     times = rows[0]["times"]
     head = ("| ζ | band | offset (in) | offset / A | away peak, 0.36 → 1.8 lbf | toward peak "
             "| RMS | deviation of 0.36 lbf | "
@@ -38,12 +44,18 @@ def markdown_table(rows) -> str:
     def pair(x):
         return f"{x[0]:.3f} → {x[-1]:.3f}"
 
+    def deviation(x):  # round-off of a homogeneous band: 0, as in nonlinearity.csv
+        return "0" if abs(x) < ROUNDOFF_METRIC else f"{x:.2e}"
+
+    def lag(x):  # a lag that rounds to 0.00 is written +0.00, whatever its sign
+        return f"{round(float(x), 2) + 0.0:+.2f}"
+
     for r in rows:
         lines.append(
             f"| {100 * r['zeta']:g} % | {r['kind']} | {r['offset_in']:.4g} | {r['fraction']:g} "
             f"| {pair(r['away'])} | {pair(r['toward'])} | {pair(r['rms'])} "
-            f"| {r['deviation'][0]:.2e} | "
-            + " | ".join(f"{x:+.2f}" for x in r["lags"][0])
+            f"| {deviation(r['deviation'][0])} | "
+            + " | ".join(lag(x) for x in r["lags"][0])
             + f" | {r['trend_away']} / {r['trend_toward']} / {r['trend_rms']} "
             f"| {_frequency_verdict(r['lags'])} |")
     return "\n".join(lines)

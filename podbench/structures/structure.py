@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -212,13 +213,19 @@ class OneSidedSpring:
     def damping(self, q, v):
         return np.zeros((1, 1))
 
+    @cached_property
+    def _constants(self) -> tuple[int, float, float, float]:
+        """``(side, k, δ, (−δ)₊)`` of :meth:`scalar_terms`, evaluated once (not a field: repr,
+        equality and ``dataclasses.replace`` see only the parameters)."""
+        return self.side, self.k, self.offset, max(-self.offset, 0.0)
+
     def scalar_terms(self, q: float, v: float) -> tuple[float, float, float]:
         """``(g, dg/dq, dg/dv)`` at the floats ``q``, ``v``: the numbers of :meth:`force`,
         :meth:`stiffness`, :meth:`damping` without arrays (Newmark's one-DOF Newton loop)."""
-        s, d = self.side, self.offset
+        s, k, d, c = self._constants
         x = s * q - d
-        g = s * self.k * (max(x, 0.0) - max(-d, 0.0))
-        return g, (self.k if x > 0.0 else 0.0), 0.0
+        g = s * k * (max(x, 0.0) - c)
+        return g, (k if x > 0.0 else 0.0), 0.0
 
     def linear_stiffness(self) -> np.ndarray:
         """The (1, 1) stiffness (lbf/in) the linear twin puts on ``dof`` (see ``twin``)."""

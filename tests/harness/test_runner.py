@@ -10,7 +10,7 @@ from conftest import CHAIN_FORCED, CHAIN_FREE, NL_BEAM
 
 from podbench.errors import PodbenchWarning
 from podbench.harness.metrics import TWIN_RTOL
-from podbench.harness.runner import run_study, run_unit
+from podbench.harness.runner import SideTasks, run_study, run_unit
 from podbench.harness.tables import summary_table
 
 pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
@@ -110,9 +110,14 @@ def test_runs_are_deterministic_and_independent_of_jobs(write_scenario, tmp_path
     b = write_scenario(CHAIN_FORCED, "chain_forced")
     t1 = summary_table(run_study([a, b], jobs=1))
     t1b = summary_table(run_study([a, b], jobs=1))
-    t2 = summary_table(run_study([a, b], jobs=2, cache_dir=tmp_path / "cache"))
+    # another stage's tasks in the same pool (as podbench run's noise seeds and nonlinearity
+    # checks): the units' table unchanged, the tasks' results in task order
+    side = [SideTasks("sums", math.fsum, [[0.1] * k for k in range(1, 7)])]
+    t2 = summary_table(run_study([a, b], jobs=2, cache_dir=tmp_path / "cache",
+                                 also=lambda: side))
     assert t1.to_csv() == t1b.to_csv()
     assert t1.to_csv() == t2.to_csv()
+    assert side[0].results == [math.fsum([0.1] * k) for k in range(1, 7)]
 
 
 def test_cache_hits_and_corrupt_entries_are_resimulated(write_scenario, tmp_path):

@@ -12,7 +12,7 @@ import pytest
 
 from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.harness.seeds import _seed_unit, _varied, run_seeds, seed_table
+from podbench.harness.seeds import _varied, run_seeds, seed_table, seed_unit
 from podbench.study.claims import (
     TIE,
     TIE_CHECK,
@@ -194,7 +194,7 @@ def test_a_seeded_refit_is_an_independent_fit_on_the_same_records():
     recs = {c: read_record(d / f"{c}.npz") for c in ("load4", "load8")}
     arrays = {c: (r.W, r.F) for c, r in recs.items()}
     keys = {c: ("linear_beam", "noise_1pct", c) for c in arrays}
-    rows = _seed_unit((str(sc), "aluminium_beam", 7, ("SL-tls",), ("load4",), keys, arrays))
+    rows = seed_unit((str(sc), "aluminium_beam", 7, ("SL-tls",), ("load4",), keys, arrays))
     assert len(rows) == 1 and rows[0]["seed"] == 7 and rows[0]["status"] == "ok"
     sl = SingleLoad(n_modes=2, solver="tls-appendix").fit([recs["load8"]])
     W = recs["load4"].W
