@@ -3,6 +3,9 @@
 import math
 from types import SimpleNamespace
 
+import numpy as np
+
+from podbench.core.validation import condition_number
 from podbench.harness.digits import coverage_digits, diagnostic_digits
 from podbench.harness.tables import fits_table, table_csv
 
@@ -22,6 +25,24 @@ def test_conditioning_and_iterations_are_written_to_two_digits():
     assert diagnostic_digits("fit_residual", 0.123456) == 0.123456
     assert diagnostic_digits("solver_iterations", 0) == 0
     assert math.isnan(diagnostic_digits("condition_number", float("nan")))
+
+
+def test_a_numerically_singular_systems_condition_is_written_inf_whatever_its_roundoff():
+    # a 300 × 300 product of 300 × 295 and 295 × 300 random factors has rank 295: its five
+    # smallest computed singular values are the SVD's round-off (they differ for the same
+    # matrix with its rows permuted, and between BLAS kernels)
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((300, 295)) @ rng.standard_normal((295, 300))
+    perm = rng.permutation(A.shape[0])
+    c1 = condition_number(np.linalg.svd(A, compute_uv=False))
+    c2 = condition_number(np.linalg.svd(A[perm], compute_uv=False))
+    assert np.isfinite(c1) and np.isfinite(c2)
+    assert min(c1, c2) >= 1e14          # σ_min at round-off
+    assert diagnostic_digits("condition_number", c1) == math.inf
+    assert diagnostic_digits("solver_condition", c2) == math.inf
+    # a well-posed system of condition 1e12 keeps its two digits
+    s = np.logspace(0, -12, 50)
+    assert diagnostic_digits("condition_number", condition_number(s)) == 1e12
 
 
 def test_fits_table_applies_them():
