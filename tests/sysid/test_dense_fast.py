@@ -135,3 +135,21 @@ def test_memo_skips_user_subclasses_and_repeats_warnings():
         assert any(issubclass(w.category, PodbenchWarning) for w in caught)
         assert not np.any(X)
     assert len(dense._MEMO) == 1
+
+
+def test_tls_gram_gives_way_to_the_svd_where_the_tls_denominator_vanishes():
+    # B orthogonal to A's range and larger than A, and A with singular values below the cut:
+    # B's direction is kept, the discarded directions are A's small ones with (round-off)
+    # zero weight on B, V22 ≈ 0 (the non-generic TLS problem), and X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹
+    # divides round-off by round-off
+    rng = np.random.default_rng(7)
+    Q, _ = np.linalg.qr(rng.standard_normal((120, 81)))
+    U, b = Q[:, :80], Q[:, 80]
+    V, _ = np.linalg.qr(rng.standard_normal((80, 80)))
+    s = np.concatenate([np.logspace(0, -2, 70), np.full(10, 1e-6)])
+    A = (U * s) @ V.T
+    B = 10.0 * b[:, None]
+    assert dense._tls_gram(A, B, None) is None     # its denominator is below GRAM_MIN_DEN
+    X = dense.truncated_tls(A, B)
+    Xr, _ = dense._tls_svd(A, B, None, None, None)
+    np.testing.assert_array_equal(X, Xr)           # the SVD answered
