@@ -87,8 +87,10 @@ def test_propagator_on_the_rubber_band_beam_equals_the_default_path():
     default = newmark(s, zero, zero, F, dt, force_map=S.T, record=S)
     fast = newmark(s, zero, zero, F, dt, force_map=S.T, record=S[-1:], propagator=True)
     tip = default.q[-1]
-    assert np.abs(fast.q[0] - tip).max() <= 1e-12 * np.abs(tip).max()
-    assert np.abs(fast.v[0] - default.v[-1]).max() <= 1e-12 * np.abs(default.v[-1]).max()
+    # round-off level: the default path itself moves by 2.9e-12 of the amplitude between two
+    # OpenBLAS kernels; the two paths differ by 1.6e-12 on SkylakeX, less on Haswell
+    assert np.abs(fast.q[0] - tip).max() <= 1e-11 * np.abs(tip).max()
+    assert np.abs(fast.v[0] - default.v[-1]).max() <= 1e-11 * np.abs(default.v[-1]).max()
 
 
 def test_propagator_is_ignored_where_it_does_not_apply():
