@@ -290,9 +290,9 @@ def _add_predict(sub) -> None:
         epilog="""
 Examples:
   podbench predict --method ML --train a.npz b.npz c.npz --target x.npz --out pred/
-  podbench predict --method FIR-LS --train ev*.npz --target new.npz --out pred/ \
+  podbench predict --method FIR-LS --train ev*.npz --target new.npz --out pred/ \\
       --input-units m/s^2 --output-units m/s^2     # files without unit variables
-  podbench predict --method ML --train a.csv b.csv c.csv --target x.csv --out pred/ \
+  podbench predict --method ML --train a.csv b.csv c.csv --target x.csv --out pred/ \\
       --coverage 0.9                               # 90 % bands: lower, upper in x.npz
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     pr.add_argument("--method", required=True,

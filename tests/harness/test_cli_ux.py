@@ -300,3 +300,19 @@ def test_default_run_in_the_checkout_writes_results_chapter4(monkeypatch, tmp_pa
     assert paths == [bundled_scenarios() / "chapter4"] and len(files) == 7
     assert api.default_out(paths) == Path("results") / "chapter4"
     assert api.default_out([files[0]]) == Path("results") / files[0].stem
+
+
+def test_help_examples_keep_their_line_continuations():
+    """An example continued with a backslash must show it: in a plain Python string "\\" +
+    newline joins the lines, and `podbench predict --help` once printed its examples as one
+    line with a run of spaces in the middle of the command."""
+    import argparse
+    import re
+
+    parser = cli._parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, sub in subs.choices.items():
+        for line in (sub.epilog or "").splitlines():
+            if line.lstrip().startswith("podbench "):
+                command = line.split("#")[0].rstrip()
+                assert not re.search(r"\S {3,}--", command), (name, line)
