@@ -282,7 +282,10 @@ def _add_predict(sub) -> None:
             "(n_out × n). Records: input/output files (.npz/.mat with inputs, outputs, dt, "
             "input_channels, output_channels, input_units, output_units; CSV with columns "
             "t [s], u:<channel> [unit], y:<channel> [unit]; UFF 58 with one dataset per "
-            "channel, ID line 1 u:<channel> or y:<channel>) or W/F files. "
+            "channel, ID line 1 u:<channel> or y:<channel>) or displacement/force files "
+            "(W in in, F in lbf, dt: there ML and SL are the dissertation's methods, the "
+            "POMs of W and the modal forces U^T F, Eqs. 3.43-3.49, solved by --solver, "
+            "default auto; the other methods take every force channel as an input). "
             "With --coverage, each prediction gets a band (lower, upper) and an error "
             "estimate. Every file is checked before any fitting; OUT is written whole or not "
             "at all.",
@@ -296,8 +299,8 @@ Examples:
       --coverage 0.9                               # 90 % bands: lower, upper in x.npz
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     pr.add_argument("--method", required=True,
-                    help="ML, FIR-LS, ERA, DMDc, OpInf (SL, MR: refused where they do not "
-                         "apply, with the reason)")
+                    help="ML, FIR-LS, ERA, DMDc, OpInf, SL (one displacement/force training "
+                         "file), MR (refused: no free responses in records driven from rest)")
     pr.add_argument("--train", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--out", required=True, metavar="DIR",
@@ -306,13 +309,16 @@ Examples:
                     help="ML's kernel: auto (TC prior with >= 3 training records), ls, tc "
                          "(truncated kernel, lags by leave-one-record-out), or a "
                          "deconvolution solver name (block, cgls, ...) for the kernel over "
-                         "the whole record (records of one length)")
+                         "the whole record (records of one length); on displacement/force "
+                         "files the deconvolution solver of ML/SL (auto: podbench methods "
+                         "auto)")
     pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
     pr.add_argument("--coverage", type=float, default=None, metavar="P",
                     help="prediction band coverage in (0, 1), e.g. 0.9: adds lower and "
                          "upper to every OUT/<target stem>.npz and error_estimate, coverage "
                          "to errors.csv; calibrated by leave-one-record-out over the "
-                         "training records (at least 3)")
+                         "training records (at least 3; on displacement/force files as "
+                         "model.predict(target, coverage=P) of ML or SL)")
     pr.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
                     help="convert every record to this unit system when it is read")
     pr.add_argument("--input-units", default=None, metavar="UNIT",

@@ -9,9 +9,15 @@ in whole: nothing half-written is left.
 Records: input/output files (``inputs``, ``outputs``, ``dt``, channels, units:
 :mod:`podbench.core.iorecords`; ``.npz``, ``.mat``, CSV or UFF 58, layouts in
 :mod:`podbench.core.iofiles`) or today's displacement/force files (``W``, ``F``:
-:mod:`podbench.measured`, in and lbf). Every file is read and checked against the first
-training file (``dt``, channels, quantities, units, NaN/Inf, length) before any fitting;
-the first problem is one line naming the file and the field.
+:mod:`podbench.measured`, in and lbf). On displacement/force files ``ML`` and ``SL`` are the
+dissertation's methods (:class:`~podbench.sysid.methods.MultipleLoad`, Eqs. 3.46–3.49, and
+:class:`~podbench.sysid.methods.SingleLoad`, Eqs. 3.43–3.44: the POMs of ``W``, the modal
+forces ``Uᵀ F``, the deconvolution ``--solver``, default ``auto``), as in the studies; the
+other methods read them as input/output records (every force channel an input).
+
+Every file is read and checked against the first training file (``dt``, channels,
+quantities, units, NaN/Inf, length) before any fitting; the first problem is one line
+naming the file and the field.
 
 ``coverage`` (``--coverage``): every prediction gets its band (``lower``, ``upper`` in the
 ``.npz``) and ``errors.csv`` the columns ``error_estimate`` (the predicted total error, three
@@ -27,16 +33,25 @@ from __future__ import annotations
 
 import csv
 import io
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from podbench.core.atomic import replace_dir
 from podbench.core.iofiles import is_io_layout
-from podbench.core.iorecords import IORecord, check_records, convert, from_record, read_io_record
+from podbench.core.iorecords import (
+    UNITS,
+    IORecord,
+    check_records,
+    convert,
+    from_record,
+    read_io_record,
+)
 from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
 from podbench.sysid.measured import read_record
+from podbench.sysid.methods import MultipleLoad, SingleLoad
 from podbench.sysid.methods.bands import check_coverage
 from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, SingleLoadIO
 from podbench.sysid.methods.peers_io import ERAIO, DMDcIO, OpInfIO
@@ -55,20 +70,29 @@ records, else plain), ``ls`` (plain least squares), ``tc`` (TC prior). Any other
 ``block``, ``cgls``) is a deconvolution solver on the kernel over the whole record."""
 
 
+POD_METHODS = {"ML": MultipleLoad, "SL": SingleLoad}
+"""``--method`` names that run the dissertation's forced methods on displacement/force files."""
+
+
 def read_any(path, *, input_units=None, output_units=None, system=None,
              default_output_units=None) -> IORecord:
     """An input/output record from a file (input/output layout or W/F layout; ``.npz``,
     ``.mat``, CSV, UFF 58). ``default_output_units``: the unit of a target without outputs."""
     path = Path(path)
-    suffix = path.suffix.lower()
-    if ((suffix in (".npz", ".mat") and _has(path, "inputs"))
-            or (suffix in (".csv", ".uff", ".unv") and is_io_layout(path))):
+    if _is_io_file(path):
         return read_io_record(path, input_units=input_units, output_units=output_units,
                               require_outputs=False, system=system,
                               default_output_units=default_output_units)
 
     rec = from_record(read_record(path), name=path.name)
     return convert(rec, system) if system else rec
+
+
+def _is_io_file(path: Path) -> bool:
+    """True for the input/output layout, False for a displacement/force (W/F) file."""
+    suffix = path.suffix.lower()
+    return bool((suffix in (".npz", ".mat") and _has(path, "inputs"))
+                or (suffix in (".csv", ".uff", ".unv") and is_io_layout(path)))
 
 
 def _has(path: Path, key: str) -> bool:
@@ -129,17 +153,16 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
     if dup:
         raise InputError(f"--target: two targets share the file stem {dup[0]!r} (the "
                          "predictions are named after it)")
-    kw = dict(input_units=input_units, output_units=output_units, system=units)
-    tr = [read_any(p, **kw) for p in train]
-    tg = [read_any(p, **kw, default_output_units=tr[0].output_units) for p in targets]
-    est = make_method(method, solver=solver, n_modes=n_modes, n_train=len(tr))
-    min_samples = 2
-    if getattr(est, "n_lags", None) == "auto":
-        min_samples = int(round(min(est.lag_grid) / tr[0].dt)) + 1
-    check_records(tr, tg, min_samples=min_samples)
-    with single_blas_thread():
-        est.fit(tr)
-        preds = [est.predict(r, coverage=coverage) for r in tg]
+    if method in POD_METHODS and not any(_is_io_file(Path(p))
+                                         for p in [*train, *targets] if Path(p).is_file()):
+        tg, preds = _predict_wf(method, train, targets, solver=solver, n_modes=n_modes,
+                                coverage=coverage, units=units)
+    else:
+        if coverage is not None:
+            _check_band_records(len(train))
+        tg, preds = _predict_io(method, train, targets, solver=solver, n_modes=n_modes,
+                                coverage=coverage, input_units=input_units,
+                                output_units=output_units, units=units)
     rows = [_row(stem, method, rec, p, coverage)
             for stem, rec, p in zip(stems, tg, preds, strict=True)]
     columns = ["target", "method", "total_error", "units"]
@@ -153,25 +176,70 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
         for stem, rec, p in zip(stems, tg, preds, strict=True):
             arrays = p.to_arrays() if coverage is not None else {"W_hat": p}
             np.savez_compressed(tmp / f"{stem}.npz", **arrays, dt=np.float64(rec.dt),
-                                units=np.array(tr[0].output_units),
-                                quantity=np.array(tr[0].output_quantity),
-                                output_channels=np.array(tr[0].output_channels))
+                                units=np.array(tg[0].output_units),
+                                quantity=np.array(tg[0].output_quantity),
+                                output_channels=np.array(tg[0].output_channels))
         (tmp / "errors.csv").write_text(buf.getvalue())
     return rows
 
 
+def _predict_io(method, train, targets, *, solver, n_modes, coverage, input_units,
+                output_units, units):
+    """``(target IORecords, predictions)`` of an input/output method."""
+    kw = dict(input_units=input_units, output_units=output_units, system=units)
+    tr = [read_any(p, **kw) for p in train]
+    tg = [read_any(p, **kw, default_output_units=tr[0].output_units) for p in targets]
+    est = make_method(method, solver=solver, n_modes=n_modes, n_train=len(tr))
+    min_samples = 2
+    if getattr(est, "n_lags", None) == "auto":
+        min_samples = int(round(min(est.lag_grid) / tr[0].dt)) + 1
+    check_records(tr, tg, min_samples=min_samples)
+    with single_blas_thread():
+        est.fit(tr)
+        preds = [est.predict(r, coverage=coverage) for r in tg]
+    return tg, preds
+
+
+def _predict_wf(method, train, targets, *, solver, n_modes, coverage, units):
+    """``(target IORecords, predictions)`` of the dissertation's ML or SL on displacement/
+    force files (in, lbf). The methods fit in the files' units; with ``units="SI"`` the
+    prediction and its band are converted afterwards (m), as the targets are."""
+    if method == "SL" and len(train) != 1:
+        raise InputError(f"--train: SL identifies from one forced record (Eqs. 3.43-3.44), "
+                         f"got {len(train)} files; give one, or use --method ML")
+    est = POD_METHODS[method](n_modes=n_modes, solver=solver)
+    recs = [read_record(p) for p in train]
+    tgs = [read_record(p) for p in targets]
+    io_tr = [from_record(r, name=Path(p).name) for r, p in zip(recs, train, strict=True)]
+    io_tg = [from_record(r, name=Path(p).name) for r, p in zip(tgs, targets, strict=True)]
+    check_records(io_tr, io_tg, min_samples=2)
+    with single_blas_thread():
+        est.fit(recs if method == "ML" else recs[0])
+        preds = [est.predict(t, coverage=coverage) for t in tgs]
+    if units in (None, "inch-lbf"):
+        return io_tg, preds
+    io_tg = [convert(r, units) for r in io_tg]
+    f = UNITS["displacement"]["in"][1] / UNITS["displacement"][io_tg[0].output_units][1]
+    return io_tg, [p * f if isinstance(p, np.ndarray) else
+                   replace(p, mean=p.mean * f, lower=p.lower * f, upper=p.upper * f)
+                   for p in preds]
+
+
 def _check_coverage(coverage, n_train: int) -> float:
-    """``--coverage`` in (0, 1) with enough training records for its calibration."""
+    """``--coverage`` in (0, 1)."""
     try:
-        c = check_coverage(coverage)
+        return check_coverage(coverage)
     except InputError:
         raise InputError(f"--coverage: expected a number in (0, 1), got {coverage!r}") from None
+
+
+def _check_band_records(n_train: int) -> None:
+    """Enough training records for an input/output method's band calibration."""
     if n_train < MIN_BAND_RECORDS:
         raise InputError(f"--coverage: the band is calibrated by leave-one-record-out over "
                          f"the training records (each fold fitted on the others, with its own "
                          f"lag and prior choice): give at least {MIN_BAND_RECORDS} --train "
                          f"files, got {n_train}")
-    return c
 
 
 def _row(stem: str, method: str, rec: IORecord, p, coverage) -> dict:

@@ -5,10 +5,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from podbench.measured import write_record
 
+import podbench as pb
 from podbench.cli import main
 from podbench.core.iorecords import IORecord, write_io_record
+from podbench.dynamics.excitations import Pulse
 from podbench.harness.painter_street import data_folder, load_events
+from podbench.sysid.methods import MultipleLoad, SingleLoad
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "painter_street"
 
@@ -130,3 +134,54 @@ def test_run_painter_street_writes_the_study(tmp_path):
     assert tc <= fir
     assert rows[("three", "SL")]["status"] == "refused"
     assert (out / "figures" / "deck_acceleration.png").is_file()
+
+
+@pytest.fixture(scope="module")
+def wf_files(tmp_path_factory):
+    """Displacement/force files (W in in, F in lbf) of the LTI beam: four training pulses
+    and one held-out target, with the simulated records themselves."""
+    folder = tmp_path_factory.mktemp("wf")
+    s = pb.load_structure("lti_beam")
+    recs, paths = [], []
+    for i, x in enumerate((2.0, 8.0, 14.0, 20.0, 11.0)):
+        r = pb.simulate(s, n_samples=400, dt=1e-4, force=Pulse(x, 500.0, 5e-4))
+        paths.append(str(write_record(folder / f"wf{i}.npz", r)))
+        recs.append(r)
+    return paths, recs
+
+
+def test_predict_on_displacement_force_files_runs_the_dissertations_ml(wf_files, tmp_path):
+    """On W/F files --method ML is MultipleLoad (Eqs. 3.46-3.49) fitted on the same records,
+    not the input/output kernel of every force channel (which needs 2500 samples there)."""
+    paths, recs = wf_files
+    ref = MultipleLoad(n_modes=4, solver="block").fit(recs[:4]).predict(recs[4])
+    truth_err = np.linalg.norm(ref - recs[4].W) / np.linalg.norm(recs[4].W)
+    for units, factor, unit in ((None, 1.0, "in"), ("SI", 0.0254, "m")):
+        out = tmp_path / f"out{units}"
+        argv = ["predict", "--method", "ML", "--n-modes", "4", "--solver", "block",
+                "--train", *paths[:4], "--target", paths[4], "--out", str(out)]
+        assert main(argv + (["--units", units] if units else [])) == 0
+        row = next(csv.DictReader(open(out / "errors.csv")))
+        assert row["units"] == unit
+        assert float(row["total_error"]) == pytest.approx(truth_err, rel=1e-5)
+        with np.load(out / "wf4.npz", allow_pickle=False) as z:
+            assert str(z["units"]) == unit
+            np.testing.assert_allclose(z["W_hat"], factor * ref, rtol=0,
+                                       atol=1e-12 * np.abs(ref).max())
+
+
+def test_predict_sl_on_a_displacement_force_file_and_its_band(wf_files, tmp_path, capsys):
+    paths, recs = wf_files
+    out = tmp_path / "sl"
+    assert main(["predict", "--method", "SL", "--train", *paths[:2], "--target", paths[4],
+                 "--out", str(out)]) == 2
+    assert "--train: SL identifies from one forced record" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["predict", "--method", "SL", "--n-modes", "4", "--train", paths[0],
+                 "--target", paths[4], "--out", str(out), "--coverage", "0.9"]) == 0
+    ref = SingleLoad(n_modes=4).fit(recs[0]).predict(recs[4])
+    row = next(csv.DictReader(open(out / "errors.csv")))
+    assert float(row["error_estimate"]) > 0 and 0 <= float(row["coverage"]) <= 1
+    with np.load(out / "wf4.npz", allow_pickle=False) as z:
+        np.testing.assert_allclose(z["W_hat"], ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+        assert np.all(z["lower"] <= z["W_hat"]) and np.all(z["W_hat"] <= z["upper"])
