@@ -605,5 +605,13 @@ def test_the_readme_states_every_studys_wall_time():
         command = re.match(r"`([^`]+)`", cells[0]).group(1)
         if command in manifest:
             assert minutes == pytest.approx(manifest[command]["minutes"], abs=0.051), ln
+            # "N rows" is the committed table's row count (summary.csv, or a sweep's sweep.csv)
+            rows_said = re.search(r"(\d+) rows", cells[1])
+            if rows_said:
+                folder = ROOT / manifest[command]["paths"][0]
+                table = folder / ("sweep.csv" if command.startswith("podbench sweep")
+                                  else "summary.csv")
+                n = len(table.read_text(encoding="utf-8").splitlines()) - 1
+                assert int(rows_said.group(1)) == n, (ln, n)
     for words in ("measured", "2-core", "load"):
         assert words in section, words
