@@ -313,3 +313,78 @@ def test_peers_bands_reuse_the_chosen_order(excitation):
         op = OpInf().fit(recs)
         assert op.frozen_params() == {"regularizer": op.regularizer_}
         assert np.isfinite(op.predict(target, coverage=0.9).error_estimate)
+
+
+def _refit_folds(model, recs, U, cv_modes):
+    from podbench.sysid.methods import bands
+
+    frozen = bands._frozen(model)
+    return [np.asarray(bands._refit(model, recs[:j] + recs[j + 1:], n_modes=cv_modes,
+                                    basis=U, frozen=frozen).predict(recs[j]))
+            for j in range(len(recs))]
+
+
+@pytest.mark.parametrize("make, n_modes", [
+    (lambda: MultipleLoad(solver="block"), None),           # k = N: folds in k − 1 modes
+    (lambda: MultipleLoad(n_modes=3, solver="cgls"), 3),    # N > k: GCV λ frozen
+    (lambda: MDS(excitation="displacement"), None),         # k = N: V̂0 square per fold
+    (lambda: MDS(excitation="displacement", n_modes=3), 3), # N > k: pseudo-inverse per fold
+])
+def test_fold_predictions_equal_the_refits(make, n_modes):
+    """The structured leave-one-record-out folds (MDS: linear in the other records'
+    projections; ML: the folds' deconvolutions solved together) predict what refitting each
+    fold predicts, to round-off."""
+    from podbench.sysid.methods import bands
+
+    if isinstance(make(), MDS):
+        case = free_case("coupled", "displacement")
+        recs = [Record(W=W, w0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
+    else:
+        case = forced_case("coupled")
+        rng = np.random.default_rng(5)
+        recs = [Record(W=W + (1e-3 * np.std(W) * rng.standard_normal(W.shape)
+                              if n_modes else 0.0), F=F, dt=case.dt)
+                for W, F in zip(case.W, case.F, strict=True)]
+    model = make().fit(recs)
+    U = np.asarray(model.modes_)
+    cv_modes = len(recs) - 1 if U.shape[1] > len(recs) - 1 else None
+    U_cv = U if cv_modes is None else U[:, :cv_modes]
+    fast = model.fold_predictions(recs, U_cv, bands._frozen(model))
+    slow = _refit_folds(model, recs, U_cv, cv_modes)
+    assert len(fast) == len(slow) == len(recs)
+    for a, b in zip(fast, slow, strict=True):
+        assert np.max(np.abs(a - b)) <= 1e-9 * np.max(np.abs(b)), np.max(np.abs(a - b))
+    # and the calibration uses them: its folds' residuals are the refits'
+    _, residuals, _, _ = bands._residuals(model, recs, U, True, bands._frozen(model))
+    for R, b, r in zip(residuals, slow, recs, strict=True):
+        inside = U_cv @ (U_cv.T @ r.W) if cv_modes else r.W
+        expect = inside - b + ((r.W - U @ (U.T @ r.W)) if cv_modes else 0.0)
+        np.testing.assert_allclose(R, expect, rtol=0, atol=1e-9 * np.max(np.abs(r.W)))
+
+
+def test_block_solve_many_equals_solve_and_falls_back():
+    """``"block"``'s batched forward substitution gives each system's own solution and
+    diagnostics; systems it cannot batch (another leading-zero count) are solved one by one."""
+    from podbench.deconvolution import ConvolutionSystem
+
+    from podbench.sysid.deconvolution.block import BlockSubstitution
+
+    rng = np.random.default_rng(2)
+    k, n, dt = 3, 70, 1e-3
+    systems = []
+    for start in (1, 1, 1, 2):
+        Qs = [np.zeros((k, n)) for _ in range(k)]
+        decay = 0.7 ** np.arange(n - start)  # a dominant first sample: well conditioned
+        for j, Q in enumerate(Qs):
+            Q[:, start:] = rng.standard_normal((k, n - start)) * decay
+            Q[j, start] += 5.0
+        systems.append(ConvolutionSystem(Qs, rng.standard_normal((k * n, k)), dt))
+    solver = BlockSubstitution(leaf=8)
+    for group in (systems[:3], systems):
+        many = solver.solve_many(group)
+        for s, res in zip(group, many, strict=True):
+            one = solver.solve(s)
+            np.testing.assert_allclose(res.X, one.X, rtol=1e-9,
+                                       atol=1e-9 * np.max(np.abs(one.X)))
+            assert res.info["shift"] == one.info["shift"]
+            assert res.info["growth"] == pytest.approx(one.info["growth"], rel=1e-9)

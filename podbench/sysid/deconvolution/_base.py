@@ -148,6 +148,11 @@ class Solver(ParamsMixin):
         X, info = out if isinstance(out, tuple) else (out, {})
         return self._result(system, X, info)
 
+    def solve_many(self, systems) -> list[SolverResult]:
+        """:meth:`solve` on each of several systems (a solver may solve them together:
+        :class:`~podbench.sysid.deconvolution.block.BlockSubstitution`)."""
+        return [self.solve(system) for system in systems]
+
     def _solve(self, system: ConvolutionSystem):
         """Return ``X`` or ``(X, info)``; implemented by each solver."""
         raise NotImplementedError(f"{type(self).__name__} does not implement _solve(system)")

@@ -67,6 +67,54 @@ def _forward_substitution(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray
     return X[:n]
 
 
+def _forward_substitution_many(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray:
+    """:func:`_forward_substitution` for ``b`` systems at once: ``G`` ``(b, n, k, k)``,
+    ``Y`` ``(b, n, k, r)``; the same divide and conquer with every step broadcast over the
+    leading axis (one Python-level pass for all ``b``: the leave-one-record-out folds of a
+    prediction band, :meth:`BlockSubstitution.solve_many`)."""
+    b, n, k, _ = G.shape
+    r = Y.shape[3]
+    n_pad = leaf
+    while n_pad < n:
+        n_pad *= 2
+    Gp = np.zeros((b, n_pad, k, k))
+    Gp[:, :n] = G
+    Yp = np.zeros((b, n_pad, k, r))
+    Yp[:, :n] = Y
+    X = np.zeros((b, n_pad, k, r))
+    G0inv = np.linalg.inv(G[:, 0])
+    # G[leaf−1], …, G[1] side by side, (b, k, (leaf−1)·k): column p·k + j is G[leaf−1−p][:, j]
+    Gflip = Gp[:, leaf - 1 : 0 : -1] if leaf > 1 else Gp[:, :0]
+    Gcat = np.ascontiguousarray(Gflip.transpose(0, 2, 1, 3)).reshape(b, k, -1)
+    spectra: dict[int, np.ndarray] = {}
+
+    def solve_leaf(lo: int) -> None:
+        for t in range(leaf):
+            rhs = Yp[:, lo + t]
+            if t:
+                # Σ_{p<t} G[t−p] X[lo+p] as one product per system
+                rhs = rhs - Gcat[:, :, (leaf - 1 - t) * k :] @ \
+                    X[:, lo : lo + t].reshape(b, t * k, r)
+            X[:, lo + t] = G0inv @ rhs
+
+    def solve_range(lo: int, length: int) -> None:
+        if length == leaf:
+            solve_leaf(lo)
+            return
+        h = length // 2
+        solve_range(lo, h)
+        Gh = spectra.get(h)
+        if Gh is None:
+            Gh = spectra[h] = scipy.fft.rfft(Gp[:, : 2 * h], 2 * h, axis=1)
+        conv = scipy.fft.irfft(Gh @ scipy.fft.rfft(X[:, lo : lo + h], 2 * h, axis=1), 2 * h,
+                               axis=1)
+        Yp[:, lo + h : lo + 2 * h] -= conv[:, h:]
+        solve_range(lo + h, h)
+
+    solve_range(0, n_pad)
+    return X[:, :n]
+
+
 def block_substitution(
     Q_list,
     B,
@@ -157,10 +205,7 @@ def _block(system: ConvolutionSystem, zero_tol: float, max_cond: float, max_grow
     X = np.zeros((n, k, r))
     with np.errstate(all="ignore"):
         X[: n - d] = _forward_substitution(G[d:], Y[d:], leaf) / dt
-        norm_a = dt * float(np.sum(np.sqrt(np.sum(G.reshape(n, -1) ** 2, axis=1))))
-        norm_y = float(np.linalg.norm(Y[d:]))
-        norm_x = float(np.linalg.norm(X))
-        growth = norm_a * norm_x / norm_y if norm_y > 0 else (0.0 if norm_x == 0 else np.inf)
+        growth = _growth(G, Y, X, d, dt)
     if not (np.isfinite(growth) and growth <= max_growth):
         ratio = sv[-1] / np.sqrt(np.max(np.sum(G.reshape(n, -1) ** 2, axis=1)))
         how = f"by {growth:.3g}" if np.isfinite(growth) else "until it overflowed"
@@ -173,6 +218,48 @@ def _block(system: ConvolutionSystem, zero_tol: float, max_cond: float, max_grow
             "skip near-zero leading samples"
         )
     return X, {"shift": d, "condition": cond, "growth": growth}
+
+
+def _growth(G: np.ndarray, Y: np.ndarray, X: np.ndarray, d: int, dt: float) -> float:
+    """``‖A‖·‖X‖/‖B‖`` of a solution (``‖A‖`` bounded by ``Δt Σ_s ‖G[s]‖_F``, ``‖B‖`` over
+    the equations after the shift ``d``): the quantity ``max_growth`` bounds."""
+    n = G.shape[0]
+    norm_a = dt * float(np.sum(np.sqrt(np.sum(G.reshape(n, -1) ** 2, axis=1))))
+    norm_y = float(np.linalg.norm(Y[d:]))
+    norm_x = float(np.linalg.norm(X))
+    return norm_a * norm_x / norm_y if norm_y > 0 else (0.0 if norm_x == 0 else np.inf)
+
+
+def _block_many(systems, zero_tol: float, max_cond: float, max_growth: float, leaf: int):
+    """:func:`_block` on several systems of one shape, one ``Δt`` and one leading-zero
+    count ``d``, solved together (:func:`_forward_substitution_many`): a list of
+    ``(kernel samples, diagnostics)``, each equal to :func:`_block`'s to round-off. None
+    when they cannot be batched or one of them fails a check (the caller then solves them
+    one by one, which raises that system's own error)."""
+    first = systems[0]
+    n, n_cases, k = first.G.shape
+    if n_cases != k or any(s.G.shape != first.G.shape or s.Y.shape != first.Y.shape
+                           or s.dt != first.dt for s in systems):
+        return None
+    shifts = {s.leading_zeros(zero_tol) for s in systems}
+    if len(shifts) != 1:
+        return None
+    d = shifts.pop()
+    conds = [condition_number(np.linalg.svd(s.G[d], compute_uv=False)) for s in systems]
+    if not all(c <= max_cond for c in conds):
+        return None
+    X = np.zeros((len(systems), n, k, first.Y.shape[2]))
+    out = []
+    with np.errstate(all="ignore"):
+        X[:, : n - d] = _forward_substitution_many(np.stack([s.G[d:] for s in systems]),
+                                                   np.stack([s.Y[d:] for s in systems]),
+                                                   leaf) / first.dt
+        for s, Xs, cond in zip(systems, X, conds, strict=True):
+            growth = _growth(s.G, s.Y, Xs, d, s.dt)
+            if not (np.isfinite(growth) and growth <= max_growth):
+                return None
+            out.append((Xs, {"shift": d, "condition": cond, "growth": growth}))
+    return out
 
 
 class BlockSubstitution(Solver):
@@ -211,3 +298,20 @@ class BlockSubstitution(Solver):
         p = self._params()
         X, info = _block(system, p["zero_tol"], p["max_cond"], p["max_growth"], p["leaf"])
         return system.stack(X), info
+
+    def solve_many(self, systems) -> list:
+        """Several systems of one shape (the leave-one-record-out folds of a prediction
+        band) solved together by one batched forward substitution
+        (:func:`_forward_substitution_many`); the same solutions and diagnostics as
+        :meth:`solve` on each, to round-off. Systems that cannot be batched (shapes,
+        ``Δt`` or leading zeros differ) or that fail a check are solved one by one."""
+        systems = list(systems)
+        self._validate_params()
+        p = self._params()
+        solved = _block_many(systems, p["zero_tol"], p["max_cond"], p["max_growth"],
+                             p["leaf"]) if len(systems) > 1 and all(
+            isinstance(s, ConvolutionSystem) for s in systems) else None
+        if solved is None:
+            return super().solve_many(systems)
+        return [self._result(s, s.stack(X), info)
+                for s, (X, info) in zip(systems, solved, strict=True)]

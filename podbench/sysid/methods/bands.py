@@ -377,11 +377,16 @@ def _moving_rms(X: np.ndarray, width: int) -> np.ndarray:
     """Centered moving RMS along the last axis (window ``width`` samples, edges shrink)."""
     width = max(1, int(width))
     X2 = np.asarray(X, dtype=float) ** 2
-    c = np.cumsum(np.pad(X2, [(0, 0)] * (X2.ndim - 1) + [(1, 0)]), axis=-1)
     n = X2.shape[-1]
-    lo = np.clip(np.arange(n) - width // 2, 0, n)
-    hi = np.clip(np.arange(n) + width - width // 2, 0, n)
-    return np.sqrt(np.maximum((c[..., hi] - c[..., lo]) / (hi - lo), 0.0))
+    a = width // 2
+    # the cumulative sum c[0 … n] (c[0] = 0) extended by its edge values, a zeros before and
+    # c[n] after: window s sums c[hi] − c[lo] = ext[s + width] − ext[s], two slices
+    ext = np.zeros(X2.shape[:-1] + (n + width,))
+    np.cumsum(X2, axis=-1, out=ext[..., a + 1 : a + 1 + n])
+    ext[..., a + 1 + n :] = ext[..., a + n : a + n + 1]
+    lo = np.clip(np.arange(n) - a, 0, n)
+    hi = np.clip(np.arange(n) + width - a, 0, n)
+    return np.sqrt(np.maximum((ext[..., width:] - ext[..., :n]) / (hi - lo), 0.0))
 
 
 def _sensor_rms(records) -> np.ndarray:
@@ -395,12 +400,17 @@ def _envelope(W_hat: np.ndarray, reference=None) -> np.ndarray:
     of the sensor's overall RMS in the prediction and, given, in the training records
     ``reference`` (m,): a prediction of almost nothing still gets a band on the scale of
     what the model was fitted on; and 1e-12 × the whole prediction's RMS)."""
-    n = W_hat.shape[1]
+    n = W_hat.shape[-1]
     env = _moving_rms(W_hat, max(3, round(ENVELOPE_FRACTION * n)))
-    rms_i = np.sqrt(np.mean(W_hat ** 2, axis=1, keepdims=True))
+    rms_i = np.sqrt(np.mean(W_hat ** 2, axis=-1, keepdims=True))
     if reference is not None and TRAINING_FLOOR:
-        rms_i = np.maximum(rms_i, np.asarray(reference, dtype=float)[:, None])
-    tiny = 1e-12 * (float(np.sqrt(np.mean(W_hat ** 2))) or 1.0)
+        rms_i = np.maximum(rms_i, np.asarray(reference, dtype=float)[..., None])
+    tiny: float | np.ndarray
+    if W_hat.ndim == 2:
+        tiny = 1e-12 * (float(np.sqrt(np.mean(W_hat ** 2))) or 1.0)
+    else:  # a stack of predictions (..., m, n): each its own
+        overall = np.sqrt(np.mean(W_hat ** 2, axis=(-2, -1), keepdims=True))
+        tiny = 1e-12 * np.where(overall > 0, overall, 1.0)
     return np.sqrt(env ** 2 + (FLOOR * rms_i) ** 2 + tiny ** 2)
 
 
@@ -415,7 +425,7 @@ class BandCalibration:
     prediction of that fit)."""
 
     source: str                      # "cross-validation" | "in-sample"
-    scores: np.ndarray               # pooled normalized residuals |R|/s (sorted)
+    scores: np.ndarray               # pooled normalized residuals |R|/s (unordered)
     mean_square_score: float         # E[score²]: the error estimate's scale
     time_profile: np.ndarray         # g per time bin (N_TIME_BINS,)
     noise_std: np.ndarray | None     # per channel, (m,) (None: no noise part)
@@ -433,7 +443,9 @@ class BandCalibration:
         if n == 0:
             return 0.0
         rank = math.ceil(coverage * (n + 1))
-        return float(self.scores[rank - 1]) if rank <= n else math.inf
+        # the rank-th smallest by selection (np.partition), not a full sort
+        return float(np.partition(self.scores, rank - 1)[rank - 1]) if rank <= n \
+            else math.inf
 
 
 def _frozen(model) -> dict:
@@ -512,6 +524,41 @@ def _noise_refits(model, recs, sig, n_draws: int, seed: int, U, frozen=None) -> 
     return noise_models
 
 
+def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
+    """Each training record predicted by the model refitted in ``U_cv`` to the others:
+    the method's own ``fold_predictions`` where it has one (the same predictions without
+    the refits: MDS's folds are linear in the other records' projections, ML's
+    deconvolutions are solved together), else one refit per fold."""
+    hook = getattr(model, "fold_predictions", None)
+    if callable(hook):
+        out = hook(recs, U_cv, frozen)
+        if out is not None:
+            return out
+    return [np.asarray(_refit(model, recs[:j] + recs[j + 1:], n_modes=cv_modes, basis=U_cv,
+                              frozen=frozen).predict(recs[j]), dtype=float)
+            for j in range(len(recs))]
+
+
+def _fold_envelopes(Whs, recs) -> list[np.ndarray]:
+    """Each fold's difficulty: the envelope of its prediction, floored by the per-sensor
+    RMS of the records it was fitted on, times its amplitude-extrapolation factor
+    (computed for all folds at once where the predictions share a shape)."""
+    N = len(recs)
+    ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
+    amps = [_rms(r.W) for r in recs]
+    refs, factors = [], []
+    for j, Wh in enumerate(Whs):
+        rest = [ms[l] for l in range(N) if l != j]
+        rest_rms = [amps[l] for l in range(N) if l != j]
+        refs.append(np.sqrt(np.mean(rest, axis=0)))
+        factors.append(extrapolation(_rms(Wh), min(rest_rms), max(rest_rms))
+                       ** AMPLITUDE_POWER)
+    if len({Wh.shape for Wh in Whs}) == 1:
+        return list(_envelope(np.stack(Whs), np.stack(refs))
+                    * np.asarray(factors)[:, None, None])
+    return [_envelope(Wh, ref) * f for Wh, ref, f in zip(Whs, refs, factors, strict=True)]
+
+
 def _residuals(model, recs, U, can_split: bool, frozen=None):
     """``(source, residuals, envelopes, cv_modes)``: leave-one-record-out residuals where the
     records allow a split, else the in-sample residuals."""
@@ -524,10 +571,9 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
         if getattr(model, "records_per_mode", False) and k > len(recs) - 1:
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
-        for j in range(len(recs)):
-            rest = recs[:j] + recs[j + 1:]
-            est = _refit(model, rest, n_modes=cv_modes, basis=U_cv, frozen=frozen)
-            Wh = np.asarray(est.predict(recs[j]), dtype=float)
+        Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
+        envs = _fold_envelopes(Whs, recs)
+        for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
                 residuals.append(W - Wh)
@@ -537,9 +583,6 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
                 # it the mode the fold cannot identify
                 inside = U_cv @ (U_cv.T @ W) - Wh
                 residuals.append(inside + (W - U @ (U.T @ W)))
-            rest_rms = [_rms(r.W) for r in rest]
-            envs.append(_envelope(Wh, _sensor_rms(rest)) * extrapolation(
-                _rms(Wh), min(rest_rms), max(rest_rms)) ** AMPLITUDE_POWER)
     else:
         for r in recs:
             Wh = np.asarray(model.predict(r), dtype=float)
@@ -606,7 +649,7 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     g = _time_profile(residuals, envs)
     per_fold = [(np.abs(R) / (E * g[_bins(R.shape[1])][None, :])).ravel()
                 for R, E in zip(residuals, envs, strict=True)]
-    scores = np.sort(np.concatenate(per_fold))
+    scores = np.concatenate(per_fold)
     # the error estimate's scale: per fold, κ_j² = ‖R_j‖²/‖s_j‖² (the fold's Frobenius
     # error in units of its difficulty, so that the estimate is the same quantity as
     # total_error); the geometric mean over folds (relative errors differ by orders of

@@ -26,7 +26,7 @@ from podbench.core.iorecords import IORecord
 from podbench.core.records import Record, as_record, is_record
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, IllConditionedError, InputError, NotFittedError
-from podbench.sysid.deconvolution import Solver, deconvolve, make_solver
+from podbench.sysid.deconvolution import ConvolutionSystem, Solver, deconvolve, make_solver
 from podbench.sysid.deconvolution._api import SOLVER_OPTIONS
 from podbench.sysid.methods.bands import calibrate, check_coverage, predict_band
 from podbench.sysid.params import InstanceOf, Interval, Options, ParamsMixin, check_param
@@ -590,6 +590,24 @@ def solve_deconvolution(solver, Q_list, B, dt: float, max_growth: float = np.inf
             "solver ('cgls' or 'fft', Tikhonov) or raise max_growth"
         )
     return X, info
+
+
+def solve_deconvolutions(solver, systems, dt: float, max_growth: float = np.inf,
+                         what: str = "") -> list:
+    """:func:`solve_deconvolution` on several ``(Q_list, B)`` at once (the solver may solve
+    them together, ``solve_many``: the leave-one-record-out folds of a prediction band);
+    a list of ``(X, info)``, each as :func:`solve_deconvolution` returns it."""
+    results = solver.solve_many([ConvolutionSystem(Q, B, dt) for Q, B in systems])
+    out = []
+    for (Q_list, B), res in zip(systems, results, strict=True):
+        X, info = res.X, dict(res.info)
+        growth = amplification(Q_list, X, B, dt)
+        if not growth <= max_growth:  # the one-by-one solve raises its own message
+            return [solve_deconvolution(solver, Q, Bj, dt, max_growth, what)
+                    for Q, Bj in systems]
+        info["amplification"] = growth
+        out.append((X, info))
+    return out
 
 
 def select_basis(W: np.ndarray, n_modes, basis, *, energy: float | None = None):

@@ -50,6 +50,7 @@ from podbench.sysid.methods.base import (
     per_record_basis,
     select_basis,
     solve_deconvolution,
+    solve_deconvolutions,
 )
 from podbench.sysid.params import Interval, Options, check_param
 
@@ -479,10 +480,18 @@ class MultipleLoad(_ForcedMethod):
         return self._fit(Ws, Fs, dt, basis)
 
     def _fit(self, Ws, Fs, dt, basis) -> MultipleLoad:
-        n_modes = check_n_modes(self.n_modes)
         solver = make_method_solver(self.solver, self.solver_options)
+        system = self._system(Ws, Fs, basis)
+        Cbar, info = solve_deconvolution(solver, system[3], system[4], dt,
+                                         check_max_growth(self.max_growth), "ML (Eq. 3.48)")
+        return self._finish(system, Cbar, info, solver, dt)
+
+    def _system(self, Ws, Fs, basis) -> tuple:
+        """``(U, povs, pocs, Qs, B, cond)``: the basis, the modal forces and the stacked
+        scaled POC histories of Eq. 3.48, and the condition number of the load cases
+        (checked against ``max_cond``)."""
+        n_modes = check_n_modes(self.n_modes)
         max_cond = check_max_cond(self.max_cond)
-        n = Ws[0].shape[1]
         U, povs, pocs = per_record_basis(Ws, n_modes, basis, self.basis, (
             "ML: fewer load cases ({n_sets}) than modes ({k}); C̄ has k²n unknowns and each "
             "load case adds only k·n equations (Eq. 3.48), so k = {k} cases are needed"))
@@ -498,8 +507,12 @@ class MultipleLoad(_ForcedMethod):
                 f"{max_cond:g}; use linearly independent loads"
             )
         B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
-        Cbar, info = solve_deconvolution(solver, Qs, B, dt, check_max_growth(self.max_growth),
-                                         "ML (Eq. 3.48)")
+        return U, povs, pocs, Qs, B, cond
+
+    def _finish(self, system: tuple, Cbar, info, solver, dt) -> MultipleLoad:
+        """Set the fitted state from the solved system (:meth:`_system`)."""
+        U, povs, pocs, Qs, B, cond = system
+        k, n = U.shape[1], B.shape[0] // len(Qs)
         kernel = np.empty((k, k, n))
         for i in range(k):
             kernel[:, i, :] = Cbar[i * n : (i + 1) * n].T
@@ -511,6 +524,30 @@ class MultipleLoad(_ForcedMethod):
         self.condition_number_ = cond
         self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
         return self
+
+    def fold_predictions(self, records, basis, frozen=None) -> list[np.ndarray]:
+        """The leave-one-record-out predictions of a prediction band
+        (:mod:`~podbench.sysid.methods.bands`): record ``j`` predicted by a copy of this
+        model (hyperparameters and ``frozen``) fitted in ``basis`` to the other records —
+        the same as refitting each fold, to round-off — with the folds' deconvolutions
+        solved together (``solve_many``: one batched forward substitution for
+        ``"block"``)."""
+        recs = self._training_records(records)
+        est = type(self)(**{**self.get_params(deep=False), **(frozen or {})})
+        est.set_params(n_modes=np.shape(basis)[1])
+        est._validate_params()
+        solver = make_method_solver(est.solver, est.solver_options)
+        dt = check_dt(recs[0].dt)
+        systems = [est._system([r.W for r in recs[:j] + recs[j + 1:]],
+                               [cast(np.ndarray, r.F) for r in recs[:j] + recs[j + 1:]], basis)
+                   for j in range(len(recs))]
+        solved = solve_deconvolutions(solver, [(sy[3], sy[4]) for sy in systems], dt,
+                                      check_max_growth(est.max_growth), "ML (Eq. 3.48)")
+        out = []
+        for j, (sy, (Cbar, info)) in enumerate(zip(systems, solved, strict=True)):
+            fold = type(est)(**est.get_params(deep=False))._finish(sy, Cbar, info, solver, dt)
+            out.append(np.asarray(fold.predict(records[j]), dtype=float))
+        return out
 
     def _modal_response(self, kernel: np.ndarray, q: np.ndarray) -> np.ndarray:
         """``Ṽ = [Q̃̌_1 … Q̃̌_k] C̄`` (Eq. 3.49) as a fast convolution."""

@@ -391,6 +391,38 @@ class MDS(_FreeMethod):
         self.condition_number_ = cond
         return self
 
+    def fold_predictions(self, records, basis, frozen=None) -> list[np.ndarray] | None:
+        """The leave-one-record-out predictions of a prediction band
+        (:mod:`~podbench.sysid.methods.bands`): record ``j`` predicted by a copy of this
+        model fitted in ``basis`` to the other records, without refitting. Each fold's
+        prediction is linear in the other records: ``W̃_j = U Σ_l c_l V̂_l`` with
+        ``V̂_l = Uᵀ ˡW`` and ``c = V̂0,j⁻¹ Uᵀ ʲx0`` (``V̂0,j`` the fold's initial coordinates,
+        Eqs. 3.27–3.29), so the projections are computed once and each fold solves one
+        small system — the refit's prediction to round-off. None (refit each fold, which
+        raises the fold's own error) when a fold's ``V̂0`` fails ``max_cond`` or has fewer
+        columns than ``basis`` (frozen choices: MDS has none)."""
+        recs = self._training_records(records)
+        U = np.asarray(basis, dtype=float)
+        k, n_sets = U.shape[1], len(recs)
+        max_cond = check_max_cond(self.max_cond)
+        x0 = [getattr(r, _X0[self.excitation]) for r in recs]
+        targets = [getattr(r, _X0[self.excitation], None) for r in records]
+        if n_sets - 1 < k or any(x is None for x in targets):
+            return None
+        X0 = np.column_stack(check_profiles(x0, n_sets, U.shape[0], "x0"))
+        V0 = U.T @ X0  # k × N
+        Vh = np.einsum("mk,jmn->jkn", U, np.stack([np.asarray(r.W, float) for r in recs]))
+        out = []
+        for j in range(n_sets):
+            rest = [l for l in range(n_sets) if l != j]
+            V0j = V0[:, rest]
+            if not condition_number(np.linalg.svd(V0j, compute_uv=False)) <= max_cond:
+                return None
+            V0_inv = np.linalg.solve(V0j, np.eye(k)) if n_sets - 1 == k else np.linalg.pinv(V0j)
+            c = V0_inv @ (U.T @ check_profile(targets[j], U.shape[0], "x0_new"))
+            out.append(U @ np.einsum("l,lkn->kn", c, Vh[rest]))
+        return out
+
     def _modal_histories(self, x: np.ndarray) -> np.ndarray:
         """``Φ(t_i) Uᵀ x̃0`` at every sample (Eqs. 3.28–3.29), ``(k, n)``."""
         return (self.Phi_ @ (self.modes_.T @ x)).T
