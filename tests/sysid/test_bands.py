@@ -388,3 +388,24 @@ def test_block_solve_many_equals_solve_and_falls_back():
                                        atol=1e-9 * np.max(np.abs(one.X)))
             assert res.info["shift"] == one.info["shift"]
             assert res.info["growth"] == pytest.approx(one.info["growth"], rel=1e-9)
+
+
+def test_projection_share_is_the_error_at_t0_and_enters_the_estimate():
+    """A free-response target's share outside the basis, ρ = ‖(I − UUᵀ)w̃0‖/‖w̃0‖, is the
+    prediction's relative error at t = 0 (MDS: Φ(0) = I, so Ŵ(:, 0) = UUᵀw̃0), computed
+    from the target's w0 alone; the error estimate is at least ρ."""
+    case = free_case("coupled", "displacement")
+    recs = [Record(W=W, w0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
+    target = Record(W=case.W_new, w0=case.x0_new, dt=case.dt)
+    model = MDS(excitation="displacement", n_modes=3).fit(recs)
+    rho = model.projection_share(target)
+    W_hat = model.predict(target)
+    at_t0 = np.linalg.norm(W_hat[:, 0] - case.x0_new) / np.linalg.norm(case.x0_new)
+    assert rho == pytest.approx(at_t0, rel=1e-10) and rho > 1e-3
+    p = model.predict(target, coverage=0.9)
+    assert p.error_estimate >= rho
+    realized = np.linalg.norm(W_hat - case.W_new) / np.linalg.norm(case.W_new)
+    assert 0.5 <= p.error_estimate / realized <= 2.0, (p.error_estimate, realized)
+    assert MDS(excitation="velocity").fit(
+        [Record(W=W, v0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
+    ).projection_share(Record(W=case.W_new, v0=case.x0_new, dt=case.dt)) is None

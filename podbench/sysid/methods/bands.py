@@ -223,6 +223,13 @@ excitation outside the training pattern, and a bound on the structure's) or ``"t
 (:func:`diagonal_inconsistency`: the spread of the modal scales, the tangent of the angle
 between the target's and the training excitation; unbounded)."""
 
+PROJECTION_SHARE = True
+"""Whether a method that can measure a target's share outside its basis
+(``projection_share(record)``: the free-response methods on an initial displacement, whose
+response starts at ``w0``) takes the error estimate as the identification's error inside
+the basis (its residuals' part ``U Uᵀ R_j``) plus that share, ``sqrt(e_in² + ρ²)``, instead
+of the training records' projection error."""
+
 EXTRAPOLATE_BELOW = False
 """Whether a prediction below the training RMS range also counts as extrapolated."""
 TRAINING_FLOOR = True
@@ -472,6 +479,7 @@ class BandCalibration:
     noise_models: list = field(default_factory=list)  # refits on noisy copies
     amplitude_range: tuple = (0.0, 0.0)  # RMS range of the training records' W
     reference_rms: np.ndarray | None = None  # per-sensor RMS of the training records' W
+    inside_score: float | None = None  # mean_square_score of the residuals inside the basis
 
     def quantile(self, coverage: float) -> float:
         """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
@@ -697,12 +705,23 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     # log scale: within a factor of 2)
     ms = np.array([np.sum(R ** 2) / np.sum(S ** 2)
                    for R, S in zip(residuals, difficulty, strict=True)])
-    ms_gm = float(np.exp(np.mean(np.log(ms[ms > 0])))) if np.any(ms > 0) else 0.0
+    ms_gm = _geometric_mean(ms)
+    inside = None
+    if PROJECTION_SHARE and callable(getattr(model, "projection_share", None)):
+        # the same scale from the residuals' part inside the basis (U Uᵀ R_j): the error the
+        # identification adds; the target's own share outside the basis is added per target
+        inside = _geometric_mean(np.array([np.sum((U @ (U.T @ R)) ** 2) / np.sum(S ** 2)
+                                           for R, S in zip(residuals, difficulty,
+                                                           strict=True)]))
     amps = [_rms(r.W) for r in recs]
     return BandCalibration(source, scores, ms_gm, g, sig,
                            len(residuals) if source == "cross-validation" else 0,
                            len(noise_models), cv_modes, noise_models,
-                           (min(amps), max(amps)), _sensor_rms(recs))
+                           (min(amps), max(amps)), _sensor_rms(recs), inside)
+
+
+def _geometric_mean(ms: np.ndarray) -> float:
+    return float(np.exp(np.mean(np.log(ms[ms > 0])))) if np.any(ms > 0) else 0.0
 
 
 def _diagonal_part(model, record, Wh: np.ndarray, cal: BandCalibration):
@@ -767,8 +786,15 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
         q = cal.quantile(c)
     s_diag, diag_details, norm = _diagonal_part(model, record, Wh, cal)
     half = np.sqrt((z ** 2) * (var_noise + s_diag ** 2) + (q * s_model) ** 2)
-    pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise + s_diag ** 2))
-    err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
+    share = getattr(model, "projection_share", None)
+    rho = share(record) if cal.inside_score is not None and callable(share) else None
+    if rho is None:
+        pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise
+                               + s_diag ** 2))
+        err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
+    else:  # the identification's error inside the basis, and the target's own outside it
+        pred_sq = float(np.sum(cal.inside_score * s_model ** 2 + var_noise + s_diag ** 2))
+        err = math.sqrt(pred_sq / norm ** 2 + rho ** 2) if norm > 0 else math.inf
     details = {"conformal_quantile": q, "n_folds": cal.n_folds, "n_draws": cal.n_draws,
                "n_scores": int(cal.scores.size),
                "noise_std_max": float(np.max(cal.noise_std)) if cal.noise_std is not None

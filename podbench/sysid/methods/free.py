@@ -74,6 +74,21 @@ class _FreeMethod(PODMethod):
             return getattr(self._target_record(record), _X0[self.excitation])
         return record
 
+    def projection_share(self, record) -> float | None:
+        """The share of a target's initial displacement outside the basis,
+        ``ρ = ‖(I − UUᵀ) w̃0‖ / ‖w̃0‖``: the relative error of the prediction at ``t = 0``,
+        which no method in the basis ``U`` can avoid (its prediction lies in the span of
+        ``U``; the truth starts at ``w̃0``); used by the error estimate
+        (:data:`~podbench.sysid.methods.bands.PROJECTION_SHARE`). None for an initial
+        velocity (the response starts at rest: nothing of it is known)."""
+        if self.excitation != "displacement":
+            return None
+        x = check_profile(self._new_profile(record), self.modes_.shape[0], "x0_new")
+        scale = float(np.linalg.norm(x))
+        if scale == 0:
+            return None
+        return float(np.linalg.norm(x - self.modes_ @ (self.modes_.T @ x))) / scale
+
     def predict(self, record) -> np.ndarray:
         """Response to a new initial displacement (in) or velocity (in/s): Eq. 3.11 (POVR),
         Eqs. 3.28–3.29 (MDS).
