@@ -45,7 +45,9 @@ such bands are reported with their calibration and ``Prediction.source`` says
 
 The error estimate (the predicted ``total_error`` ‖Ŵ − W‖_F/‖W‖_F) is the RMS of the band's
 predicted residual, ``sqrt(Σ (μ·s² + s_noise²)) / ‖Ŵ‖_F`` (SL, POVR: plus the
-diagonal part, over the truth's norm its split supports: below), with ``μ`` the geometric mean over
+diagonal part, over the truth's norm its split supports: below; MDS and POVR on an initial
+displacement: the part inside the basis plus the target's own share outside it, *The
+target's own projection share* below), with ``μ`` the geometric mean over
 the folds of ``‖R_j‖²_F / ‖s_j‖²_F`` (each fold's Frobenius error in units of its
 difficulty, so the estimate measures what ``total_error`` measures): relative errors differ
 by orders of magnitude between records (a load near the clamp barely moves the beam and its
@@ -60,11 +62,11 @@ prediction is linear in the other records' projections (``U Σ_l c_l Uᵀ ˡW``,
 the fold's ``V̂0``), ML's folds are deconvolved together (``Solver.solve_many``; ``"block"``:
 one batched forward substitution). The band's arithmetic runs on the stacked folds (one
 envelope pass, the moving RMS by slices of a cumulative sum, the conformal quantile by
-selection). Measured (``--repeat 40``, a machine at load 15–17 on 2 cores, before → after
-in one session): MDS5 42–49× → 5.6–6.0×, ML4-block 2.5–6.7× → 2.5–3.5×, POVR 7.1–7.3× →
-6.2–7.5× (its 0.4-ms fit against two noise refits and the diagonal split: over target);
-ML6-cgls 3.4–3.8×, ML6-fft 3.6–4.8×, ML4-cgls 1.3–1.9×, SL 2.5–2.7×, FIR-LS 2.9–3.6×,
-ML-TC 2.0×.
+selection). Measured (a machine at load 13–17 on 2 cores; sub-millisecond ratios vary up
+to 2× between runs): MDS5 12–49× → 4.9–6.0×, ML4-block 5–7× → 2.5–4.7×, POVR 6–7.3× →
+5.4–7.6× (its 0.4-ms fit against two noise refits and the diagonal split: over target);
+clean / 1 % noise: ML6-cgls 2.6 / 3.5×, ML6-fft 4.1 / 3.8×, ML4-cgls 1.5 / 1.6×, SL
+2.6 / 2.9×, FIR-LS 3.6 / 3.9×, ML-TC 2.2 / 2.2×.
 
 **The target's own projection share** (:data:`PROJECTION_SHARE`). A free-response
 method on an initial displacement (MDS, POVR) knows the target's ``w̃0`` and predicts in
