@@ -1,7 +1,8 @@
 """Wall time of a cold study run against a fixed reference workload timed in the same run.
 
-    python benchmarks/study_time.py                       # chapter5, --jobs 2, no figures
+    python benchmarks/study_time.py                       # chapter5, --jobs auto, no figures
     python benchmarks/study_time.py --study chapter4 --jobs 1
+    python benchmarks/study_time.py --jobs 1,2           # both in one session, one row each
     python benchmarks/study_time.py --tree /path/to/other/checkout   # time another commit
     python benchmarks/study_time.py --baseline-tree /path/to/previous/checkout  # speed-up
     python benchmarks/study_time.py --keep /tmp/ch5 --no-write   # keep the tables to compare
@@ -9,10 +10,14 @@
 A shared machine's speed changes from minute to minute, so a study's wall time alone says
 little; this script times a fixed reference workload (:func:`reference`: a seeded dense SVD,
 an eigen-decomposition and a pure-Python loop, one BLAS thread, best of three) before and
-after the study and reports the study's time in units of it. ``podbench run STUDY`` runs in
-a fresh process with an empty truth cache (``--cache`` in a temporary folder: cold) and
-``--no-figures``. The row goes to ``results/benchmarks.csv`` (group ``study``, replacing a
-row of the same study, jobs and tree name; the other rows are kept) unless ``--no-write``.
+after the study and reports the study's time in units of it. It also reports the CPU
+seconds the run's processes used (its own and its spawned workers', from the children's
+resource usage), which a loaded machine inflates much less than the wall time, and their
+ratio to the wall time (about ``jobs`` when the run kept its processes busy).
+``podbench run STUDY`` runs in a fresh process with an empty truth cache (``--cache`` in a
+temporary folder: cold) and ``--no-figures``. The rows go to ``results/benchmarks.csv``
+(group ``study``, each replacing a row of the same study, jobs and tree name; the other rows
+are kept) unless ``--no-write``.
 
 Speed is measured here only, never asserted in the tests (issue 24 item 10: "a cold run of
 the whole Chapter 5 study finish in 2 minutes on 2 cores").
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -65,10 +71,16 @@ def reference(python: str) -> float:
     return float(out.stdout.strip())
 
 
-def run_study(python: str, tree: Path, study: str, jobs: int, keep: Path | None = None) -> float:
-    """Wall seconds of a cold ``podbench run STUDY --no-figures --jobs JOBS`` from ``tree``
-    (its output folder kept as ``keep`` if given, e.g. to compare the tables byte for byte
-    with the committed ones)."""
+def _children_cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def run_study(python: str, tree: Path, study: str, jobs: str,
+              keep: Path | None = None) -> tuple[float, float]:
+    """Wall and CPU seconds of a cold ``podbench run STUDY --no-figures --jobs JOBS`` from
+    ``tree`` (its output folder kept as ``keep`` if given, e.g. to compare the tables byte
+    for byte with the committed ones)."""
     env = _env()
     env["PYTHONPATH"] = str(tree)
     with tempfile.TemporaryDirectory() as tmp:
@@ -76,15 +88,46 @@ def run_study(python: str, tree: Path, study: str, jobs: int, keep: Path | None 
         cmd = [python, "-m", "podbench", "run", study, "--no-figures", "--quiet",
                "--jobs", str(jobs), "--cache", str(Path(tmp) / "cache"),
                "--out", str(out)]
-        t = time.perf_counter()
+        t, c = time.perf_counter(), _children_cpu()
         subprocess.run(cmd, check=True, env=env, cwd=tmp, stdout=subprocess.DEVNULL)
-        return time.perf_counter() - t
+        return time.perf_counter() - t, _children_cpu() - c
+
+
+def _time_one(args, jobs: str, keep: Path | None) -> dict:
+    """One timed run between two reference workloads: its row and its printed line."""
+    base_note = ""
+    if args.baseline_tree is not None:
+        b0 = reference(args.python)
+        base, _ = run_study(args.python, args.baseline_tree.resolve(), args.study, jobs)
+        b1 = reference(args.python)
+        base_units = base / (0.5 * (b0 + b1))
+        base_note = (f"; baseline {args.baseline_tree.resolve().name}: {base:.1f} s wall, "
+                     f"{base_units:.0f} reference units")
+    ref0 = reference(args.python)
+    load0 = os.getloadavg()[0]
+    wall, cpu = run_study(args.python, args.tree.resolve(), args.study, jobs, keep)
+    ref1 = reference(args.python)
+    ref = 0.5 * (ref0 + ref1)
+    case = f"podbench run {args.study} (cold, no figures, --jobs {jobs})"
+    note = (f"reference workload {ref0:.2f} s before, {ref1:.2f} s after; the study takes "
+            f"{wall / ref:.0f} reference units; {cpu:.0f} s of CPU ({cpu / wall:.2f} per wall "
+            f"second); tree {args.tree.resolve().name}; load {load0:.1f} before, "
+            f"{os.getloadavg()[0]:.1f} after{base_note}")
+    if args.baseline_tree is not None:
+        note += f"; speed-up in reference units {base_units / (wall / ref):.2f}x"
+    print(f"{case}: {wall:.1f} s wall = {wall / ref:.1f} × the reference workload "
+          f"({ref:.2f} s); {note}", flush=True)
+    return report.row(group="study", case=case, solver=args.tree.resolve().name,
+                      status="ok", time_s=f"{wall:.1f}", baseline="reference workload",
+                      baseline_time_s=f"{ref:.3f}", speedup=f"{ref / wall:.4f}", note=note)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--study", default="chapter5")
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--jobs", default="auto",
+                    help="--jobs of the timed run, or several separated by commas (one run "
+                         "and one row each, in this order; default auto)")
     ap.add_argument("--tree", type=Path, default=ROOT,
                     help="checkout whose podbench is timed (default: this one)")
     ap.add_argument("--baseline-tree", type=Path, default=None,
@@ -95,38 +138,17 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "benchmarks.csv")
     ap.add_argument("--no-write", action="store_true")
     ap.add_argument("--keep", type=Path, default=None,
-                    help="keep the timed run's output folder here (new or empty; the tables "
-                         "can then be compared with results/STUDY)")
+                    help="keep the timed runs' output folders here, one per --jobs value "
+                         "(KEEP/jobs-N; the tables can then be compared with results/STUDY)")
     args = ap.parse_args(argv)
-    base_note = ""
-    if args.baseline_tree is not None:
-        b0 = reference(args.python)
-        base = run_study(args.python, args.baseline_tree.resolve(), args.study, args.jobs)
-        b1 = reference(args.python)
-        base_units = base / (0.5 * (b0 + b1))
-        base_note = (f"; baseline {args.baseline_tree.resolve().name}: {base:.1f} s wall, "
-                     f"{base_units:.0f} reference units")
-    ref0 = reference(args.python)
-    wall = run_study(args.python, args.tree.resolve(), args.study, args.jobs, args.keep)
-    ref1 = reference(args.python)
-    ref = 0.5 * (ref0 + ref1)
-    case = f"podbench run {args.study} (cold, no figures, --jobs {args.jobs})"
-    note = (f"reference workload {ref0:.2f} s before, {ref1:.2f} s after; the study takes "
-            f"{wall / ref:.0f} reference units; tree {args.tree.resolve().name}; load "
-            f"{os.getloadavg()[0]:.1f}{base_note}")
-    if args.baseline_tree is not None:
-        note += f"; speed-up in reference units {base_units / (wall / ref):.2f}x"
-    print(f"{case}: {wall:.1f} s wall = {wall / ref:.1f} × the reference workload "
-          f"({ref:.2f} s); {note}")
+    new = [_time_one(args, j, None if args.keep is None else args.keep / f"jobs-{j}")
+           for j in args.jobs.split(",")]
     if not args.no_write:
         rows = report.read_csv(args.out) if args.out.exists() else []
-        rows = [r for r in rows if not (r["group"] == "study" and r["case"] == case
-                                        and args.tree.resolve().name in r["note"])]
-        rows.append(report.row(group="study", case=case, solver=args.tree.resolve().name,
-                               status="ok", time_s=f"{wall:.1f}", baseline="reference workload",
-                               baseline_time_s=f"{ref:.3f}", speedup=f"{ref / wall:.4f}",
-                               note=note))
-        report.write_csv(rows, args.out)
+        for r in new:
+            rows = [o for o in rows if not (o["group"] == "study" and o["case"] == r["case"]
+                                            and o["solver"] == r["solver"])]
+        report.write_csv(rows + new, args.out)
     return 0
 
 

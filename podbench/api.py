@@ -41,6 +41,7 @@ from podbench.core.resources import (
 )
 from podbench.errors import InputError, UnknownNameError
 from podbench.harness.base_excited import run_study as run_base_excited
+from podbench.harness.executor import resolve_jobs
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
 from podbench.harness.painter_street import run_study as run_painter_street
@@ -225,8 +226,7 @@ def _whole_study(claims_path, scenarios) -> bool:
 
 
 def _check_run_options(jobs, cache) -> Path | None:
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise InputError(f"--jobs: expected a positive integer, got {jobs!r}")
+    resolve_jobs(jobs, "--jobs")
     return None if cache is None else writable_folder(cache, "--cache")
 
 
@@ -303,9 +303,9 @@ class StudyResult:
         return make_figure(tasks[0])
 
 
-def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str | None = None,
-        figures: bool = True, figure_format: str = "png", quiet: bool = True, progress=None,
-        command: str | None = None) -> StudyResult:
+def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
+        engine: str | None = None, figures: bool = True, figure_format: str = "png",
+        quiet: bool = True, progress=None, command: str | None = None) -> StudyResult:
     """Run a study and write its outputs, as ``podbench run`` does.
 
     Parameters
@@ -318,8 +318,11 @@ def run(study=None, *, out=None, jobs: int = 1, cache=DEFAULT_CACHE, engine: str
     out : path, optional
         The output folder (default ``results/<study>``); it must be new, empty or a previous
         podbench output, and is replaced only when the run is complete.
-    jobs : int
-        Processes for the units and the figures (tables are identical whatever ``jobs``).
+    jobs : int or "auto"
+        Processes for the units and the figures, the calling one included (tables are
+        identical whatever ``jobs``); ``"auto"``: the cores available, at most 8
+        (:func:`podbench.harness.executor.resolve_jobs`). Processes beyond the calling one
+        start only once it has computed for 2 s with tasks still waiting.
     cache : path or None
         The truth cache's folder (``None``: no cache).
     engine : {"newmark", "exudyn"}, optional
@@ -557,7 +560,7 @@ def _say(progress, quiet: bool, name: str) -> Callable[[str], None] | None:
 
 # ---------------------------------------------------------------------------- regress
 def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: float = 1e-6,
-            update: bool = False, table=None, jobs: int = 1, cache=DEFAULT_CACHE,
+            update: bool = False, table=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
             engine: str | None = None, quiet: bool = True, progress=None) -> Comparison | int:
     """Re-run studies (default: Chapter 4 and 5) or read a ``table`` and compare every error
     with the ``baseline`` (relative ``rtol``, absolute ``atol``), as ``podbench regress``.

@@ -65,6 +65,17 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _jobs(text: str) -> int | str:
+    """``--jobs``: a positive integer or ``auto`` (the cores available)."""
+    if text == "auto":
+        return text
+    try:
+        return _positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer or 'auto', got "
+                                         f"{text!r}") from None
+
+
 def _tolerance(text: str) -> float:
     try:
         value = float(text)
@@ -96,8 +107,9 @@ def _add_debug(sp) -> None:
                     help="show the Python traceback of an internal error (exit code 3)")
 
 
-def _add_jobs(sp, help_text: str) -> None:
-    sp.add_argument("-j", "--jobs", type=_positive_int, default=1, metavar="N", help=help_text)
+def _add_jobs(sp, help_text: str, default: int | str = 1) -> None:
+    sp.add_argument("-j", "--jobs", type=_jobs if default == "auto" else _positive_int,
+                    default=default, metavar="N", help=help_text)
 
 
 def _add_cache_options(sp, *, cache_help: str, engine_help: str) -> None:
@@ -113,8 +125,9 @@ def _add_cache_options(sp, *, cache_help: str, engine_help: str) -> None:
 def _add_study_options(sp, paths_help: str) -> None:
     """The paths and the options ``run`` and ``regress`` share."""
     sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
-    _add_jobs(sp, "worker processes for the (scenario, structure) units "
-                  "(default 1; results do not depend on N)")
+    _add_jobs(sp, "processes for the (scenario, structure) units and the figures, or auto "
+                  "(default auto: the cores available, at most 8; processes beyond this one "
+                  "start only after 2 s of work; results do not depend on N)", "auto")
     _add_cache_options(sp, cache_help="entries are keyed by the content of structure and "
                                       "scenario",
                        engine_help="override the scenarios' integration engine (default: each "

@@ -124,6 +124,9 @@ COMMANDS: dict[str, object] = {
     "podbench sweep sweeps/beam_forced_noise": SLOW,
     "podbench sweep sweeps/peers_noise": SLOW,
     "podbench run base_excited": SLOW,
+    "python benchmarks/study_time.py --jobs 1,2": NOT_RUN(
+        "times two cold runs of the whole Chapter 5 study (tens of minutes on the shared "
+        "machine); the study command itself is run (slow)"),
     "python benchmarks/study_time.py --baseline-tree PREVIOUS_CHECKOUT": NOT_RUN(
         "times two checkouts of a whole study against the reference workload (tens of "
         "minutes); the study commands themselves are run (slow)"),
@@ -180,7 +183,7 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("benchmarks/README.md", "python benchmarks/robust.py                                "
      "# n=1000,k=6 and n=8000,k=16 at 1 %, subspace and auto"): "shell",
     ("benchmarks/README.md", "python benchmarks/study_time.py                     # podbench "
-     "run chapter5, --jobs 2, no figures"): "shell",
+     "run chapter5, --jobs auto, no figures"): "shell",
     ("benchmarks/README.md", "python benchmarks/defaults.py                        # n = 1000, "
      "k = 4, dt = 1e-3 s"): "shell",
     # Python blocks

@@ -11,6 +11,15 @@ and raises in the caller: a :class:`~podbench.errors.PodbenchError` as itself (o
 the command line), any other exception of a worker as a ``RuntimeError`` carrying the
 worker's traceback text.
 
+With ``jobs`` > 1 the calling process computes tasks itself from the start and, once it has
+computed for :data:`POOL_AFTER` seconds with tasks still waiting, starts ``jobs - 1`` worker
+processes that take the next tasks from the same queue: a run whose tasks all end sooner (a
+warm truth cache, a test's tiny study) spawns no process, since a spawned worker spends
+seconds on its imports before its first task. ``jobs = "auto"`` is the number of cores this
+process may run on (:func:`resolve_jobs`). Tasks are handed out in task order, or largest
+first when the caller gives their expected ``costs`` (so that no long task starts last while
+the other cores idle); results always come back in task order.
+
 Local processes are spawned (not forked: no inherited locks or BLAS thread pools); ``func``
 and the tasks must be picklable, ``func`` a module-level function. A Dask worker imports
 ``func``'s module itself, so it needs podbench (and the data the tasks name) at the same
@@ -19,11 +28,14 @@ paths as the client.
 
 from __future__ import annotations
 
+import os
 import socket
+import threading
 import time
 import traceback
+from collections import deque
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
 
@@ -31,7 +43,30 @@ from podbench.core.threads import single_blas_thread
 from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError
 
-__all__ = ["execute"]
+__all__ = ["MAX_AUTO_JOBS", "POOL_AFTER", "execute", "resolve_jobs"]
+
+POOL_AFTER = 2.0
+"""Seconds the calling process computes alone before it starts worker processes (``jobs`` >
+1): about what spawning one costs (importing NumPy, SciPy, pandas and podbench under load)."""
+
+MAX_AUTO_JOBS = 8
+"""The most processes ``jobs = "auto"`` starts (each holds its own copies of the dense
+systems, up to a few hundred MB for Chapter 5's 2048-sample ones)."""
+
+
+def resolve_jobs(jobs, what: str = "jobs") -> int:
+    """``jobs`` as a number of processes: a positive integer as given, or ``"auto"``: the
+    cores this process may run on (its CPU affinity), at most :data:`MAX_AUTO_JOBS`.
+    InputError naming ``what`` for anything else."""
+    if jobs == "auto":
+        try:
+            cores = len(os.sched_getaffinity(0))
+        except AttributeError:  # no affinity call (macOS, Windows)
+            cores = os.cpu_count() or 1
+        return max(1, min(cores, MAX_AUTO_JOBS))
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"{what}: expected a positive integer or 'auto', got {jobs!r}")
+    return jobs
 
 
 @dataclass
@@ -87,8 +122,9 @@ def _dask_client(address: str, timeout: float):
                          f"{type(exc).__name__}: {exc}") from None
 
 
-def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | None = None,
-            progress: Callable | None = None, connect_timeout: float = 10.0) -> list:
+def execute(func: Callable, tasks: Sequence, *, jobs: int | str = 1,
+            scheduler: str | None = None, progress: Callable | None = None,
+            connect_timeout: float = 10.0, costs: Sequence[float] | None = None) -> list:
     """``[func(task) for task in tasks]``, serially, in processes or on a Dask cluster.
 
     Parameters
@@ -97,9 +133,10 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | 
         A module-level function of one argument (picklable by reference).
     tasks : sequence
         The arguments, picklable.
-    jobs : int
-        Local processes (spawned); 1, or a single task, runs in the calling process.
-        Ignored with ``scheduler``.
+    jobs : int or "auto"
+        Processes, the calling one included (the others spawned after :data:`POOL_AFTER`
+        seconds); 1, or a single task, runs in the calling process alone; ``"auto"``: the
+        cores available (:func:`resolve_jobs`). Ignored with ``scheduler``.
     scheduler : str, optional
         Address of a Dask distributed scheduler (``tcp://host:8786``): every task runs on
         its workers.
@@ -108,6 +145,9 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | 
         finished task (``elapsed`` in seconds since the call; tasks finish in any order).
     connect_timeout : float
         Seconds to wait for the scheduler.
+    costs : sequence of float, optional
+        Each task's expected cost (any unit): local processes take the costliest waiting
+        task first (ties in task order). Only the schedule depends on it, never a result.
 
     Returns
     -------
@@ -123,8 +163,7 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | 
     RuntimeError
         Another exception of a worker process, with its traceback text.
     """
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise InputError(f"jobs: expected a positive integer, got {jobs!r}")
+    jobs = resolve_jobs(jobs)
     tasks = list(tasks)
     total = len(tasks)
     results: list = [None] * total
@@ -145,7 +184,8 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int = 1, scheduler: str | 
     elif jobs == 1 or total <= 1:
         _serially(func, tasks, finished)
     else:
-        _in_processes(func, tasks, finished, jobs)
+        order = range(total) if costs is None else sorted(range(total), key=lambda i: -costs[i])
+        _in_processes(func, tasks, finished, jobs, order)
     return results
 
 
@@ -178,16 +218,90 @@ def _serially(func: Callable, tasks: list, finished: Callable) -> None:
         finished(i, out)
 
 
-def _in_processes(func: Callable, tasks: list, finished: Callable, jobs: int) -> None:
-    """Every task in at most ``jobs`` spawned processes; ``finished(i, out)`` as each ends."""
-    ex = ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=get_context("spawn"),
-                             initializer=one_line_warnings)
+class _Queue:
+    """The tasks waiting, shared by the calling process and the threads that feed the
+    worker processes; ``finished`` is called under the lock (one thread at a time). The
+    first error a result or ``finished`` raises is kept in ``failure`` and stops the hand-out
+    (the running tasks finish, their results are dropped)."""
+
+    def __init__(self, order, finished: Callable):
+        self.waiting = deque(order)
+        self.finished = finished
+        self.lock = threading.Lock()
+        self.caller_done = threading.Event()
+        self.stopped = False
+        self.failure: BaseException | None = None
+        self.pool: ProcessPoolExecutor | None = None
+
+    def take(self) -> int | None:
+        with self.lock:
+            return None if self.stopped or not self.waiting else self.waiting.popleft()
+
+    def stop(self) -> None:
+        with self.lock:
+            self.stopped = True
+
+    def report(self, i: int, out) -> None:
+        with self.lock:
+            if self.stopped:
+                return
+            try:
+                self.finished(i, out)
+            except BaseException as exc:  # noqa: BLE001 - raised by the caller afterwards
+                self.failure, self.stopped = exc, True
+
+
+def _feed(queue: _Queue, func: Callable, tasks: list) -> None:
+    """One worker process's lane: the next waiting task to the pool, its result reported,
+    until none waits."""
+    while (i := queue.take()) is not None:
+        try:
+            out = queue.pool.submit(_call, func, tasks[i]).result()  # type: ignore[union-attr]
+        except BaseException as exc:  # noqa: BLE001 - a broken pool, a worker's Ctrl-C
+            out = _Failure(exc)
+        queue.report(i, out)
+
+
+def _start_workers(queue: _Queue, func: Callable, tasks: list, workers: int) -> None:
+    """After :data:`POOL_AFTER` seconds, unless the caller is done: up to ``workers``
+    spawned processes (no more than tasks wait), each fed by its own thread."""
+    if queue.caller_done.wait(POOL_AFTER):
+        return
+    with queue.lock:
+        n = min(workers, len(queue.waiting))
+        if queue.stopped or n < 1:
+            return
+        queue.pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"),
+                                         initializer=one_line_warnings)
+    lanes = [threading.Thread(target=_feed, args=(queue, func, tasks), daemon=True)
+             for _ in range(n - 1)]
+    for t in lanes:
+        t.start()
+    _feed(queue, func, tasks)
+    for t in lanes:
+        t.join()
+
+
+def _in_processes(func: Callable, tasks: list, finished: Callable, jobs: int, order) -> None:
+    """Every task, in ``order``, by the calling process and up to ``jobs - 1`` spawned ones
+    (started after :data:`POOL_AFTER` seconds if tasks still wait); ``finished(i, out)`` as
+    each ends. Every task goes through :func:`_call` wherever it runs, so an error reads the
+    same whichever process met it."""
+    queue = _Queue(order, finished)
+    starter = threading.Thread(target=_start_workers, args=(queue, func, tasks, jobs - 1),
+                               daemon=True)
+    starter.start()
     try:
-        pending = {ex.submit(_call, func, task): i for i, task in enumerate(tasks)}
-        while pending:
-            ready, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for f in ready:
-                finished(pending.pop(f), f.result())
+        while (i := queue.take()) is not None:
+            queue.report(i, _call(func, tasks[i]))
+    except BaseException:  # Ctrl-C in the caller: hand out nothing more
+        queue.stop()
+        raise
     finally:
-        # on an error or Ctrl-C: drop the queued tasks, wait for the running ones
-        ex.shutdown(wait=True, cancel_futures=True)
+        # wait for the tasks running in workers; on an error drop the queued ones
+        queue.caller_done.set()
+        starter.join()
+        if queue.pool is not None:
+            queue.pool.shutdown(wait=True, cancel_futures=True)
+    if queue.failure is not None:
+        raise queue.failure

@@ -5,6 +5,8 @@ import textwrap
 
 import pytest
 
+from podbench.harness import executor
+
 CHAIN_FREE = """
 [scenario]
 name = "{name}"
@@ -120,3 +122,11 @@ def write_scenario(tmp_path):
         return p
 
     return _write
+
+
+@pytest.fixture
+def pool_at_once(monkeypatch):
+    """Worker processes started at once with jobs > 1 (by default they start only after
+    POOL_AFTER seconds of work in the calling process, which a test's tiny study never
+    reaches): the test then really computes in two processes."""
+    monkeypatch.setattr(executor, "POOL_AFTER", 0.0)

@@ -19,6 +19,7 @@ def study(write_scenario, tmp_path, monkeypatch):
     return tmp_path / "scenarios"
 
 
+@pytest.mark.usefixtures("pool_at_once")
 def test_run_writes_tables_figures_and_is_byte_identical_when_repeated(study, tmp_path, capsys):
     out = tmp_path / "results" / "small"
     args = ["run", str(study), "--out", str(out), "-q", "--no-cache"]

@@ -6,7 +6,8 @@ import time
 import pytest
 
 from podbench.errors import InputError, ScenarioFileError
-from podbench.harness.executor import execute
+from podbench.harness import executor
+from podbench.harness.executor import MAX_AUTO_JOBS, execute, resolve_jobs
 
 pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README)
 
@@ -29,7 +30,13 @@ def _zero_division(x):
     return 1 / x
 
 
+def _pid_after(seconds):
+    time.sleep(seconds)
+    return os.getpid()
+
+
 @pytest.mark.parametrize("jobs", [1, 2])
+@pytest.mark.usefixtures("pool_at_once")
 def test_results_in_task_order_and_progress_per_finished_task(jobs):
     seen = []
     out = execute(_square, range(7), jobs=jobs,
@@ -39,6 +46,7 @@ def test_results_in_task_order_and_progress_per_finished_task(jobs):
     assert sorted(r for *_, r in seen) == sorted(out)
 
 
+@pytest.mark.usefixtures("pool_at_once")
 def test_first_podbench_error_is_raised_as_itself_and_pending_tasks_are_cancelled(tmp_path):
     tasks = [(i, str(tmp_path)) for i in range(20)]
     with pytest.raises(ScenarioFileError) as info:
@@ -51,6 +59,7 @@ def test_first_podbench_error_is_raised_as_itself_and_pending_tasks_are_cancelle
     assert ran < 10, ran
 
 
+@pytest.mark.usefixtures("pool_at_once")
 def test_other_worker_errors_carry_the_worker_traceback():
     with pytest.raises(RuntimeError, match=r"(?s)_zero_division.*ZeroDivisionError"):
         execute(_zero_division, [1, 0, 2], jobs=2)
@@ -58,7 +67,32 @@ def test_other_worker_errors_carry_the_worker_traceback():
         execute(_zero_division, [1, 0, 2], jobs=1)
 
 
-@pytest.mark.parametrize("jobs", [0, -1, 1.5, True])
+@pytest.mark.parametrize("jobs", [0, -1, 1.5, True, "2"])
 def test_jobs_must_be_a_positive_integer(jobs):
     with pytest.raises(InputError, match="jobs"):
         execute(_square, [1], jobs=jobs)
+
+
+def test_the_caller_computes_and_workers_join_only_after_pool_after(monkeypatch):
+    # short tasks: all done before POOL_AFTER, so no process is spawned
+    assert set(execute(_pid_after, [0.01] * 4, jobs=2)) == {os.getpid()}
+    # longer work: a worker joins the calling process; each task ran exactly once
+    monkeypatch.setattr(executor, "POOL_AFTER", 0.2)
+    pids = execute(_pid_after, [0.5] * 8, jobs=2)
+    assert os.getpid() in pids and len(set(pids)) == 2, pids
+
+
+def test_costs_hand_out_the_costliest_task_first():
+    started = []
+    out = execute(lambda x: started.append(x) or -x, [1, 5, 3, 5, 2], jobs=2,
+                  costs=[1, 5, 3, 5, 2])
+    assert out == [-1, -5, -3, -5, -2]  # results in task order
+    assert started == [5, 5, 3, 2, 1]  # handed out largest first (all in the caller here)
+
+
+def test_auto_is_the_cores_available_capped():
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert resolve_jobs("auto") == min(cores, MAX_AUTO_JOBS) >= 1
+    assert resolve_jobs(3) == 3
+    with pytest.raises(InputError, match="--jobs: expected a positive integer or 'auto'"):
+        resolve_jobs("many", "--jobs")

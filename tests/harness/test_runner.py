@@ -105,6 +105,7 @@ def test_an_attribution_against_a_failing_twin_is_undefined():
     assert out["own_linearization_error"] == 0.0  # linear: defined without any twin
 
 
+@pytest.mark.usefixtures("pool_at_once")
 def test_runs_are_deterministic_and_independent_of_jobs(write_scenario, tmp_path):
     a = write_scenario(CHAIN_FREE)
     b = write_scenario(CHAIN_FORCED, "chain_forced")

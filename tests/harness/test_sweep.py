@@ -264,6 +264,7 @@ solvers = ["ls", "tls"]
 """
 
 
+@pytest.mark.usefixtures("pool_at_once")
 def test_serial_and_local_parallel_sweeps_are_identical(write_scenario, tmp_path):
     p = sweep_file(write_scenario, SMALL)
     _, serial = run_sweep([p])
