@@ -11,7 +11,8 @@ from podbench.sysid.noise import noise_generator
 __all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDOFF_FLOOR",
            "COVERAGE_DECIMALS", "CONDITION_COLUMNS", "SINGULAR_CONDITION", "diagnostic_digits",
            "coverage_digits", "ROUNDOFF_PROBE", "PROBED_DIGITS", "probe_perturbation",
-           "determined_digits", "determined", "determined_row"]
+           "determined_digits", "determined", "determined_row", "FLOOR_DIGITS",
+           "FLOOR_METHODS", "floor_digits", "floor_row"]
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
@@ -152,3 +153,31 @@ def determined_row(row: dict, probe: dict, keep=(), most: int = PROBED_DIGITS) -
     unchanged)."""
     return {k: (v if k in keep or k not in probe else determined(v, probe[k], most))
             for k, v in row.items()}
+
+
+#: Significant digits of every estimate in the rows of a method of :data:`FLOOR_METHODS`
+#: (errors, norms, fit diagnostics; integers and labels as they are). ERA/OKID: its observer
+#: recursion (Eq. 2 of :mod:`podbench.sysid.methods.peers.era`) amplifies the records'
+#: round-off past the tables' sixth digit. Measured on the peers study between the OpenBLAS
+#: Haswell and SkylakeX kernels (LTV and NL beams, order 12): errors 0.725049 / 0.725047
+#: (3e-6 relative), the Eq. 4.2 maximum 526.002 / 526.014 (2.3e-5), the Hankel
+#: singular-value ratio 0.551121 / 0.551123; the same under a 1-ulp perturbation of the
+#: records. Three digits (the tables' rule for estimates) put the written digit at least 40×
+#: above that floor. A per-value probe (:func:`determined`) was tried on the peers study and
+#: its digit count itself flipped between kernels (a relative half-width 0.218 / 0.22).
+FLOOR_DIGITS = 3
+FLOOR_METHODS = ("ERA",)
+
+
+def floor_digits(value, digits: int = FLOOR_DIGITS):
+    """A float at ``digits`` significant digits (:data:`FLOOR_DIGITS`); integers, flags,
+    text and non-finite values unchanged."""
+    if isinstance(value, (bool, int, np.integer)) or not isinstance(value, (float, np.floating)):
+        return value
+    return float(f"{value:.{digits}g}") if np.isfinite(value) and value != 0 else value
+
+
+def floor_row(row: dict, keep=(), digits: int = FLOOR_DIGITS) -> dict:
+    """``row`` with every float entry at ``digits`` significant digits (:func:`floor_digits`;
+    entries named in ``keep`` unchanged)."""
+    return {k: (v if k in keep else floor_digits(v, digits)) for k, v in row.items()}

@@ -29,7 +29,7 @@ from podbench.dynamics.excitations import excitation_from_dict
 from podbench.errors import PodbenchError, ScenarioFileError
 from podbench.harness.bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from podbench.harness.cache import TruthCache, structure_fingerprint
-from podbench.harness.digits import diagnostic_digits
+from podbench.harness.digits import FLOOR_METHODS, diagnostic_digits, floor_row
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
@@ -361,9 +361,9 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
         res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
 
     for spec in scenario.reported_methods():
-        _run_method(res, spec, scenario, truth, sweep=overrides is not None,
-                    nonlinear=nonlinear, measured=measured, keep_series=keep_series,
-                    bands=bands)
+        _run_floored(res, spec, scenario, truth, sweep=overrides is not None,
+                     nonlinear=nonlinear, measured=measured, keep_series=keep_series,
+                     bands=bands)
     res.simulated = truth.simulated
     res.cached = cache.hits
     res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
@@ -406,6 +406,33 @@ class _Comparisons:
     lin: dict | None = None
     twin_lin: dict | None = None
     own_lin: dict | None = None
+
+
+def is_floored(spec, scenario: Scenario) -> bool:
+    """Whether the rows of ``spec`` are written at
+    :data:`podbench.harness.digits.FLOOR_DIGITS` (a method of
+    :data:`~podbench.harness.digits.FLOOR_METHODS`, or a superposition of one)."""
+    if spec.method in FLOOR_METHODS:
+        return True
+    parts = [scenario.method(p) for p in spec.parts] if spec.method == "superposition" else []
+    return any(p.method in FLOOR_METHODS for p in parts)
+
+
+#: Entries of a row that are not estimates: labels, the sweep's coordinates, wall times.
+_NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status", "noise",
+                "modes", "seed", "band_seconds", "plain_seconds", "source")
+
+
+def _run_floored(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
+    """:func:`_run_method`; for a method of :func:`is_floored`, every estimate of its rows,
+    fit and band scores then at :data:`podbench.harness.digits.FLOOR_DIGITS` significant
+    digits (the digits its round-off floor leaves the same on every BLAS kernel, issue 23)."""
+    n_rows, n_fits, n_bands = len(res.rows), len(res.fits), len(res.band_stats)
+    _run_method(res, spec, scenario, truth, **kw)
+    if not is_floored(spec, scenario):
+        return
+    for mine, start in ((res.rows, n_rows), (res.fits, n_fits), (res.band_stats, n_bands)):
+        mine[start:] = [floor_row(r, keep=_NOT_FLOORED) for r in mine[start:]]
 
 
 def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
