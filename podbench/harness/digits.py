@@ -15,7 +15,7 @@ __all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDO
            "coverage_digits", "ROUNDOFF_PROBE", "PROBED_DIGITS", "probe_perturbation",
            "determined_digits", "determined", "determined_row", "ITERATIVE_MARGIN",
            "StoppingRule", "STOPPING_RULES", "ITERATIVE_PILOTS", "iterative_digits",
-           "solver_digits", "ITERATION_COLUMNS", "NOT_SOLVED", "iterative_row"]
+           "solver_digits", "ITERATION_COLUMNS", "NOT_SOLVED", "iterative_row", "iterative_note"]
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
@@ -281,3 +281,17 @@ def iterative_row(row: dict, digits: int) -> dict:
         else:
             out[k] = float(f"{float(v):.{digits}g}")
     return out
+
+
+def iterative_note(solvers) -> str:
+    """The sentence a table's header gives when some of its rows come from iterative solvers
+    (``solvers``: the solver labels of its fits; "" when none is iterative)."""
+    names = sorted({n for s in solvers if s for n in str(s).split("+")
+                    if solver_digits(n) is not None})
+    if not names:
+        return ""
+    digits = ", ".join(f"`{n}`: {solver_digits(n)}" for n in names)
+    return ("Rows of a fit with an iterative solver are written at the significant digits its "
+            "stopping tolerance determines, three digits above the BLAS kernel's round-off "
+            f"(significant digits {digits}), its iteration counts left empty (docs/noise.md, "
+            "*Digits of an iterative solve*).")
