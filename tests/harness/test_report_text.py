@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from podbench.harness.digits import solver_digits
 from podbench.harness.metrics import decompose
 from podbench.report.decomposition import CAPTION, decomposition_rows
 from podbench.report.html import as_percent
@@ -158,15 +159,24 @@ def test_undefined_attributions_and_methods_without_a_basis():
 @pytest.mark.parametrize("study", sorted(p.parent.name for p in
                                          (ROOT / "results").glob("*/summary.csv")))
 def test_every_committed_row_obeys_the_caption(study):
-    """On every committed table: total² = projection² + subspace² to the tables' six digits
-    and sum / total ≥ 1 (to the same rounding), as the figure's caption states."""
+    """On every committed table: total² = projection² + subspace² to the digits it is
+    written with (six; three for a fit with an iterative solver, whose total and subspace
+    errors are rounded to their third digit: 1e-2 relative) and sum / total ≥ 1 (to the same
+    rounding), as the figure's caption states."""
     df = pd.read_csv(ROOT / "results" / study / "summary.csv")
     if "projection_error" not in df:
         pytest.skip(f"{study}: no error decomposition in its table")
-    ok = np.isfinite(df["projection_error"]) & np.isfinite(df["subspace_error"]) & (
-        df["total_error"] > 0)
+    fits = ROOT / "results" / study / "fits.csv"
+    solvers = pd.read_csv(fits, usecols=["scenario", "structure", "method", "solver"]) \
+        if fits.is_file() else pd.DataFrame(columns=["scenario", "structure", "method", "solver"])
+    iterative = {tuple(r[:3]) for r in solvers.itertuples(index=False)
+                 if isinstance(r[3], str) and solver_digits(r[3]) is not None}
+    tol = np.array([1e-2 if (r.scenario, r.structure, r.method) in iterative else 1e-4
+                    for r in df.itertuples()])
+    ok = (np.isfinite(df["projection_error"]) & np.isfinite(df["subspace_error"]) & (
+        df["total_error"] > 0)).to_numpy()
     e = df[ok]
     pyth = np.hypot(e["projection_error"], e["subspace_error"]) / e["total_error"]
-    assert np.all(np.abs(pyth - 1) < 1e-4)
+    assert np.all(np.abs(pyth - 1) < tol[ok])
     ratios = np.array([r["ratio"] for r in decomposition_rows(df)])
-    assert np.all(ratios[np.isfinite(ratios)] >= 1 - 1e-4)
+    assert np.all(ratios[np.isfinite(ratios)] >= 1 - 1e-2)
