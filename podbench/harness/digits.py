@@ -4,6 +4,8 @@ on any CPU."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from podbench.sysid.noise import noise_generator
@@ -12,7 +14,9 @@ __all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDO
            "COVERAGE_DECIMALS", "CONDITION_COLUMNS", "SINGULAR_CONDITION", "diagnostic_digits",
            "coverage_digits", "ROUNDOFF_PROBE", "PROBED_DIGITS", "probe_perturbation",
            "determined_digits", "determined", "determined_row", "FLOOR_DIGITS",
-           "FLOOR_METHODS", "floor_digits", "floor_row"]
+           "FLOOR_METHODS", "floor_digits", "floor_row", "ITERATIVE_MARGIN",
+           "StoppingRule", "STOPPING_RULES", "ITERATIVE_PILOTS", "iterative_digits",
+           "solver_digits", "ITERATION_COLUMNS", "NOT_SOLVED", "iterative_row", "iterative_note"]
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
@@ -181,3 +185,140 @@ def floor_row(row: dict, keep=(), digits: int = FLOOR_DIGITS) -> dict:
     """``row`` with every float entry at ``digits`` significant digits (:func:`floor_digits`;
     entries named in ``keep`` unchanged)."""
     return {k: (v if k in keep else floor_digits(v, digits)) for k, v in row.items()}
+# ---------------------------------------------------------------- iterative solvers' digits
+#: Margin, in decimal digits, kept between the last digit a number of an iterative solve is
+#: written with and the round-off that moves it between BLAS kernels: a written value then
+#: changes only where the unrounded one lies within 1e-3…1e-2 of a last-digit unit of a
+#: rounding boundary (values spread over six decades, moved by ±3.3e-6 and written at three
+#: digits: 0.12 % change; at six digits 81 %).
+ITERATIVE_MARGIN = 3
+
+
+@dataclass(frozen=True)
+class StoppingRule:
+    """How far the numbers of one iterative solver's answer are determined (issue 23).
+
+    An iterative solve stops at the first iteration whose stopping test passes; the iterate
+    there is the answer only to the tolerance, and round-off (another BLAS kernel) can move
+    the stopping iteration. ``tol`` is the solver's default stopping tolerance; a move of
+    the stopping point by a decade of tolerance moves every written number by at most
+    ``gain·tol**power`` relative (``power`` 1 for a test on a residual norm, ½ for a test on
+    the decrease of an objective near its minimum, where the objective is quadratic in the
+    iterate's error); ``roundoff`` is the largest relative move of a written number between
+    the OpenBLAS Haswell and SkylakeX kernels with the same stopping test. Both are
+    measurements (:data:`STOPPING_RULES`)."""
+
+    tol: float
+    gain: float
+    power: float
+    roundoff: float
+
+    def tolerance_move(self, tol: float | None = None) -> float:
+        """The relative move of a written number that a decade of tolerance can make."""
+        return self.gain * float(self.tol if tol is None else tol) ** self.power
+
+
+#: The iterative solvers of :mod:`podbench.deconvolution` and what was measured of them
+#: (Chapter 5's linear and rubber-band beams at 1 % and 5 % noise, SL and ML, every column
+#: of summary.csv and fits.csv; the decade of tolerance both ways):
+#:
+#: * ``cgls`` — stop at ``‖Aᵀ(B − AX) − λ²X‖ ≤ tol·‖AᵀB‖``, ``tol = 1e-10`` (7–11
+#:   iterations a decade): the errors move by ≤ 1.9e-9, the norm percent errors' maximum
+#:   (a ratio at the smallest norms of the record) by ≤ 1.7e-6 = 1.7e4·tol; between kernels
+#:   ≤ 1e-10 in the errors, ≤ 3.3e-6 in the norm percent errors' maximum (the iteration
+#:   count 110 against 109, 87 against 85).
+#: * ``stls`` — stop when a Gauss–Newton step lowers the objective by less than ``tol =
+#:   1e-6`` (relative): 3–4 steps a decade; the errors move by ≤ 3.3e-4, the norm percent
+#:   errors by ≤ 5.3e-3 = 5.3·√tol (3.3e-4 and 5.3e-3 for 1e-5, 1.1e-4 and 2.0e-3 for 1e-7);
+#:   between kernels ≤ 2.2e-7 in the errors, ≤ 1.3e-6 in the norm percent errors (the same
+#:   number of steps in every fit measured; LSQR's inner iterations differ).
+#: * ``kernel`` — its conjugate gradients stop at a residual of ``tol = 1e-6`` (relative);
+#:   not measured (15–100 s a fit, in no committed study): the cgls gain and round-off are
+#:   taken for it (the same CG core, the same kind of test).
+#: * ``realization`` realizes a cgls pilot kernel: cgls's (``subspace`` takes its poles from
+#:   the records by direct linear algebra, no iteration).
+STOPPING_RULES = {
+    "cgls": StoppingRule(tol=1e-10, gain=1.7e4, power=1.0, roundoff=3.3e-6),
+    "stls": StoppingRule(tol=1e-6, gain=5.3, power=0.5, roundoff=1.3e-6),
+    "kernel": StoppingRule(tol=1e-6, gain=1.7e4, power=1.0, roundoff=3.3e-6),
+}
+
+
+def iterative_digits(tolerance_move: float, roundoff: float, margin: int = ITERATIVE_MARGIN,
+                     most: int = PROBED_DIGITS) -> int:
+    """Significant digits of a number derived from an iterative solve: those its stopping
+    tolerance determines, kept ``margin`` digits above the round-off of the kernel.
+
+    A value ``v`` written at ``d`` significant digits has a last-digit unit of at least
+    ``10^(1−d)·|v|/10`` and at most ``10^(1−d)·|v|``. The tolerance determines digit ``d``
+    when a decade of tolerance moves ``v`` by less than that unit:
+    ``d ≤ ⌊−log10(tolerance_move)⌋ + 1``; the margin asks the kernel's round-off to stay
+    ``margin`` digits below it: ``d ≤ ⌊−log10(roundoff)⌋ + 1 − margin``. The result is the
+    smaller, at most ``most`` and at least 1."""
+    by_tol = int(np.floor(-np.log10(tolerance_move))) + 1 if tolerance_move > 0 else most
+    by_roundoff = int(np.floor(-np.log10(roundoff))) + 1 - margin if roundoff > 0 else most
+    return max(1, min(most, by_tol, by_roundoff))
+
+
+def solver_digits(solver: str, tol: float | None = None) -> int | None:
+    """Significant digits of the numbers of a fit with deconvolution solver ``solver`` (a
+    label of :func:`podbench.scenarios.method_solver`; ``a+b`` for a superposition: the
+    fewest of its parts), ``None`` for a direct solver (its numbers keep the tables'
+    digits). ``tol`` is the solver's stopping tolerance if not its default."""
+    digits = []
+    for name in solver.split("+"):
+        rule = STOPPING_RULES.get(ITERATIVE_PILOTS.get(name, name))
+        if rule is not None:
+            digits.append(iterative_digits(rule.tolerance_move(
+                tol if name in STOPPING_RULES else None), rule.roundoff))
+    return min(digits) if digits else None
+
+
+#: Solvers whose answer is built on an iterative solver's: the realization of a cgls
+#: pilot kernel (``realization``).
+ITERATIVE_PILOTS = {"realization": "cgls"}
+
+#: Iteration counts: where a stopping test is first met, which round-off moves by one or
+#: more iterations (cgls 110 against 109 and 87 against 85, stls's LSQR total 170 against
+#: 180 at two digits on two kernels); no rounding makes that stable (a count ~100 jittering
+#: by 2 crosses a one-digit boundary in ~2 % of fits), so they are not written for an
+#: iterative solve (they stay in the estimator's ``diagnostics_``).
+ITERATION_COLUMNS = ("solver_iterations", "solver_solves")
+
+#: Entries not derived from the solve: labels, structural integers, the projection error
+#: (the POD basis only), wall times.
+NOT_SOLVED = ("scenario", "structure", "method", "target", "solver", "status", "n_modes",
+              "projection_error", "noise", "modes", "seed", "band_seconds", "plain_seconds",
+              "solver_shift", "solver_force_channels", "solver_rank", "solver_rank_max",
+              "solver_order", "solver_horizon", "solver_n_pilot", "solver_n_rule",
+              "solver_blocks", "solver_holdout_best_order", "converged")
+
+
+def iterative_row(row: dict, digits: int) -> dict:
+    """``row`` with every number derived from an iterative solve written at ``digits``
+    significant digits (:func:`solver_digits`), its iteration counts (:data:`ITERATION_COLUMNS`)
+    as NaN; entries of :data:`NOT_SOLVED`, text, flags and integers unchanged."""
+    out = {}
+    for k, v in row.items():
+        if k in ITERATION_COLUMNS and isinstance(v, (int, float, np.integer, np.floating)):
+            out[k] = float("nan")
+        elif k in NOT_SOLVED or isinstance(v, (bool, np.bool_)) or not isinstance(
+                v, (float, np.floating)) or not np.isfinite(v) or v == 0:
+            out[k] = v
+        else:
+            out[k] = float(f"{float(v):.{digits}g}")
+    return out
+
+
+def iterative_note(solvers) -> str:
+    """The sentence a table's header gives when some of its rows come from iterative solvers
+    (``solvers``: the solver labels of its fits; "" when none is iterative)."""
+    names = sorted({n for s in solvers if s for n in str(s).split("+")
+                    if solver_digits(n) is not None})
+    if not names:
+        return ""
+    digits = ", ".join(f"`{n}`: {solver_digits(n)}" for n in names)
+    return ("Rows of a fit with an iterative solver are written at the significant digits its "
+            "stopping tolerance determines, three digits above the BLAS kernel's round-off "
+            f"(significant digits {digits}), its iteration counts left empty (docs/noise.md, "
+            "*Digits of an iterative solve*).")

@@ -29,7 +29,13 @@ from podbench.dynamics.excitations import excitation_from_dict
 from podbench.errors import PodbenchError, ScenarioFileError
 from podbench.harness.bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from podbench.harness.cache import TruthCache, structure_fingerprint
-from podbench.harness.digits import FLOOR_METHODS, diagnostic_digits, floor_row
+from podbench.harness.digits import (
+    FLOOR_METHODS,
+    diagnostic_digits,
+    floor_row,
+    iterative_row,
+    solver_digits,
+)
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
@@ -435,8 +441,25 @@ def _run_floored(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw)
         mine[start:] = [floor_row(r, keep=_NOT_FLOORED) for r in mine[start:]]
 
 
-def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
-                nonlinear: bool, measured: bool, keep_series: bool, bands: bool) -> None:
+def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
+    """Fit one reported method, predict every target and add its rows (and fit) to ``res``;
+    for an iterative deconvolution solver (:func:`podbench.harness.digits.solver_digits`)
+    every number of its rows, fit and band scores is then written at the significant digits
+    its stopping tolerance determines, three digits above the BLAS kernel's round-off, and
+    its iteration counts not at all (:func:`podbench.harness.digits.iterative_row`; issue
+    23: the same bytes on every OpenBLAS kernel)."""
+    start = len(res.rows), len(res.fits), len(res.band_stats)
+    _fit_and_score(res, spec, scenario, truth, **kw)
+    opts = spec.options.get("solver_options") or {}
+    digits = solver_digits(method_solver(spec, scenario), opts.get("tol"))
+    if digits is None:
+        return
+    for rows, i0 in zip((res.rows, res.fits, res.band_stats), start, strict=True):
+        rows[i0:] = [iterative_row(r, digits) for r in rows[i0:]]
+
+
+def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
+                   nonlinear: bool, measured: bool, keep_series: bool, bands: bool) -> None:
     """Fit one reported method, predict every target and add its rows (and fit) to ``res``."""
     base = {"scenario": scenario.name, "structure": res.structure, "method": spec.label}
     if sweep:

@@ -28,6 +28,7 @@ import pandas as pd
 
 from podbench.core.response import Response
 from podbench.errors import PodbenchError, ScenarioFileError
+from podbench.harness.digits import iterative_row, solver_digits
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
@@ -41,7 +42,7 @@ from podbench.study.experiments import (
     seed_dependent,
 )
 from podbench.study.resolve import resolve_structure
-from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
+from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario, method_solver
 from podbench.sysid.conditioning import condition
 
 __all__ = ["run_seeds", "plan_seeds", "seed_unit", "SeedPlan", "seed_table", "SEED_COLUMNS"]
@@ -216,6 +217,9 @@ def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
     U = getattr(est, "modes_", None)
     U = None if U is None else np.asarray(U, dtype=float)
     coupled = bool(getattr(est, "coupled", False))
+    spec = sc.method(label)
+    digits = solver_digits(method_solver(spec, sc),
+                           (spec.options.get("solver_options") or {}).get("tol"))
     rows = []
     for t in targets:
         W = get(t).W
@@ -223,7 +227,7 @@ def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
         row.update(decompose(W, preds[t], U, coupled=coupled, nonlinear=True))
         row.update(norm_summaries(W, preds[t]))
         row["status"] = "ok"
-        rows.append(row)
+        rows.append(row if digits is None else iterative_row(row, digits))
     return rows
 
 
