@@ -24,7 +24,7 @@ from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
-from podbench.study.claims import TIE
+from podbench.study.claims import NOT_CHECKABLE, TIE, text_claims
 from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 from podbench.sysid.deconvolution import available_solvers
@@ -425,6 +425,22 @@ def cmd_predict(args) -> int:
     return 0
 
 
+def _claims_line(claims) -> str:
+    """The run's last word on the claims, counted as FINDINGS.md's headline counts them: the
+    text's claims once each (an entry with its ``part_of`` parts), then how many variants
+    were judged besides them (issue 24: the text's claims apart from podbench's variants)."""
+    verdicts = [v for _, _, v in text_claims(claims)]
+    n_variants = sum(bool(e["claim"].variant) for e in claims)
+    whose = "the text's " if n_variants else ""
+    line = f"claims: {verdicts.count('reproduced')} of {whose}{len(verdicts)} reproduced"
+    line += "".join(f", {verdicts.count(k)} {k}" for k in ("not reproduced", TIE,
+                                                         "not measured", NOT_CHECKABLE)
+                    if verdicts.count(k))
+    if n_variants:
+        line += f"; {_plural(n_variants, 'variant')} also judged"
+    return line
+
+
 def cmd_run(args) -> int:
     res = api.run(args.paths, out=args.out, jobs=args.jobs, cache=_cache(args),
                   engine=args.engine, figures=not args.no_figures,
@@ -435,10 +451,7 @@ def cmd_run(args) -> int:
           f"{res.seconds:.1f} s ({_plural(res.simulated, 'response')} simulated, "
           f"{res.cached} from the cache) -> {out}/summary.csv")
     if res.claims is not None:
-        n_ok = sum(e["verdict"] == "reproduced" for e in res.claims)
-        n_tie = sum(e["verdict"] == TIE for e in res.claims)
-        ties = f", {n_tie} {TIE}" if n_tie else ""
-        print(f"claims: {n_ok} of {len(res.claims)} reproduced{ties} -> {out}/FINDINGS.md")
+        print(f"{_claims_line(res.claims)} -> {out}/FINDINGS.md")
     failed = df[df.status != "ok"]
     if len(failed):
         see = "summary.md" if (out / "summary.md").is_file() else "summary.csv"

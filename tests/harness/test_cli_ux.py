@@ -316,3 +316,25 @@ def test_help_examples_keep_their_line_continuations():
             if line.lstrip().startswith("podbench "):
                 command = line.split("#")[0].rstrip()
                 assert not re.search(r"\S {3,}--", command), (name, line)
+
+
+def test_the_runs_claims_line_counts_the_texts_claims_apart_from_variants():
+    """`podbench run`'s last line on the claims counts as FINDINGS.md's headline: a claim
+    with its part_of entries once, an uncheckable claim apart, variants only as a number
+    (Chapter 5 once printed "20 of 45 reproduced", mixing both)."""
+    from podbench.study.claims import NOT_CHECKABLE, TIE, Claim
+
+    def entry(cid, verdict, **kw):
+        c = Claim(id=cid, source="§5", quote="q", scenario="s", structures=("b",),
+                  targets=("t",), checks=("x < 1",), criterion="c", note="", **kw)
+        return {"claim": c, "verdict": verdict}
+
+    claims = [entry("a", "reproduced"), entry("a2", "not reproduced", part_of="a"),
+              entry("b", "reproduced"), entry("c", TIE), entry("d", "reproduced",
+                                                              checkable=False),
+              entry("a-stls", "reproduced", variant="solver: stls"),
+              entry("b-ls", "not reproduced", variant="solver: ls")]
+    assert cli._claims_line(claims) == (
+        f"claims: 1 of the text's 4 reproduced, 1 not reproduced, 1 {TIE}, 1 {NOT_CHECKABLE}; "
+        "2 variants also judged")
+    assert cli._claims_line(claims[2:3]) == "claims: 1 of 1 reproduced"
