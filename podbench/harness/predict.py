@@ -147,7 +147,7 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
     if not targets:
         raise InputError("--target: no target file given")
     if coverage is not None:
-        coverage = _check_coverage(coverage, len(train))
+        coverage = _check_coverage(coverage)
     stems = [Path(t).stem for t in targets]
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:
@@ -225,7 +225,7 @@ def _predict_wf(method, train, targets, *, solver, n_modes, coverage, units):
                    for p in preds]
 
 
-def _check_coverage(coverage, n_train: int) -> float:
+def _check_coverage(coverage) -> float:
     """``--coverage`` in (0, 1)."""
     try:
         return check_coverage(coverage)
