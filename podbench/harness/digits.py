@@ -296,17 +296,14 @@ NOT_SOLVED = ("scenario", "structure", "method", "target", "solver", "status", "
 
 def iterative_row(row: dict, digits: int) -> dict:
     """``row`` with every number derived from an iterative solve written at ``digits``
-    significant digits (:func:`solver_digits`), its iteration counts (:data:`ITERATION_COLUMNS`)
-    as NaN; entries of :data:`NOT_SOLVED`, text, flags and integers unchanged."""
-    out = {}
-    for k, v in row.items():
-        if k in ITERATION_COLUMNS and isinstance(v, (int, float, np.integer, np.floating)):
+    significant digits (:func:`floor_row`, :func:`solver_digits`), its iteration counts
+    (:data:`ITERATION_COLUMNS`) as NaN; entries of :data:`NOT_SOLVED`, text, flags and
+    integers unchanged."""
+    out = floor_row(row, keep=NOT_SOLVED, digits=digits)
+    for k in ITERATION_COLUMNS:
+        if k in out and not isinstance(out[k], (bool, np.bool_)) and \
+                isinstance(out[k], (int, float, np.integer, np.floating)):
             out[k] = float("nan")
-        elif k in NOT_SOLVED or isinstance(v, (bool, np.bool_)) or not isinstance(
-                v, (float, np.floating)) or not np.isfinite(v) or v == 0:
-            out[k] = v
-        else:
-            out[k] = float(f"{float(v):.{digits}g}")
     return out
 
 

@@ -367,9 +367,9 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
         res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
 
     for spec in scenario.reported_methods():
-        _run_floored(res, spec, scenario, truth, sweep=overrides is not None,
-                     nonlinear=nonlinear, measured=measured, keep_series=keep_series,
-                     bands=bands)
+        _run_method(res, spec, scenario, truth, sweep=overrides is not None,
+                    nonlinear=nonlinear, measured=measured, keep_series=keep_series,
+                    bands=bands)
     res.simulated = truth.simulated
     res.cached = cache.hits
     res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
@@ -429,33 +429,31 @@ _NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status",
                 "modes", "seed", "band_seconds", "plain_seconds", "source")
 
 
-def _run_floored(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
-    """:func:`_run_method`; for a method of :func:`is_floored`, every estimate of its rows,
-    fit and band scores then at :data:`podbench.harness.digits.FLOOR_DIGITS` significant
-    digits (the digits its round-off floor leaves the same on every BLAS kernel, issue 23)."""
-    n_rows, n_fits, n_bands = len(res.rows), len(res.fits), len(res.band_stats)
-    _run_method(res, spec, scenario, truth, **kw)
-    if not is_floored(spec, scenario):
-        return
-    for mine, start in ((res.rows, n_rows), (res.fits, n_fits), (res.band_stats, n_bands)):
-        mine[start:] = [floor_row(r, keep=_NOT_FLOORED) for r in mine[start:]]
+def _row_digits(spec, scenario: Scenario):
+    """How the rows of ``spec`` are written (issue 23: the same bytes on every OpenBLAS
+    kernel): for a method of :func:`is_floored`, every estimate at
+    :data:`podbench.harness.digits.FLOOR_DIGITS` significant digits (the digits its round-off
+    floor leaves in place, :func:`~podbench.harness.digits.floor_row`); for an iterative
+    deconvolution solver (:func:`~podbench.harness.digits.solver_digits`), every number at the
+    digits its stopping tolerance determines and its iteration counts not at all
+    (:func:`~podbench.harness.digits.iterative_row`); None: as computed."""
+    if is_floored(spec, scenario):
+        return lambda row: floor_row(row, keep=_NOT_FLOORED)
+    opts = spec.options.get("solver_options") or {}
+    digits = solver_digits(method_solver(spec, scenario), opts.get("tol"))
+    return None if digits is None else (lambda row: iterative_row(row, digits))
 
 
 def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
-    """Fit one reported method, predict every target and add its rows (and fit) to ``res``;
-    for an iterative deconvolution solver (:func:`podbench.harness.digits.solver_digits`)
-    every number of its rows, fit and band scores is then written at the significant digits
-    its stopping tolerance determines, three digits above the BLAS kernel's round-off, and
-    its iteration counts not at all (:func:`podbench.harness.digits.iterative_row`; issue
-    23: the same bytes on every OpenBLAS kernel)."""
+    """Fit one reported method, predict every target and add its rows (and fit) to ``res``,
+    each row, fit and band score written as :func:`_row_digits` says."""
     start = len(res.rows), len(res.fits), len(res.band_stats)
     _fit_and_score(res, spec, scenario, truth, **kw)
-    opts = spec.options.get("solver_options") or {}
-    digits = solver_digits(method_solver(spec, scenario), opts.get("tol"))
-    if digits is None:
+    written = _row_digits(spec, scenario)
+    if written is None:
         return
     for rows, i0 in zip((res.rows, res.fits, res.band_stats), start, strict=True):
-        rows[i0:] = [iterative_row(r, digits) for r in rows[i0:]]
+        rows[i0:] = [written(r) for r in rows[i0:]]
 
 
 def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
