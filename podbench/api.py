@@ -48,6 +48,7 @@ from podbench.harness.painter_street import run_study as run_painter_street
 from podbench.harness.predict import predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
+from podbench.harness.rewrite import unmoved
 from podbench.harness.runner import SideTasks, plan, response_counts, run_study
 from podbench.harness.seeds import SeedPlan, plan_seeds, seed_unit
 from podbench.harness.substructuring import run_substructuring
@@ -588,7 +589,7 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
         new = summary_table(run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                                       progress=_progress(progress, quiet), keep_series=False))
     if update:
-        atomic_write_text(baseline, table_csv(new))
+        atomic_write_text(baseline, table_csv(new), keep=unmoved)
         return len(new)
     assert base is not None  # read above, before the run, unless update
     return compare(new, base, rtol=rtol, atol=atol)

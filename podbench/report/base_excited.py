@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.harness.rewrite import unmoved
 
 __all__ = ["write_study", "ROUNDOFF", "SUMMARY_COLUMNS"]
 
@@ -200,7 +201,7 @@ def write_study(res, out, figures: bool = True) -> None:
     """Write ``out``/summary.csv, fits.csv, timing.csv, FINDINGS.md, figures/ as a whole."""
     out = Path(out)
     rows = res["rows"]
-    with replace_dir(out) as tmp:
+    with replace_dir(out, keep=unmoved) as tmp:
         (tmp / "summary.csv").write_text(_csv(rows, SUMMARY_COLUMNS))
         fcols = ["structure", "output", "method"]
         fcols += sorted({k for r in res["fits"] for k in r} - set(fcols) - {"unit"})

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.harness.rewrite import unmoved
 
 __all__ = ["write_study"]
 
@@ -225,7 +226,7 @@ def write_study(res, out, *, figures: bool = True, figure_format: str = "png") -
     replacing ``out`` as a whole; returns the figures' final paths."""
     out = Path(out)
     names = []
-    with replace_dir(out) as tmp:
+    with replace_dir(out, keep=unmoved) as tmp:
         files = {"summary.csv": _csv(res["summary"], [
             "inputs", "method", "status", "mean_error", "median_error", "max_error",
             "mean_coverage", "estimate_within_2", "note"]),

@@ -22,6 +22,7 @@ from podbench.errors import InputError
 from podbench.harness.digits import iterative_note
 from podbench.harness.executor import execute
 from podbench.harness.progress import as_stage
+from podbench.harness.rewrite import unmoved
 from podbench.harness.seeds import seed_table
 from podbench.harness.tables import fits_table, summary_table, table_csv
 from podbench.report.calibration import (
@@ -409,7 +410,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
     cal_rows = calibration_rows(df, [s for u in results for s in getattr(u, "band_stats", [])],
                                 scenarios)
     cal_md = calibration_markdown(cal_rows, Path(out_dir).name)
-    with replace_dir(out_dir) as tmp:
+    with replace_dir(out_dir, keep=unmoved) as tmp:
         (tmp / "summary.csv").write_text(table_csv(df), encoding="utf-8", newline="\n")
         if cal_md:
             (tmp / "CALIBRATION.md").write_text(cal_md, encoding="utf-8", newline="\n")

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from podbench.core.atomic import atomic_write_text
+from podbench.harness.rewrite import unmoved
 
 __all__ = ["write_substructuring", "medians"]
 
@@ -306,10 +307,10 @@ def write_substructuring(rows, truths, out, *, dt: float, figures: bool = True,
     for c in ("total_error", "record_error"):  # round-off (exact kernels): CPU-dependent digits
         df[c] = df[c].where(~(df[c] < ROUNDOFF_ERROR), 0.0)
     atomic_write_text(out / "summary.csv", df.to_csv(index=False, float_format="%.6g",
-                                                     lineterminator="\n"))
+                                                     lineterminator="\n"), keep=unmoved)
     med = medians(df)
     atomic_write_text(out / "medians.csv", med.to_csv(index=False, float_format="%.6g",
-                                                      lineterminator="\n"))
-    atomic_write_text(out / "FINDINGS.md", _findings(df, med, command))
+                                                      lineterminator="\n"), keep=unmoved)
+    atomic_write_text(out / "FINDINGS.md", _findings(df, med, command), keep=unmoved)
     drawn = _figures(rows, truths, out, dt, figure_format) if figures else []
     return df, drawn

@@ -10,6 +10,7 @@ import pandas as pd
 
 from podbench.core.atomic import atomic_write_text
 from podbench.harness.digits import iterative_note
+from podbench.harness.rewrite import unmoved
 from podbench.harness.tables import table_csv
 from podbench.study.scenarios import Scenario, Sweep
 
@@ -95,6 +96,6 @@ def write_sweep(df: pd.DataFrame, out_dir, scenario: Scenario) -> tuple[Path, Pa
     """Write ``out_dir/sweep.csv`` and ``out_dir/sweep.md`` (each atomically)."""
     out_dir = Path(out_dir)
     csv, md = out_dir / "sweep.csv", out_dir / "sweep.md"
-    atomic_write_text(csv, table_csv(df))
-    atomic_write_text(md, sweep_markdown(df, scenario))
+    atomic_write_text(csv, table_csv(df), keep=unmoved)
+    atomic_write_text(md, sweep_markdown(df, scenario), keep=unmoved)
     return csv, md

@@ -80,6 +80,9 @@ rounding is applied before writing, so the file holds exactly what the generator
 (round trip exact). Everything is deterministic: the same file gives byte-identical data,
 written atomically (a temporary folder replaces ``data/<test>`` when complete).
 
+Regenerating over committed records keeps each record that the check below calls the same
+(its bytes stay; :func:`write_experiment`).
+
 Command line: ``podbench experiment <folder or experiment.toml>`` (``--check`` compares the
 files with a fresh generation instead of writing: byte for byte, or, for a record written on
 another CPU, ``W`` and ``F`` to :data:`CHECK_ULPS` single-precision steps of each channel's
@@ -469,14 +472,17 @@ def _files(exp: Experiment) -> dict:
 
 def write_experiment(path) -> list[Path]:
     """Generate and write every record of the experiment file ``path`` (a file or its folder);
-    each ``data/<test>`` folder is replaced atomically. Returns the files written."""
+    each ``data/<test>`` folder is replaced atomically. A record already there that
+    :func:`check_experiment` calls the same (:data:`CHECK_ULPS`: another CPU's BLAS kernel
+    moved its last bits) is kept byte for byte, so regenerating the committed records leaves
+    them unchanged on any CPU. Returns the files written."""
     exp = load_experiment(path)
     files = _files(exp)
     written = []
     for test in exp.tests:
         dest = exp.folder / "data" / test
         dest.parent.mkdir(parents=True, exist_ok=True)
-        with replace_dir(dest) as tmp:
+        with replace_dir(dest, keep=_same_record_bytes) as tmp:
             for rel, data in files.items():
                 if rel.parts[1] != test:
                     continue
@@ -500,7 +506,11 @@ def _same_record(path: Path, data: bytes) -> bool:
     """True when the committed file holds the generated record: the same bytes, or the same
     arrays with ``W`` and ``F`` equal per channel to :data:`CHECK_ULPS` float32 steps of the
     channel's peak (a record generated on another CPU)."""
-    old = path.read_bytes()
+    return _same_record_bytes(path.read_bytes(), data)
+
+
+def _same_record_bytes(old: bytes, data: bytes) -> bool:
+    """:func:`_same_record` on the committed file's bytes ``old``."""
     if old == data:
         return True
     try:

@@ -1,6 +1,7 @@
 """The Chapter 5 virtual experiment: generator round trip and determinism, the noise it adds,
 one-line errors, claims over several scenarios, and the study from one command."""
 
+import io
 import shutil
 import subprocess
 import sys
@@ -75,6 +76,28 @@ def test_round_trip_and_determinism(tmp_path, precision):
     (folder / "data" / "beam" / "noise_1pct" / "extra.npz").write_bytes(b"x")
     assert check_experiment(folder) == [str(Path("data/beam/noise_1pct/a.npz")),
                                         str(Path("data/beam/noise_1pct/extra.npz"))]
+
+
+def test_an_experiment_record_from_another_cpu_is_kept(tmp_path):
+    """``podbench experiment`` keeps a committed record that ``--check`` calls the same
+    (W moved by a fraction of a float32 step) and rewrites one that moved further."""
+    folder = _small(tmp_path, "float32")
+    files = write_experiment(folder)
+    rec = files[0]
+    with np.load(rec, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    W = arrays["W"].copy()
+    i = np.unravel_index(np.argmax(np.abs(W)), W.shape)
+    for steps, kept in [(1, True), (100, False)]:
+        arrays["W"] = W.copy()
+        arrays["W"][i] = np.float32(W[i]) * np.float32(1 + steps * 2.0**-23)
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        rec.write_bytes(buf.getvalue())
+        other = rec.read_bytes()
+        assert (check_experiment(folder) == []) is kept
+        write_experiment(folder)
+        assert (rec.read_bytes() == other) is kept
 
 
 def test_noise_is_per_measured_channel(tmp_path):
