@@ -110,6 +110,7 @@ from podbench.sysid.deconvolution.realization import (
     MAX_HANKEL_ROWS,
     Realization,
     pole_basis,
+    pole_realization,
     pole_regressors,
 )
 from podbench.sysid.deconvolution.stls import DEFAULT_STLS_MAX_ITER, DEFAULT_STLS_TOL, STLS
@@ -158,6 +159,7 @@ __all__ = [
     "kernel_matrix",
     "log_marginal_likelihood",
     "pole_basis",
+    "pole_realization",
     "pole_regressors",
     # function forms
     "least_squares",

@@ -63,10 +63,16 @@ class SolverResult:
     info : dict
         Diagnostics, JSON scalars only (``None``, bool, int, float, str); the keys of
         :data:`INFO_KEYS` always, then any the solver adds.
+    realization : tuple or None
+        For a solver whose solution is a state-space model (``"realization"``,
+        ``"subspace"``: poles and residues), that model ``(A, B, C, D)``, exact:
+        ``X[0]ᵀ = D`` and ``X[p]ᵀ = C A^{p−1} B`` (``r × k``, in/(lbf·s)), and the memory
+        beyond the ``n`` lags of ``X``. None for a solver that gives the kernel only.
     """
 
     X: np.ndarray
     info: dict = field(default_factory=dict)
+    realization: tuple | None = None
 
     def __repr__(self) -> str:
         return f"SolverResult(X=<array {self.X.shape}>, info={self.info!r})"
@@ -80,9 +86,10 @@ class Solver(ParamsMixin):
     ``_parameter_constraints`` (:mod:`podbench.sysid.params`; checked by
     :meth:`_validate_params`, which a solver extends for checks across parameters, raising
     :class:`InputError` naming the parameter) and implement :meth:`_solve`, which returns
-    ``X`` (``(k·n,)`` or ``(k·n, r)`` like ``system.B``'s columns) or ``(X, info)``.
-    :meth:`solve` validates, calls it, checks ``X`` (shape, finite) and completes ``info``
-    (residual, standard keys). Example::
+    ``X`` (``(k·n,)`` or ``(k·n, r)`` like ``system.B``'s columns) or ``(X, info)``, or
+    ``(X, info, realization)`` for a solution that is a state-space model
+    (:attr:`SolverResult.realization`). :meth:`solve` validates, calls it, checks ``X``
+    (shape, finite) and completes ``info`` (residual, standard keys). Example::
 
         class ScipyLstsq(Solver):
             name = "scipy-lstsq"
@@ -145,8 +152,9 @@ class Solver(ParamsMixin):
             )
         self._validate_params()
         out = self._solve(system)
-        X, info = out if isinstance(out, tuple) else (out, {})
-        return self._result(system, X, info)
+        X, info, real = (out + (None,) * (3 - len(out))) if isinstance(out, tuple) else (
+            out, {}, None)
+        return self._result(system, X, info, real)
 
     def solve_many(self, systems) -> list[SolverResult]:
         """:meth:`solve` on each of several systems (a solver may solve them together:
@@ -157,10 +165,12 @@ class Solver(ParamsMixin):
         """Return ``X`` or ``(X, info)``; implemented by each solver."""
         raise NotImplementedError(f"{type(self).__name__} does not implement _solve(system)")
 
-    def _result(self, system: ConvolutionSystem, X, info: dict | None) -> SolverResult:
+    def _result(self, system: ConvolutionSystem, X, info: dict | None,
+                realization: tuple | None = None) -> SolverResult:
         expected = (system.k * system.n,) + (() if system.vector else (system.n_rhs,))
         X = checked_solution(self.name, X, expected)
-        return SolverResult(X=X, info=full_info(self.name, info, system.residual(X)))
+        return SolverResult(X=X, info=full_info(self.name, info, system.residual(X)),
+                            realization=realization)
 
     # ------------------------------------------------------------------ pickling
     def __reduce_ex__(self, protocol):

@@ -191,7 +191,7 @@ class Auto(Solver):
         hyper-parameters when already computed)."""
         if self.robust in ("subspace", "realization"):
             res = (Subspace() if self.robust == "subspace" else Realization()).solve(system)
-            return res.X, {**_info(res), "choice": self.robust, **extra}
+            return res.X, {**_info(res), "choice": self.robust, **extra}, res.realization
         robust, hyper = evidence if evidence is not None else (self._test(system), None)
         if hyper is None:
             hyper = robust.hyperparameters(system)

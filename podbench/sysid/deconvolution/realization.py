@@ -58,8 +58,8 @@ from podbench.sysid.deconvolution.tikhonov import CGLS, FFTTikhonov
 from podbench.sysid.params import COUNT, FRACTION, Interval, Options
 from podbench.sysid.statespace import era_realization, realize
 
-__all__ = ["Realization", "holdout_choice", "pole_basis", "pole_regressors", "MAX_HANKEL_ROWS",
-           "DEFAULT_MAX_ORDER"]
+__all__ = ["Realization", "holdout_choice", "pole_basis", "pole_regressors", "pole_realization",
+           "MAX_HANKEL_ROWS", "DEFAULT_MAX_ORDER"]
 
 MAX_HANKEL_ROWS = 600
 """Largest ``s·max(k, r)`` of the ERA Hankel matrix (``s`` block rows) by default: its SVD
@@ -141,6 +141,52 @@ def pole_basis(poles, n: int) -> np.ndarray:
             out[1:, col] = seq.imag
             col += 1
     return out
+
+
+def pole_realization(poles, theta: np.ndarray) -> tuple:
+    """The state-space model ``(A, B, C, D)`` whose Markov parameters are Eq. 2's kernel:
+    ``D = R_0ᵀ`` and ``C A^{p−1} B = Σ_b φ_b[p] R_bᵀ`` (``p ≥ 1``), i.e. ``X[p]ᵀ`` of Eq. 1
+    (``r × k``, the solution's units, in/(lbf·s)).
+
+    Exact, not a fit: a complex pole ``λ = a + ib`` (one per conjugate pair) is the real
+    2-state block ``[[a, −b], [b, a]]`` per input, whose state ``M^{p−1} e₁`` is
+    ``(Re λ^{p−1}, Im λ^{p−1})`` (the two sequences of :func:`pole_basis`), read out by the
+    two residues; a real pole is a 1-state block. Order ``k·N`` (``N`` the model order,
+    ``k`` inputs; the common-denominator form of Eq. 2). No rank decision: the model is the
+    one the residues were fitted to, whatever its Hankel singular values.
+
+    Parameters
+    ----------
+    poles : (N',) complex array_like
+        As :func:`pole_basis`.
+    theta : (k, 1 + N, r) ndarray
+        The residues ``R_b`` (row ``b`` of every input).
+    """
+    poles = np.asarray(poles, dtype=complex)
+    theta = np.asarray(theta, dtype=float)
+    k, nb, r = theta.shape
+    if nb != n_basis(poles):
+        raise InputError(f"pole_realization: {nb} residue rows for {n_basis(poles)} basis "
+                         "sequences")
+    blocks, cols = [], []
+    col = 1
+    for lam in poles:
+        w = 2 if lam.imag != 0 else 1
+        M = (np.array([[lam.real, -lam.imag], [lam.imag, lam.real]]) if w == 2
+             else np.array([[lam.real]]))
+        for i in range(k):
+            blocks.append(M)
+            cols.append((i, theta[i, col:col + w].T))  # (r, w)
+        col += w
+    nx = sum(b.shape[0] for b in blocks)
+    A = scipy.linalg.block_diag(*blocks) if blocks else np.zeros((0, 0))
+    B, C = np.zeros((nx, k)), np.zeros((r, nx))
+    j = 0
+    for blk, (i, R) in zip(blocks, cols, strict=True):
+        B[j, i] = 1.0
+        C[:, j:j + blk.shape[0]] = R
+        j += blk.shape[0]
+    return A, B, C, theta[:, 0, :].T.copy()
 
 
 def pole_regressors(G: np.ndarray, dt: float, poles) -> np.ndarray:
@@ -254,6 +300,9 @@ class Realization(Solver):
     ``holdout_best_order`` (the order of the smallest held-out residual), ``poles``
     (distinct poles kept), ``max_pole`` (largest ``|λ|``), ``pilot``, ``n_pilot``,
     ``n_rule``, ``blocks``, ``rank`` = ``N``.
+
+    The result's ``realization`` is the fitted model itself, exact
+    (:func:`~podbench.sysid.deconvolution.realization.pole_realization`; order up to ``k·N``).
     """
 
     name = "realization"
@@ -356,7 +405,7 @@ class Realization(Solver):
                 "pilot": self.pilot, "n_pilot": m,
                 "n_rule": self._n_rule(n, system.k) if rule == "holdout" else None,
                 "blocks": s, "rank": order}
-        return system.stack(Xb), info
+        return system.stack(Xb), info, pole_realization(poles, theta)
 
 
 def _sub_system(system: ConvolutionSystem, m: int) -> ConvolutionSystem:

@@ -79,6 +79,7 @@ from podbench.sysid.deconvolution.realization import (
     holdout_choice,
     n_basis,
     pole_basis,
+    pole_realization,
 )
 from podbench.sysid.deconvolution.system import ConvolutionSystem
 from podbench.sysid.params import COUNT, FRACTION, Interval, Options
@@ -281,6 +282,9 @@ class Subspace(Solver):
     ``holdout_best_order``, ``candidates`` (orders above the rank floor, up to
     ``max_order``), ``horizon`` (the one used), ``horizons`` (the candidates),
     ``instruments``, ``poles``, ``max_pole``, ``rank`` = ``N``.
+
+    The result's ``realization`` is the fitted model itself, exact
+    (:func:`~podbench.sysid.deconvolution.realization.pole_realization`; order ``k·N``).
     """
 
     name = "subspace"
@@ -393,7 +397,7 @@ class Subspace(Solver):
                 "poles": int(poles.size),
                 "max_pole": float(np.max(np.abs(poles))) if poles.size else 0.0,
                 "rank": order}
-        return system.stack(Xb), info
+        return system.stack(Xb), info, pole_realization(poles, theta)
 
     def _n_rule(self, n: int, k: int) -> int:
         m = max(256, 8192 // k) if self.n_rule is None else int(self.n_rule)
