@@ -24,15 +24,21 @@ def _forward_substitution(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray
     each with a square invertible ``G[β, 0]``: ``G`` ``(b, n, k, k)``, ``Y`` ``(b, n, k, r)``,
     returns ``X`` ``(b, n, k, r)``. One system is a batch of one (:func:`_block`); several are
     the leave-one-record-out folds of a prediction band (:meth:`BlockSubstitution.solve_many`),
-    solved in one Python-level pass, each exactly as it would be alone.
+    solved in one Python-level pass.
 
     Divide and conquer: solve the first half, subtract its contribution to the second half
     with one FFT convolution, solve the second half; blocks of ``leaf`` samples are solved by
-    plain block forward substitution, the sum over the earlier samples of a block as one
-    matrix product per system (BLAS; an ``einsum`` over the samples, the former single
-    solve's arithmetic, was 1.7–3× slower on one system and more on a batch).
-    ``O(b k²r n log² n)`` operations, ``O(b k(k + r) n)`` memory. The FFT of
-    ``G[:, 0 : 2h]`` is shared by every node of half-length ``h``.
+    plain block forward substitution. ``O(b k²r n log² n)`` operations, ``O(b k(k + r) n)``
+    memory. The FFT of ``G[:, 0 : 2h]`` is shared by every node of half-length ``h``.
+
+    The sum over a block's earlier samples is an ``einsum`` for one system and one matrix
+    product per system for a batch: the two products the single and the batched solvers
+    used before they were merged, so that every solution keeps its bits. The product on
+    one system would be 1.5–2.5× faster on ML's systems but moves the last bits of every
+    ``block`` solve, and with them values of the committed tables that lie on a rounding
+    boundary (``results/mr_designs/calibration.csv``: 0.018 became 0.0179 with the default
+    OpenBLAS kernel and stayed 0.018 with ``OPENBLAS_CORETYPE=Haswell``); an ``einsum`` on a
+    batch keeps every bit too but was 2.7× slower or more.
     """
     b, n, k, _ = G.shape
     r = Y.shape[3]
@@ -45,19 +51,28 @@ def _forward_substitution(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray
     Yp[:, :n] = Y
     X = np.zeros((b, n_pad, k, r))
     G0inv = np.linalg.inv(G[:, 0])
-    # G[leaf−1], …, G[1] side by side, (b, k, (leaf−1)·k): column p·k + j is G[leaf−1−p][:, j]
-    Gflip = Gp[:, leaf - 1 : 0 : -1] if leaf > 1 else Gp[:, :0]
+    Gflip = Gp[:, leaf - 1 : 0 : -1] if leaf > 1 else Gp[:, :0]  # G[leaf−1], …, G[1]
+    # side by side for a batch, (b, k, (leaf−1)·k): column p·k + j is G[leaf−1−p][:, j]
     Gcat = np.ascontiguousarray(Gflip.transpose(0, 2, 1, 3)).reshape(b, k, -1)
     spectra: dict[int, np.ndarray] = {}
 
-    def solve_leaf(lo: int) -> None:
+    def solve_leaf_one(lo: int) -> None:  # b = 1, on the system's own 2-D views
+        X1, Y1, inv1, flip1 = X[0], Yp[0], G0inv[0], Gflip[0]
+        for t in range(leaf):
+            rhs = Y1[lo + t]
+            if t:  # Σ_{p<t} G[t−p] X[lo+p]; flip1[leaf−1−t:] is G[t], …, G[1]
+                rhs = rhs - np.einsum("pij,pjr->ir", flip1[leaf - 1 - t :], X1[lo : lo + t])
+            X1[lo + t] = inv1 @ rhs
+
+    def solve_leaf_many(lo: int) -> None:
         for t in range(leaf):
             rhs = Yp[:, lo + t]
-            if t:
-                # Σ_{p<t} G[t−p] X[lo+p] as one product per system
+            if t:  # the same sum as one product per system
                 rhs = rhs - Gcat[:, :, (leaf - 1 - t) * k :] @ \
                     X[:, lo : lo + t].reshape(b, t * k, r)
             X[:, lo + t] = G0inv @ rhs
+
+    solve_leaf = solve_leaf_one if b == 1 else solve_leaf_many
 
     def solve_range(lo: int, length: int) -> None:
         if length == leaf:
@@ -196,7 +211,8 @@ def _growth(G: np.ndarray, Y: np.ndarray, X: np.ndarray, d: int, dt: float) -> f
 def _block_many(systems, zero_tol: float, max_cond: float, max_growth: float, leaf: int):
     """:func:`_block` on several systems of one shape, one ``Δt`` and one leading-zero
     count ``d``, solved together (one :func:`_forward_substitution`): a list of
-    ``(kernel samples, diagnostics)``, each equal to :func:`_block`'s. None
+    ``(kernel samples, diagnostics)``, each equal to :func:`_block`'s to round-off (the
+    sums of a leaf are products here, an ``einsum`` there). None
     when they cannot be batched or one of them fails a check (the caller then solves them
     one by one, which raises that system's own error)."""
     first = systems[0]
@@ -266,7 +282,7 @@ class BlockSubstitution(Solver):
         """Several systems of one shape (the leave-one-record-out folds of a prediction
         band) solved together by one batched forward substitution
         (:func:`_forward_substitution`); the same solutions and diagnostics as
-        :meth:`solve` on each. Systems that cannot be batched (shapes,
+        :meth:`solve` on each, to round-off. Systems that cannot be batched (shapes,
         ``Δt`` or leading zeros differ) or that fail a check are solved one by one."""
         systems = list(systems)
         self._validate_params()
