@@ -599,25 +599,32 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
 @dataclass
 class SweepResult:
     """What :func:`sweep` wrote: ``table`` (every point), ``written`` (scenario → its
-    ``sweep.csv``), ``seconds``."""
+    ``sweep.csv``), ``seconds``, ``jobs`` (the local processes allowed, ``auto``
+    resolved; 0 on a Dask cluster)."""
 
     table: pd.DataFrame
     written: dict
     seconds: float
+    jobs: int = 0
 
 
 def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=None,
-          solvers=None, jobs: int = 1, scheduler: str | None = None, cache=DEFAULT_CACHE,
-          engine: str | None = None, quiet: bool = True, progress=None) -> SweepResult:
+          solvers=None, jobs: int | str | None = None, scheduler: str | None = None,
+          cache=DEFAULT_CACHE, engine: str | None = None, quiet: bool = True,
+          progress=None) -> SweepResult:
     """Run the ``[sweep]`` scenarios (default: the bundled ``sweeps``) over noise levels,
     mode counts, seeds and solvers, as ``podbench sweep``; each scenario writes
     ``out/<scenario>/sweep.csv`` and ``sweep.md``. ``noise``, ``n_modes``, ``seeds``,
-    ``solvers``: lists overriding the scenario's own axes."""
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise InputError(f"--jobs: expected a positive integer, got {jobs!r}")
-    if scheduler is not None and jobs != 1:
-        raise InputError("--jobs and --scheduler: give one (the Dask cluster sets the "
-                         "parallelism)")
+    ``solvers``: lists overriding the scenario's own axes. ``jobs``: local processes, the
+    calling one included, or ``"auto"`` (the cores available, at most 8; processes beyond
+    the calling one start only after 2 s of work, as in :func:`run`); default (None):
+    ``"auto"``, or the Dask cluster at ``scheduler``, which refuses a ``jobs`` given with
+    it. The table does not depend on either."""
+    if scheduler is not None and jobs is not None:
+        raise InputError(f"--jobs {jobs} and --scheduler {scheduler}: give one (the Dask "
+                         "cluster sets the parallelism)")
+    jobs = 0 if scheduler is not None else resolve_jobs("auto" if jobs is None else jobs,
+                                                        "--jobs")
     axes = {"noise": noise, "n_modes": n_modes, "seeds": seeds}
     if solvers is not None:
         for name in solvers:
@@ -632,14 +639,14 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
     for name in load_scenarios(files, "sweep"):  # each writes OUT/<name>/sweep.csv, sweep.md
         output_folder(Path(out) / name, "--out", "sweep.csv", also=("sweep.md",))
     t0 = time.perf_counter()
-    scenarios, df = run_sweep(files, jobs=jobs, scheduler=scheduler, cache_dir=cache_dir,
+    scenarios, df = run_sweep(files, jobs=jobs or 1, scheduler=scheduler, cache_dir=cache_dir,
                               engine=engine, progress=_progress(progress, quiet), **axes)
     seconds = time.perf_counter() - t0
     written = {}
     for name, sc in scenarios.items():
         written[name], _ = write_sweep(df[df["scenario"] == name].reset_index(drop=True),
                                        Path(out) / name, sc)
-    return SweepResult(table=df, written=written, seconds=seconds)
+    return SweepResult(table=df, written=written, seconds=seconds, jobs=jobs)
 
 
 # ------------------------------------------------------------------------- experiment

@@ -107,9 +107,10 @@ def _add_debug(sp) -> None:
                     help="show the Python traceback of an internal error (exit code 3)")
 
 
-def _add_jobs(sp, help_text: str, default: int | str = 1) -> None:
-    sp.add_argument("-j", "--jobs", type=_jobs if default == "auto" else _positive_int,
-                    default=default, metavar="N", help=help_text)
+def _add_jobs(sp, help_text: str, default: int | str | None = "auto") -> None:
+    """``-j/--jobs N`` (a positive integer or ``auto``); ``default`` None: not given (the
+    sweep's ``auto`` unless ``--scheduler``)."""
+    sp.add_argument("-j", "--jobs", type=_jobs, default=default, metavar="N", help=help_text)
 
 
 def _add_cache_options(sp, *, cache_help: str, engine_help: str) -> None:
@@ -127,7 +128,7 @@ def _add_study_options(sp, paths_help: str) -> None:
     sp.add_argument("paths", nargs="*", metavar="PATH", help=paths_help)
     _add_jobs(sp, "processes for the (scenario, structure) units and the figures, or auto "
                   "(default auto: the cores available, at most 8; processes beyond this one "
-                  "start only after 2 s of work; results do not depend on N)", "auto")
+                  "start only after 2 s of work; results do not depend on N)")
     _add_cache_options(sp, cache_help="entries are keyed by the content of structure and "
                                       "scenario",
                        engine_help="override the scenarios' integration engine (default: each "
@@ -224,8 +225,8 @@ def _add_sweep(sub) -> None:
         "cluster (--scheduler).",
         _EPILOG + """
 Examples:
-  podbench sweep                                   # the bundled sweeps, 1 process
-  podbench sweep sweeps/beam_forced_noise --jobs 2
+  podbench sweep                                   # the bundled sweeps, --jobs auto
+  podbench sweep sweeps/beam_forced_noise --jobs 1
   podbench sweep chapter4/beam_forced --noise 0,0.01 --seeds 0-4 --solvers ls,tls
   podbench sweep --scheduler tcp://10.0.0.5:8786   # needs pip install 'podbench[dask]'
 
@@ -238,11 +239,13 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
     w.add_argument("paths", nargs="*", metavar="PATH",
                    help="scenario files or folders of them, or a bundled study or scenario by "
                         f"name (default: the bundled {SWEEPS_STUDY})")
-    _add_jobs(w, "local worker processes (default 1; the table does not depend on N)")
+    _add_jobs(w, "processes for the points, or auto (default auto: the cores available, at "
+                 "most 8; processes beyond this one start only after 2 s of work; the table "
+                 "does not depend on N); not with --scheduler", None)
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the points on a Dask distributed cluster, e.g. "
                         "tcp://host:8786 (workers need podbench and the same project folder "
-                        "at the same path); replaces --jobs")
+                        "at the same path); replaces --jobs, which it refuses")
     w.add_argument("--noise", default=None, metavar="LIST",
                    help="relative noise levels, comma-separated (e.g. 0,0.01,0.05)")
     w.add_argument("--n-modes", default=None, metavar="LIST",
@@ -648,7 +651,7 @@ def cmd_sweep(args) -> int:
                     progress=Progress(quiet=args.quiet))
     df = res.table
     where = (f"Dask scheduler {args.scheduler}" if args.scheduler
-             else _plural(args.jobs, "process", "processes"))
+             else _plural(res.jobs, "process", "processes") + " at most" * (res.jobs > 1))
     print(f"{_plural(len(df), 'row')} from {_plural(df.attrs.get('tasks', 0), 'point')} in "
           f"{res.seconds:.1f} s on {where} ({_plural(df.attrs.get('simulated', 0), 'response')} "
           f"simulated, {df.attrs.get('cached', 0)} from the cache)")

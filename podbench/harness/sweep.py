@@ -55,7 +55,7 @@ from pathlib import Path
 import pandas as pd
 
 from podbench.errors import InputError, ScenarioFileError
-from podbench.harness.executor import execute
+from podbench.harness.executor import execute, resolve_jobs
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS
 from podbench.harness.progress import as_stage
 from podbench.harness.runner import (
@@ -202,16 +202,16 @@ def run_task(task: SweepTask) -> dict:
             "simulated_keys": res.simulated_keys, "cached_keys": res.cached_keys}
 
 
-def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=None,
+def run_sweep(paths, *, jobs: int | str = 1, scheduler: str | None = None, cache_dir=None,
               engine: str | None = None, progress=None, connect_timeout: float = 10.0,
               **axes) -> tuple[dict, pd.DataFrame]:
     """Run the sweeps of the scenario files ``paths``.
 
     Parameters
     ----------
-    jobs : int
-        Local worker processes (:func:`podbench.harness.executor.execute`); ignored with
-        ``scheduler``.
+    jobs : int or "auto"
+        Local processes, the calling one included, or ``"auto"`` (the cores available):
+        :func:`podbench.harness.executor.execute`; ignored with ``scheduler``.
     scheduler : str, optional
         Address of a Dask distributed scheduler (``tcp://host:8786``): every task runs on
         its workers (module docstring: what the workers need).
@@ -230,8 +230,7 @@ def run_sweep(paths, *, jobs: int = 1, scheduler: str | None = None, cache_dir=N
     ({name: Scenario}, DataFrame)
         The scenarios and the table of :func:`sweep_table`.
     """
-    if jobs < 1:
-        raise InputError(f"jobs: expected a positive integer, got {jobs}")
+    resolve_jobs(jobs)  # InputError before the planning
     scenarios, tasks = plan_sweep(paths, cache_dir=cache_dir, engine=engine, **axes)
     todo = [t for t in tasks if _computed(t)]
     names = {t.index: t for t in todo}

@@ -338,6 +338,67 @@ def test_cli_sweep_bad_input_exits_2_with_one_line(write_scenario, tmp_path, cap
     assert not (tmp_path / "res").exists()
 
 
+def test_cli_sweep_defaults_to_jobs_auto(write_scenario, tmp_path, capsys, monkeypatch):
+    """``podbench sweep`` without ``--jobs`` hands the executor ``auto`` resolved: the cores
+    this process may run on (three, faked here, so the default is neither 1 nor 2)."""
+    from podbench.harness import executor, sweep
+
+    monkeypatch.setattr(executor.os, "sched_getaffinity", lambda pid: {0, 1, 2},
+                        raising=False)
+    seen = []
+
+    def recording(*args, **kwargs):
+        seen.append(kwargs["jobs"])
+        return executor.execute(*args, **kwargs)
+
+    monkeypatch.setattr(sweep, "execute", recording)
+    assert cli._parser().parse_args(["sweep"]).jobs is None  # not given: auto or --scheduler
+    p = sweep_file(write_scenario, "noise = [0.0]")
+    assert cli.main(["sweep", str(p), "-o", str(tmp_path / "res"), "-q", "--no-cache"]) == 0
+    assert seen == [3]
+    assert " on 3 processes at most " in capsys.readouterr().out
+    seen.clear()
+    assert cli.main(["sweep", str(p), "-o", str(tmp_path / "res"), "-q", "--no-cache",
+                     "--jobs", "1"]) == 0
+    assert seen == [1]
+    assert " on 1 process " in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("jobs", ["1", "2", "auto"])
+def test_explicit_jobs_with_a_scheduler_is_refused_naming_both(write_scenario, tmp_path,
+                                                                capsys, jobs):
+    """An explicit ``--jobs`` (even 1 or auto) with ``--scheduler`` is a contradiction: one
+    line naming both options, before any work; the default ``--jobs`` is no conflict (the
+    scheduler's own address is then what fails, unreachable here)."""
+    p = sweep_file(write_scenario, "noise = [0.0]")
+    base = ["sweep", str(p), "-o", str(tmp_path / "res"), "-q"]
+    assert cli.main([*base, "--jobs", jobs, "--scheduler", "tcp://x:1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"podbench sweep: error: --jobs {jobs} and --scheduler tcp://x:1: give one "
+                   "(the Dask cluster sets the parallelism)")
+    assert cli.main([*base, "--scheduler", "nonsense://nowhere"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "cannot connect to the Dask scheduler 'nonsense://nowhere'" in err
+    assert "--jobs" not in err and "\n" not in err
+    assert not (tmp_path / "res").exists()
+
+
+@pytest.mark.usefixtures("pool_at_once")
+def test_cli_sweep_files_identical_with_jobs_1_2_and_the_default(write_scenario, tmp_path):
+    """sweep.csv and sweep.md byte-identical whether the points run in this process alone
+    (``--jobs 1``), in two (workers spawned at once here) or with the default ``auto``."""
+    p = sweep_file(write_scenario, SMALL)
+    got = []
+    for extra in (["--jobs", "1"], ["--jobs", "2"], []):
+        out = tmp_path / f"res{len(got)}"
+        assert cli.main(["sweep", str(p), "-o", str(out), "-q", "--cache",
+                         str(tmp_path / "cache"), *extra]) == 0
+        got.append(tuple((out / "chain_sweep" / f).read_bytes()
+                         for f in ("sweep.csv", "sweep.md")))
+    assert got[0][0].count(b"\n") == 1 + 2 * 2 * 2 * 2  # header, noise × seeds × methods × solvers
+    assert got[0] == got[1] == got[2]
+
+
 def test_cli_sweep_missing_path_exits_2(tmp_path, capsys):
     assert cli.main(["sweep", str(tmp_path / "nothing.toml"), "-q"]) == 2
     assert "no such file" in capsys.readouterr().err

@@ -20,58 +20,26 @@ __all__ = ["BlockSubstitution", "block_substitution"]
 
 
 def _forward_substitution(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray:
-    """Solve ``Σ_{p≤s} G[s−p] X[p] = Y[s]`` (s = 0 … n−1) for square invertible ``G[0]``.
+    """Solve ``Σ_{p≤s} G[β, s−p] X[β, p] = Y[β, s]`` (s = 0 … n−1) for ``b`` systems at once,
+    each with a square invertible ``G[β, 0]``: ``G`` ``(b, n, k, k)``, ``Y`` ``(b, n, k, r)``,
+    returns ``X`` ``(b, n, k, r)``. One system is a batch of one (:func:`_block`); several are
+    the leave-one-record-out folds of a prediction band (:meth:`BlockSubstitution.solve_many`),
+    solved in one Python-level pass.
 
     Divide and conquer: solve the first half, subtract its contribution to the second half
     with one FFT convolution, solve the second half; blocks of ``leaf`` samples are solved by
-    plain block forward substitution. ``O(k²r n log² n)`` operations, ``O(k(k + r) n)``
-    memory. The FFT of ``G[0 : 2h]`` is shared by every node of half-length ``h``.
+    plain block forward substitution. ``O(b k²r n log² n)`` operations, ``O(b k(k + r) n)``
+    memory. The FFT of ``G[:, 0 : 2h]`` is shared by every node of half-length ``h``.
+
+    The sum over a block's earlier samples is an ``einsum`` for one system and one matrix
+    product per system for a batch: the two products the single and the batched solvers
+    used before they were merged, so that every solution keeps its bits. The product on
+    one system would be 1.5–2.5× faster on ML's systems but moves the last bits of every
+    ``block`` solve, and with them values of the committed tables that lie on a rounding
+    boundary (``results/mr_designs/calibration.csv``: 0.018 became 0.0179 with the default
+    OpenBLAS kernel and stayed 0.018 with ``OPENBLAS_CORETYPE=Haswell``); an ``einsum`` on a
+    batch keeps every bit too but was 2.7× slower or more.
     """
-    n, k, _ = G.shape
-    r = Y.shape[2]
-    n_pad = leaf
-    while n_pad < n:
-        n_pad *= 2
-    Gp = np.zeros((n_pad, k, k))
-    Gp[:n] = G
-    Yp = np.zeros((n_pad, k, r))
-    Yp[:n] = Y
-    X = np.zeros((n_pad, k, r))
-    G0inv = np.linalg.inv(G[0])
-    Gflip = Gp[leaf - 1 : 0 : -1] if leaf > 1 else Gp[:0]  # G[leaf−1], …, G[1]
-    spectra: dict[int, np.ndarray] = {}
-
-    def solve_leaf(lo: int) -> None:
-        for t in range(leaf):
-            rhs = Yp[lo + t]
-            if t:
-                # Σ_{p<t} G[t−p] X[lo+p]; Gflip[leaf−1−t:] is G[t], …, G[1]
-                rhs = rhs - np.einsum("pij,pjr->ir", Gflip[leaf - 1 - t :], X[lo : lo + t])
-            X[lo + t] = G0inv @ rhs
-
-    def solve_range(lo: int, length: int) -> None:
-        if length == leaf:
-            solve_leaf(lo)
-            return
-        h = length // 2
-        solve_range(lo, h)
-        Gh = spectra.get(h)
-        if Gh is None:
-            Gh = spectra[h] = scipy.fft.rfft(Gp[: 2 * h], 2 * h, axis=0)
-        # conv[t] = Σ_{p<h} G[t−p] X[lo+p] without wrap-around for t in [h, 2h)
-        conv = scipy.fft.irfft(Gh @ scipy.fft.rfft(X[lo : lo + h], 2 * h, axis=0), 2 * h, axis=0)
-        Yp[lo + h : lo + 2 * h] -= conv[h:]
-        solve_range(lo + h, h)
-
-    solve_range(0, n_pad)
-    return X[:n]
-
-
-def _forward_substitution_many(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray:
-    """:func:`_forward_substitution` for ``b`` systems at once: ``G`` ``(b, n, k, k)``,
-    ``Y`` ``(b, n, k, r)``; the same divide and conquer with every step broadcast over the
-    leading axis (one Python-level pass for all ``b``: the leave-one-record-out folds of a
-    prediction band, :meth:`BlockSubstitution.solve_many`)."""
     b, n, k, _ = G.shape
     r = Y.shape[3]
     n_pad = leaf
@@ -83,19 +51,28 @@ def _forward_substitution_many(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.nd
     Yp[:, :n] = Y
     X = np.zeros((b, n_pad, k, r))
     G0inv = np.linalg.inv(G[:, 0])
-    # G[leaf−1], …, G[1] side by side, (b, k, (leaf−1)·k): column p·k + j is G[leaf−1−p][:, j]
-    Gflip = Gp[:, leaf - 1 : 0 : -1] if leaf > 1 else Gp[:, :0]
+    Gflip = Gp[:, leaf - 1 : 0 : -1] if leaf > 1 else Gp[:, :0]  # G[leaf−1], …, G[1]
+    # side by side for a batch, (b, k, (leaf−1)·k): column p·k + j is G[leaf−1−p][:, j]
     Gcat = np.ascontiguousarray(Gflip.transpose(0, 2, 1, 3)).reshape(b, k, -1)
     spectra: dict[int, np.ndarray] = {}
 
-    def solve_leaf(lo: int) -> None:
+    def solve_leaf_one(lo: int) -> None:  # b = 1, on the system's own 2-D views
+        X1, Y1, inv1, flip1 = X[0], Yp[0], G0inv[0], Gflip[0]
+        for t in range(leaf):
+            rhs = Y1[lo + t]
+            if t:  # Σ_{p<t} G[t−p] X[lo+p]; flip1[leaf−1−t:] is G[t], …, G[1]
+                rhs = rhs - np.einsum("pij,pjr->ir", flip1[leaf - 1 - t :], X1[lo : lo + t])
+            X1[lo + t] = inv1 @ rhs
+
+    def solve_leaf_many(lo: int) -> None:
         for t in range(leaf):
             rhs = Yp[:, lo + t]
-            if t:
-                # Σ_{p<t} G[t−p] X[lo+p] as one product per system
+            if t:  # the same sum as one product per system
                 rhs = rhs - Gcat[:, :, (leaf - 1 - t) * k :] @ \
                     X[:, lo : lo + t].reshape(b, t * k, r)
             X[:, lo + t] = G0inv @ rhs
+
+    solve_leaf = solve_leaf_one if b == 1 else solve_leaf_many
 
     def solve_range(lo: int, length: int) -> None:
         if length == leaf:
@@ -106,6 +83,7 @@ def _forward_substitution_many(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.nd
         Gh = spectra.get(h)
         if Gh is None:
             Gh = spectra[h] = scipy.fft.rfft(Gp[:, : 2 * h], 2 * h, axis=1)
+        # conv[t] = Σ_{p<h} G[t−p] X[lo+p] without wrap-around for t in [h, 2h)
         conv = scipy.fft.irfft(Gh @ scipy.fft.rfft(X[:, lo : lo + h], 2 * h, axis=1), 2 * h,
                                axis=1)
         Yp[:, lo + h : lo + 2 * h] -= conv[:, h:]
@@ -204,7 +182,7 @@ def _block(system: ConvolutionSystem, zero_tol: float, max_cond: float, max_grow
     r = Y.shape[2]
     X = np.zeros((n, k, r))
     with np.errstate(all="ignore"):
-        X[: n - d] = _forward_substitution(G[d:], Y[d:], leaf) / dt
+        X[: n - d] = _forward_substitution(G[None, d:], Y[None, d:], leaf)[0] / dt
         growth = _growth(G, Y, X, d, dt)
     if not (np.isfinite(growth) and growth <= max_growth):
         ratio = sv[-1] / np.sqrt(np.max(np.sum(G.reshape(n, -1) ** 2, axis=1)))
@@ -232,8 +210,9 @@ def _growth(G: np.ndarray, Y: np.ndarray, X: np.ndarray, d: int, dt: float) -> f
 
 def _block_many(systems, zero_tol: float, max_cond: float, max_growth: float, leaf: int):
     """:func:`_block` on several systems of one shape, one ``Δt`` and one leading-zero
-    count ``d``, solved together (:func:`_forward_substitution_many`): a list of
-    ``(kernel samples, diagnostics)``, each equal to :func:`_block`'s to round-off. None
+    count ``d``, solved together (one :func:`_forward_substitution`): a list of
+    ``(kernel samples, diagnostics)``, each equal to :func:`_block`'s to round-off (the
+    sums of a leaf are products here, an ``einsum`` there). None
     when they cannot be batched or one of them fails a check (the caller then solves them
     one by one, which raises that system's own error)."""
     first = systems[0]
@@ -251,9 +230,9 @@ def _block_many(systems, zero_tol: float, max_cond: float, max_growth: float, le
     X = np.zeros((len(systems), n, k, first.Y.shape[2]))
     out = []
     with np.errstate(all="ignore"):
-        X[:, : n - d] = _forward_substitution_many(np.stack([s.G[d:] for s in systems]),
-                                                   np.stack([s.Y[d:] for s in systems]),
-                                                   leaf) / first.dt
+        X[:, : n - d] = _forward_substitution(np.stack([s.G[d:] for s in systems]),
+                                              np.stack([s.Y[d:] for s in systems]),
+                                              leaf) / first.dt
         for s, Xs, cond in zip(systems, X, conds, strict=True):
             growth = _growth(s.G, s.Y, Xs, d, s.dt)
             if not (np.isfinite(growth) and growth <= max_growth):
@@ -302,7 +281,7 @@ class BlockSubstitution(Solver):
     def solve_many(self, systems) -> list:
         """Several systems of one shape (the leave-one-record-out folds of a prediction
         band) solved together by one batched forward substitution
-        (:func:`_forward_substitution_many`); the same solutions and diagnostics as
+        (:func:`_forward_substitution`); the same solutions and diagnostics as
         :meth:`solve` on each, to round-off. Systems that cannot be batched (shapes,
         ``Δt`` or leading zeros differ) or that fail a check are solved one by one."""
         systems = list(systems)
