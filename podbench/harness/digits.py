@@ -1,6 +1,12 @@
 """The digits podbench's tables write for fit diagnostics: those whose last digits move between
 BLAS kernels are rounded where they are recorded, so that a table regenerates byte-identically
-on any CPU."""
+on any CPU.
+
+:func:`row_writer` says how the rows of one fit are written: ERA's at :data:`FLOOR_DIGITS`;
+an iterative solver's at the digits its stopping tolerance determines
+(:func:`solver_digits`), its relative residuals at those it determines of them
+(:func:`residual_digits`, a decade bound when not one digit); a numerically singular solve's
+(:func:`is_singular`) at :data:`FLOOR_DIGITS` (docs/noise.md)."""
 
 from __future__ import annotations
 
@@ -16,7 +22,9 @@ __all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDO
            "determined_digits", "determined", "determined_row", "FLOOR_DIGITS",
            "FLOOR_METHODS", "floor_digits", "floor_row", "ITERATIVE_MARGIN",
            "StoppingRule", "STOPPING_RULES", "ITERATIVE_PILOTS", "iterative_digits",
-           "solver_digits", "ITERATION_COLUMNS", "NOT_SOLVED", "iterative_row", "iterative_note"]
+           "solver_digits", "ITERATION_COLUMNS", "NOT_SOLVED", "iterative_row", "iterative_note",
+           "RESIDUAL_COLUMNS", "RESIDUAL_RULES", "residual_digits", "decade_bound",
+           "residual_written", "is_singular", "row_writer"]
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
@@ -245,7 +253,7 @@ STOPPING_RULES = {
 
 
 def iterative_digits(tolerance_move: float, roundoff: float, margin: int = ITERATIVE_MARGIN,
-                     most: int = PROBED_DIGITS) -> int:
+                     most: int = PROBED_DIGITS, least: int = 1) -> int:
     """Significant digits of a number derived from an iterative solve: those its stopping
     tolerance determines, kept ``margin`` digits above the round-off of the kernel.
 
@@ -254,10 +262,11 @@ def iterative_digits(tolerance_move: float, roundoff: float, margin: int = ITERA
     when a decade of tolerance moves ``v`` by less than that unit:
     ``d ≤ ⌊−log10(tolerance_move)⌋ + 1``; the margin asks the kernel's round-off to stay
     ``margin`` digits below it: ``d ≤ ⌊−log10(roundoff)⌋ + 1 − margin``. The result is the
-    smaller, at most ``most`` and at least 1."""
+    smaller, at most ``most`` and at least ``least`` (1; :func:`residual_digits` asks 0: not
+    even the first digit, only the decade)."""
     by_tol = int(np.floor(-np.log10(tolerance_move))) + 1 if tolerance_move > 0 else most
     by_roundoff = int(np.floor(-np.log10(roundoff))) + 1 - margin if roundoff > 0 else most
-    return max(1, min(most, by_tol, by_roundoff))
+    return max(least, min(most, by_tol, by_roundoff))
 
 
 def solver_digits(solver: str, tol: float | None = None) -> int | None:
@@ -294,16 +303,22 @@ NOT_SOLVED = ("scenario", "structure", "method", "target", "solver", "status", "
               "solver_blocks", "solver_holdout_best_order", "converged")
 
 
-def iterative_row(row: dict, digits: int) -> dict:
+def iterative_row(row: dict, digits: int, residual: int | None = None) -> dict:
     """``row`` with every number derived from an iterative solve written at ``digits``
     significant digits (:func:`floor_row`, :func:`solver_digits`), its iteration counts
-    (:data:`ITERATION_COLUMNS`) as NaN; entries of :data:`NOT_SOLVED`, text, flags and
-    integers unchanged."""
+    (:data:`ITERATION_COLUMNS`) as NaN, and its relative residuals
+    (:data:`RESIDUAL_COLUMNS`) at ``residual`` digits (:func:`residual_written`; at ``digits``
+    when ``residual`` is None); entries of :data:`NOT_SOLVED`, text, flags and integers
+    unchanged."""
     out = floor_row(row, keep=NOT_SOLVED, digits=digits)
     for k in ITERATION_COLUMNS:
         if k in out and not isinstance(out[k], (bool, np.bool_)) and \
                 isinstance(out[k], (int, float, np.integer, np.floating)):
             out[k] = float("nan")
+    if residual is not None:
+        for k in RESIDUAL_COLUMNS:
+            if k in row:
+                out[k] = residual_written(row[k], residual)
     return out
 
 
@@ -319,3 +334,117 @@ def iterative_note(solvers) -> str:
             "stopping tolerance determines, three digits above the BLAS kernel's round-off "
             f"(significant digits {digits}), its iteration counts left empty (docs/noise.md, "
             "*Digits of an iterative solve*).")
+
+
+# ------------------------------------------------------- a residual at its solver's floor
+#: Columns of ``fits.csv`` that are the fit's relative residual ``‖AX − B‖/‖B‖``.
+RESIDUAL_COLUMNS = ("fit_residual", "solver_residual")
+
+#: How far an iterative solve determines its relative residual (:data:`RESIDUAL_COLUMNS`),
+#: which is not what it determines of its errors: the same :class:`StoppingRule` fields
+#: (the relative move of the residual by a decade of tolerance, ``gain·tol**power``, and
+#: between the OpenBLAS Haswell and SkylakeX kernels, ``roundoff``), measured on Chapter 5's
+#: clean and 1 % linear beam and clean rubber-band beam, SL and ML, tolerance a decade
+#: either way of the default and beyond (docs/noise.md, *A residual at its solver's
+#: floor*):
+#:
+#: * ``stls`` — its test is on the decrease of the objective
+#:   ``φ = ‖R‖² + ‖e‖² + λ²‖X‖²``; near the minimum a step that changes ``φ`` by ``δφ``
+#:   trades residual against the penalties to first order, ``|δ‖R‖| ≲ √(2·δφ)``, so a
+#:   residual that is a share ``f = ‖R‖²/φ`` of the objective is determined only to a
+#:   relative ``√(2·tol/f)``. On the clean ML fit ``f ≈ 8e-4`` (λ²‖X‖² and ‖e‖² hold the
+#:   rest): 5 %. Measured: 3.396e-6 → 3.469e-6 → 3.472e-6 → 3.474e-6 for tol 1e-5, 1e-6,
+#:   1e-7, 1e-8 (2.1 % for the decade 1e-5 → 1e-6: ``gain`` 21 with ``power`` ½); on the
+#:   SkylakeX kernel 3.361e-6 at 1e-6 (3.2 %), and still 2.4 % apart at 1e-8: no tolerance
+#:   closes it (the same fits' errors differ by 1e-9…1e-8). ``roundoff`` 3.2e-2.
+#: * ``cgls`` — its test is on the normal-equation residual; the clean ML fit's relative
+#:   residual 5.5894e-8 → 5.5854e-8 for tol 1e-9 → 1e-10 (7.2e-4 = 7.2e6·tol), 3.4e-5
+#:   between the kernels (calibration's clean ML4 fit: 4.44e-7 / 4.45e-7).
+#: * ``kernel`` — cgls's (its CG core); ``realization`` — its cgls pilot's.
+RESIDUAL_RULES = {
+    "cgls": StoppingRule(tol=1e-10, gain=7.2e6, power=1.0, roundoff=3.4e-5),
+    "stls": StoppingRule(tol=1e-6, gain=21.0, power=0.5, roundoff=3.2e-2),
+    "kernel": StoppingRule(tol=1e-6, gain=7.2e6, power=1.0, roundoff=3.4e-5),
+}
+
+
+def residual_digits(solver: str, tol: float | None = None) -> int | None:
+    """Significant digits of the relative residual of a fit with solver ``solver``
+    (:data:`RESIDUAL_RULES`, :func:`iterative_digits` with ``least=0``; the fewest over the
+    parts of ``a+b``): 0 when not even the first digit is three digits above the kernel's
+    round-off (the residual is then known only to its decade, :func:`decade_bound`);
+    ``None`` for a direct solver."""
+    digits = []
+    for name in solver.split("+"):
+        rule = RESIDUAL_RULES.get(ITERATIVE_PILOTS.get(name, name))
+        if rule is not None:
+            move = rule.tolerance_move(tol if name in RESIDUAL_RULES else None)
+            digits.append(iterative_digits(move, rule.roundoff, least=0))
+    return min(digits) if digits else None
+
+
+def decade_bound(value):
+    """The decade above ``|value|``, ``10^⌈log10 |value|⌉`` with its sign: an upper bound on a
+    number known only to its order of magnitude (a power of ten is its own bound); 0,
+    non-finite values, integers, flags and text unchanged."""
+    if isinstance(value, (bool, int, np.integer)) or not isinstance(value, (float, np.floating)):
+        return value
+    if not np.isfinite(value) or value == 0:
+        return value
+    bound = 10.0 ** int(np.ceil(np.log10(abs(float(value)))))
+    return float(np.copysign(float(f"{bound:.1g}"), value))
+
+
+def residual_written(value, digits: int):
+    """A relative residual as the tables write it: at ``digits`` significant digits
+    (:func:`floor_digits`), or as its :func:`decade_bound` when ``digits`` is 0."""
+    return decade_bound(value) if digits == 0 else floor_digits(value, digits)
+
+
+# --------------------------------------------------------- a numerically singular solve
+def is_singular(fit) -> bool:
+    """Whether a fit's solve is numerically singular: one of its condition numbers
+    (:data:`CONDITION_COLUMNS`, from :attr:`podbench.methods.PODMethod.diagnostics_`) at or
+    above :data:`SINGULAR_CONDITION` — the test that writes that column as ``inf``.
+
+    Every estimate of such a fit is written at :data:`FLOOR_DIGITS` (:func:`row_writer`): its
+    solution is the round-off of the solve amplified by the system (``solver_amplification``
+    up to 2.2e7 on Chapter 5's 5 % records), and so are the digits of every number predicted
+    from it. Measured on Chapter 5's ``ls`` fits (every one singular: σ_min is the SVD's
+    round-off of the 1024-sample Toeplitz matrix of a force that starts near zero) between
+    the OpenBLAS Haswell and SkylakeX kernels: 1.3e-7 relative at most (SL-``ls`` at 5 %,
+    ``norm_pe_max`` 36439948.8 / 36439953.6, written 3.64399e7 / 3.644e7 at six digits);
+    below 1e-9 at 1 % and on the rubber-band beam. Three digits put the written digit 4e3×
+    above that."""
+    if not isinstance(fit, dict):
+        return False
+    return any(isinstance(fit.get(k), (int, float, np.integer, np.floating))
+               and not isinstance(fit.get(k), bool) and abs(fit[k]) >= SINGULAR_CONDITION
+               for k in CONDITION_COLUMNS)
+
+
+def row_writer(solver: str | None, tol: float | None = None, *, floored: bool = False,
+               fit: dict | None = None, keep=NOT_SOLVED):
+    """How the rows, ``fits.csv`` row and band scores of one fit are written (issue 23: the
+    same bytes on every BLAS kernel), or ``None``: as computed.
+
+    * ``floored`` (a method of :data:`FLOOR_METHODS`): every estimate at
+      :data:`FLOOR_DIGITS` (:func:`floor_row`; entries named in ``keep`` unchanged);
+    * an iterative ``solver`` (:func:`solver_digits`): :func:`iterative_row` at the digits
+      its stopping tolerance ``tol`` (None: the default) determines, its residuals at
+      :func:`residual_digits`;
+    * a numerically singular solve (:func:`is_singular` of the fit's diagnostics ``fit``):
+      every estimate derived from the solve at :data:`FLOOR_DIGITS` (at most, for an
+      iterative solver); :data:`NOT_SOLVED` (labels, structural integers, the POD basis's
+      projection error) as computed."""
+    singular = is_singular(fit)
+    if floored:
+        return lambda row: floor_row(row, keep=keep)
+    digits = solver_digits(solver, tol) if solver else None
+    if digits is not None:
+        digits = min(digits, FLOOR_DIGITS) if singular else digits
+        residual = residual_digits(str(solver), tol)
+        return lambda row: iterative_row(row, digits, residual)
+    if singular:  # what is not derived from the solve (the POD basis's projection error)
+        return lambda row: floor_row(row, keep=tuple(keep) + NOT_SOLVED)  # keeps its digits
+    return None

@@ -28,7 +28,7 @@ import pandas as pd
 
 from podbench.core.response import Response
 from podbench.errors import PodbenchError, ScenarioFileError
-from podbench.harness.digits import iterative_row, solver_digits
+from podbench.harness.digits import row_writer
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
@@ -218,8 +218,10 @@ def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
     U = None if U is None else np.asarray(U, dtype=float)
     coupled = bool(getattr(est, "coupled", False))
     spec = sc.method(label)
-    digits = solver_digits(method_solver(spec, sc),
-                           (spec.options.get("solver_options") or {}).get("tol"))
+    diag = getattr(est, "diagnostics_", None)  # a singular solve: its rows at three digits
+    written = row_writer(method_solver(spec, sc),
+                         (spec.options.get("solver_options") or {}).get("tol"),
+                         fit=diag if isinstance(diag, dict) else None)
     rows = []
     for t in targets:
         W = get(t).W
@@ -227,7 +229,7 @@ def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
         row.update(decompose(W, preds[t], U, coupled=coupled, nonlinear=True))
         row.update(norm_summaries(W, preds[t]))
         row["status"] = "ok"
-        rows.append(row if digits is None else iterative_row(row, digits))
+        rows.append(row if written is None else written(row))
     return rows
 
 
