@@ -5,8 +5,7 @@ on any CPU.
 :func:`row_writer` says how the rows of one fit are written: ERA's at :data:`FLOOR_DIGITS`;
 an iterative solver's at the digits its stopping tolerance determines
 (:func:`solver_digits`), its relative residuals at those it determines of them
-(:func:`residual_digits`, a decade bound when not one digit); a numerically singular solve's
-(:func:`is_singular`) at :data:`FLOOR_DIGITS` (docs/noise.md)."""
+(:func:`residual_digits`, a decade bound when not one digit) (docs/noise.md)."""
 
 from __future__ import annotations
 
@@ -24,7 +23,7 @@ __all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDO
            "StoppingRule", "STOPPING_RULES", "ITERATIVE_PILOTS", "iterative_digits",
            "solver_digits", "ITERATION_COLUMNS", "NOT_SOLVED", "iterative_row", "iterative_note",
            "RESIDUAL_COLUMNS", "RESIDUAL_RULES", "residual_digits", "decade_bound",
-           "residual_written", "is_singular", "row_writer"]
+           "residual_written", "row_writer"]
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate, and on clean single-precision
@@ -401,30 +400,8 @@ def residual_written(value, digits: int):
     return decade_bound(value) if digits == 0 else floor_digits(value, digits)
 
 
-# --------------------------------------------------------- a numerically singular solve
-def is_singular(fit) -> bool:
-    """Whether a fit's solve is numerically singular: one of its condition numbers
-    (:data:`CONDITION_COLUMNS`, from :attr:`podbench.methods.PODMethod.diagnostics_`) at or
-    above :data:`SINGULAR_CONDITION` — the test that writes that column as ``inf``.
-
-    Every estimate of such a fit is written at :data:`FLOOR_DIGITS` (:func:`row_writer`): its
-    solution is the round-off of the solve amplified by the system (``solver_amplification``
-    up to 2.2e7 on Chapter 5's 5 % records), and so are the digits of every number predicted
-    from it. Measured on Chapter 5's ``ls`` fits (every one singular: σ_min is the SVD's
-    round-off of the 1024-sample Toeplitz matrix of a force that starts near zero) between
-    the OpenBLAS Haswell and SkylakeX kernels: 1.3e-7 relative at most (SL-``ls`` at 5 %,
-    ``norm_pe_max`` 36439948.8 / 36439953.6, written 3.64399e7 / 3.644e7 at six digits);
-    below 1e-9 at 1 % and on the rubber-band beam. Three digits put the written digit 4e3×
-    above that."""
-    if not isinstance(fit, dict):
-        return False
-    return any(isinstance(fit.get(k), (int, float, np.integer, np.floating))
-               and not isinstance(fit.get(k), bool) and abs(fit[k]) >= SINGULAR_CONDITION
-               for k in CONDITION_COLUMNS)
-
-
 def row_writer(solver: str | None, tol: float | None = None, *, floored: bool = False,
-               fit: dict | None = None, keep=NOT_SOLVED):
+               keep=NOT_SOLVED):
     """How the rows, ``fits.csv`` row and band scores of one fit are written (issue 23: the
     same bytes on every BLAS kernel), or ``None``: as computed.
 
@@ -432,19 +409,16 @@ def row_writer(solver: str | None, tol: float | None = None, *, floored: bool = 
       :data:`FLOOR_DIGITS` (:func:`floor_row`; entries named in ``keep`` unchanged);
     * an iterative ``solver`` (:func:`solver_digits`): :func:`iterative_row` at the digits
       its stopping tolerance ``tol`` (None: the default) determines, its residuals at
-      :func:`residual_digits`;
-    * a numerically singular solve (:func:`is_singular` of the fit's diagnostics ``fit``):
-      every estimate derived from the solve at :data:`FLOOR_DIGITS` (at most, for an
-      iterative solver); :data:`NOT_SOLVED` (labels, structural integers, the POD basis's
-      projection error) as computed."""
-    singular = is_singular(fit)
+      :func:`residual_digits`.
+
+    A direct solve on a numerically singular system (condition written ``inf``) keeps the
+    tables' digits: its round-off between kernels was measured below one unit of the sixth
+    digit (docs/noise.md, *A numerically singular solve*), which
+    :func:`podbench.harness.rewrite.unmoved` absorbs."""
     if floored:
         return lambda row: floor_row(row, keep=keep)
     digits = solver_digits(solver, tol) if solver else None
     if digits is not None:
-        digits = min(digits, FLOOR_DIGITS) if singular else digits
         residual = residual_digits(str(solver), tol)
         return lambda row: iterative_row(row, digits, residual)
-    if singular:  # what is not derived from the solve (the POD basis's projection error)
-        return lambda row: floor_row(row, keep=tuple(keep) + NOT_SOLVED)  # keeps its digits
     return None

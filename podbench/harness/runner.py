@@ -427,29 +427,24 @@ _NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status",
                 "modes", "seed", "band_seconds", "plain_seconds", "source")
 
 
-def _row_digits(spec, scenario: Scenario, fit: dict | None = None):
+def _row_digits(spec, scenario: Scenario):
     """How the rows of ``spec`` are written (issue 23: the same bytes on every OpenBLAS
     kernel; :func:`~podbench.harness.digits.row_writer`): for a method of :func:`is_floored`,
     every estimate at :data:`podbench.harness.digits.FLOOR_DIGITS` significant digits (the
     digits its round-off floor leaves in place); for an iterative deconvolution solver, every
     number at the digits its stopping tolerance determines, its residuals at those the
-    tolerance determines of them and its iteration counts not at all; for a fit whose solve
-    is numerically singular (its ``fit`` diagnostics' condition number at or above
-    :data:`~podbench.harness.digits.SINGULAR_CONDITION`, written ``inf``), every estimate at
-    ``FLOOR_DIGITS``; None: as computed."""
+    tolerance determines of them and its iteration counts not at all; None: as computed."""
     opts = spec.options.get("solver_options") or {}
     return row_writer(method_solver(spec, scenario), opts.get("tol"),
-                      floored=is_floored(spec, scenario), fit=fit, keep=_NOT_FLOORED)
+                      floored=is_floored(spec, scenario), keep=_NOT_FLOORED)
 
 
 def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
     """Fit one reported method, predict every target and add its rows (and fit) to ``res``,
-    each row, fit and band score written as :func:`_row_digits` says (from the fit's own
-    diagnostics: its ``fits.csv`` row)."""
+    each row, fit and band score written as :func:`_row_digits` says."""
     start = len(res.rows), len(res.fits), len(res.band_stats)
     _fit_and_score(res, spec, scenario, truth, **kw)
-    fit = res.fits[start[1]] if len(res.fits) > start[1] else None
-    written = _row_digits(spec, scenario, fit)
+    written = _row_digits(spec, scenario)
     if written is None:
         return
     for rows, i0 in zip((res.rows, res.fits, res.band_stats), start, strict=True):

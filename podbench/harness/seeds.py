@@ -218,10 +218,8 @@ def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
     U = None if U is None else np.asarray(U, dtype=float)
     coupled = bool(getattr(est, "coupled", False))
     spec = sc.method(label)
-    diag = getattr(est, "diagnostics_", None)  # a singular solve: its rows at three digits
     written = row_writer(method_solver(spec, sc),
-                         (spec.options.get("solver_options") or {}).get("tol"),
-                         fit=diag if isinstance(diag, dict) else None)
+                         (spec.options.get("solver_options") or {}).get("tol"))
     rows = []
     for t in targets:
         W = get(t).W

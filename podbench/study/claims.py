@@ -362,9 +362,11 @@ def _over_seeds(expr: str, rows_at, other_at, seeds) -> tuple[bool | str | None,
     n_hold = sum(holds)
     verdict: bool | str = True if n_hold == len(seeds) else False if n_hold == 0 \
         else TIE_CHECK
+    sd = float(d.std(ddof=1))
+    if sd <= d.size * np.finfo(float).eps * float(np.abs(d).max()):
+        sd = 0.0  # equal differences: what is left is the mean's round-off (sd 7.8e-18 / 0)
     spread = (f"; over {seed_names(seeds)}: holds on {n_hold} of {len(seeds)}, left − right "
-              f"from {d.min():+.3g} to {d.max():+.3g} (mean {d.mean():+.3g}, sd "
-              f"{d.std(ddof=1):.2g})")
+              f"from {d.min():+.3g} to {d.max():+.3g} (mean {d.mean():+.3g}, sd {sd:.2g})")
     return verdict, shown0 + spread
 
 

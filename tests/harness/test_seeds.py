@@ -118,6 +118,18 @@ def test_a_tie_counts_apart_in_the_text_claims(tmp_path):
     assert [v for _, _, v in text_claims(e)] == [TIE, TIE]
 
 
+
+def test_equal_differences_over_the_seeds_have_sd_zero(tmp_path):
+    """0.21 − 0.25 and 0.26 − 0.3 are −0.04 to round-off (their float sd is 1.3e-17, which
+    the OpenBLAS kernels of two machines wrote as 7.8e-18 and 0): written sd 0."""
+    p = tmp_path / "claims.toml"
+    p.write_text(CLAIMS)
+    f = load_claims_file(p)
+    e = evaluate_claims(f.claims, MAIN, seeds=_seeds([0.26] * 4, [0.3] * 4))
+    assert "(mean -0.04, sd 0)" in e[0]["details"][1]["shown"]
+    e = evaluate_claims(f.claims, MAIN, seeds=_seeds([0.2601, 0.26, 0.26, 0.26], [0.3] * 4))
+    assert "sd 4.5e-05)" in e[0]["details"][1]["shown"]  # a real spread is written
+
 @pytest.mark.parametrize("text, field", [
     ("noise_seeds = [0, 1, 2]", "noise_seeds"),
     ("noise_seeds = [0, 1, 2, 3, 3]", "noise_seeds"),
