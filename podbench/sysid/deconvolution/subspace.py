@@ -149,15 +149,40 @@ def subspace_factor(G, Y, horizon: int, *, instruments: str = "po") -> np.ndarra
     return R
 
 
-def _l32(R: np.ndarray, i: int, k: int, r: int) -> np.ndarray:
-    """``L₃₂``: future outputs against the instruments, future inputs projected out."""
+def _range_basis(M: np.ndarray, rank_tol: float) -> np.ndarray:
+    """Orthonormal basis of the range of ``M`` spanned by its singular values above
+    ``rank_tol`` times the largest (none for a zero ``M``)."""
+    U, s, _ = np.linalg.svd(M, full_matrices=False)
+    if not s.size or not s[0] > 0:
+        return U[:, :0]
+    return U[:, s > rank_tol * s[0]]
+
+
+def _l32(R: np.ndarray, i: int, k: int, r: int, rank_tol: float = RANK_TOL) -> np.ndarray:
+    """``L₃₂``: future outputs against the instruments, future inputs projected out — up to
+    an orthogonal factor on the right, which leaves its singular values and left singular
+    vectors (all that steps 3–4 read) unchanged.
+
+    The columns of ``R`` (``RᵀR = DᵀD``, ``D`` the transposed data matrix) are the data
+    rows in a common basis. The future inputs' numerical range (singular values above
+    ``rank_tol`` of the largest) is projected out of the instruments and future outputs,
+    and the future outputs are then read on the instruments' numerical range (the same
+    rule). Reading the blocks of ``L = Rᵀ`` directly, as the LQ form of MOESP does, needs
+    ``U_f`` and ``Z`` of full row rank: a pulse load's future inputs are zero after the
+    pulse, the rows of ``R`` for such dependent rows are round-off, and their directions,
+    chosen by the BLAS kernel, carry future-output content in or out of ``L₃₂`` (measured
+    on the clean NL beam, ML: its ninth singular value 1.7231e-3 on OpenBLAS Haswell,
+    1.7248e-3 on SkylakeX, 1.5399e-3 with the records perturbed by 1e-12; the projected
+    form: 3e-12 relative between the kernels)."""
     a = i * k
     c = i * r
-    L = R.T
-    m = L.shape[0]
-    if L.shape[1] < m:  # fewer data columns than rows: pad the factor with zeros
-        L = np.hstack([L, np.zeros((m, m - L.shape[1]))])
-    return L[m - c:, a:m - c]
+    m = R.shape[1]
+    RU, RZ, RY = R[:, :a], R[:, a:m - c], R[:, m - c:]
+    Qu = _range_basis(RU, rank_tol)
+    RZ = RZ - Qu @ (Qu.T @ RZ)
+    RY = RY - Qu @ (Qu.T @ RY)
+    Qz = _range_basis(RZ, rank_tol)
+    return (Qz.T @ RY).T
 
 
 def subspace_poles(R: np.ndarray, horizon: int, k: int, r: int, orders, *,
@@ -173,7 +198,7 @@ def subspace_poles(R: np.ndarray, horizon: int, k: int, r: int, orders, *,
         for the orders at or below the rank floor's count.
     """
     i = int(horizon)
-    U, sv, _ = np.linalg.svd(_l32(R, i, k, r), full_matrices=False)
+    U, sv, _ = np.linalg.svd(_l32(R, i, k, r, rank_tol), full_matrices=False)
     n_det = int(np.sum(sv > rank_tol * sv[0])) if sv.size and sv[0] > 0 else 0
     out = {}
     for N in orders:
