@@ -82,15 +82,16 @@ until the denominator reaches it (the non-generic TLS problem; see
 computed with an absolute error of about ``ε`` (the kept form's ``1 − Σ V21²``), so at or
 above ``1e-8`` the round-off in ``X`` stays near ``ε/1e-8 ≈ 2e-8`` (relative), two digits
 below the sixth that the tables write. A denominator that vanishes in exact arithmetic
-comes out at ``1e-36…1e-16``; every other one met in the committed studies is above
-``1e-4`` (``docs/noise.md``, *Digits of a direct TLS solve*)."""
+comes out at ``1e-36…1e-15``; every other one met in the committed studies is above
+``3e-6`` (``docs/noise.md``, *Choices of a direct solve*)."""
 
 TLS_CUT_TIE = 1e-10
 """Singular values of ``[A | B]`` within ``TLS_CUT_TIE·σ_1`` below the ``rcond`` cut count as
 at the cut, hence kept: a tie broken one way by every BLAS kernel and by both
 :func:`_tls_gram` and :func:`_tls_svd` (their singular values agree to about ``1e-12 σ_1``;
 an SVD's own round-off is ``~ε σ_1``). Measured: the closest singular value to the cut in
-the committed studies' TLS systems lies ``1.7e-3 σ_cut`` from it."""
+the committed studies' TLS systems lies ``2.4e-4`` of the cut from it (Chapter 5;
+``6.5e-4`` on the beam_forced_noise sweep), i.e. at least ``2.4e-7 σ_1``."""
 
 
 def _cut_level(rcond: float, s1: float) -> float:
