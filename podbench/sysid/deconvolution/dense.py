@@ -73,14 +73,31 @@ GRAM_MIN_RCOND = 1e-4
 eigenvalues of ``[A | B]ᵀ[A | B]`` (their absolute error, about ``ε λ_1 (M + r)``, stays
 far below the cut ``rcond² λ_1``); below it the SVD (:func:`_tls_svd`)."""
 
-GRAM_MIN_DEN = 1e-8
-"""Smallest TLS denominator ``λ_min(V22 V22ᵀ)`` (the discarded directions' weight on the
-right-hand sides) for which :func:`_tls_gram`'s answer is returned; below it the SVD
-(:func:`_tls_svd`). ``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` divides by it, and the Gram route's
-vectors carry absolute errors of order √ε in these components where the discarded
-singular values lie below √ε σ_1: measured on the beam_forced_noise sweep (LTI beam, SL,
-load 5 at 3 and 5 % noise) the Gram route's X amplified the data by 3e16 where the SVD's
-gives a finite, if poor, prediction."""
+TLS_MIN_DEN = 1e-8
+"""Smallest TLS denominator ``λ_min(V22 V22ᵀ)`` — the weight of the discarded right singular
+vectors on the right-hand sides, ``= λ_min(I − V21 V21ᵀ)`` over the kept ones — at which
+:func:`truncated_tls` solves: below it the rank is lowered, one kept direction at a time,
+until the denominator reaches it (the non-generic TLS problem; see
+:func:`_nongeneric_rank`). ``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` divides by it, and it is
+computed with an absolute error of about ``ε`` (the kept form's ``1 − Σ V21²``), so at or
+above ``1e-8`` the round-off in ``X`` stays near ``ε/1e-8 ≈ 2e-8`` (relative), two digits
+below the sixth that the tables write. A denominator that vanishes in exact arithmetic
+comes out at ``1e-36…1e-15``; every other one met in the committed studies is above
+``3e-6`` (``docs/noise.md``, *Choices of a direct solve*)."""
+
+TLS_CUT_TIE = 1e-10
+"""Singular values of ``[A | B]`` within ``TLS_CUT_TIE·σ_1`` below the ``rcond`` cut count as
+at the cut, hence kept: a tie broken one way by every BLAS kernel and by both
+:func:`_tls_gram` and :func:`_tls_svd` (their singular values agree to about ``1e-12 σ_1``;
+an SVD's own round-off is ``~ε σ_1``). Measured: the closest singular value to the cut in
+the committed studies' TLS systems lies ``7.3e-5`` of the cut from it (the beam_forced_noise
+sweep's 315 systems; ``2.4e-4`` on Chapter 5's 207), i.e. at least ``7.3e-8 σ_1``, 730
+times the band."""
+
+
+def _cut_level(rcond: float, s1: float) -> float:
+    """The ``rcond`` rule's level with its tie band: keep ``σ ≥ (rcond − TLS_CUT_TIE)·σ_1``."""
+    return (rcond - TLS_CUT_TIE) * s1
 
 
 # ----------------------------------------------------------------------- matrix solvers
@@ -154,7 +171,8 @@ def tls_rank(
       common units. Noise confined to Toeplitz structure has a somewhat larger edge
       (about ``√log N`` times), so treat this as a lower estimate;
     * ``rcond=ρ`` (default ``ρ = 1e-3``): keep ``σ_i ≥ ρ σ_1`` (the MATLAB's condition
-      number limit ``σ_1/σ_i ≤ 1000`` made a parameter).
+      number limit ``σ_1/σ_i ≤ 1000`` made a parameter); a ``σ_i`` within
+      :data:`TLS_CUT_TIE` ``σ_1`` below the cut is a tie and kept.
 
     The result is capped at ``n_unknowns`` (at least as many directions as right-hand
     sides must be discarded) and may be 0.
@@ -182,7 +200,7 @@ def tls_rank(
         rcond = DEFAULT_TLS_RCOND if rcond is None else check_positive(rcond, "rcond")
         if rcond >= 1:
             raise InputError(f"Parameter `rcond`: must be below 1, got {rcond!r}")
-        p = int(np.count_nonzero(s >= rcond * s[0])) if s.size and s[0] > 0 else 0
+        p = int(np.count_nonzero(s >= _cut_level(rcond, s[0]))) if s.size and s[0] > 0 else 0
     return int(min(p, n_unknowns, s.size))
 
 
@@ -272,16 +290,52 @@ def _warn_no_kept() -> None:
     )
 
 
+def _nongeneric_rank(V21: np.ndarray, p: int) -> int:
+    """The largest rank ``p' ≤ p`` whose TLS denominator ``λ_min(I − V21 V21ᵀ)`` (over the
+    first ``p'`` kept right singular vectors; ``V21`` their right-hand-side rows) is at
+    least :data:`TLS_MIN_DEN`.
+
+    Where the discarded directions carry no weight on the right-hand sides (``V22 = 0``:
+    ``B`` has a component outside the range of ``A`` that no discarded direction of
+    ``[A | B]`` reaches, e.g. a singular ``A`` whose null direction is what the cut
+    discards), the truncated TLS solution does not exist (Van Huffel & Vandewalle 1991,
+    *The Total Least Squares Problem*, §3.4, the non-generic problem) and the computed
+    ``X`` is round-off divided by round-off: measured on the beam_forced_noise sweep (LTI
+    beam, SL, mode 4 at 3 and 5 % noise: a 250 × 251 ``[A | B]`` whose 250 singular values
+    all pass the cut, so the one discarded is the null vector of ``[A | B]`` with ``V22``
+    at 1e-18), ``|X|`` of 0 to 13 between OpenBLAS kernels and under a 1e-12 perturbation
+    of the records. Their remedy, the non-generic TLS solution, discards the next smallest
+    direction as well (``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` over the enlarged set, whose zero
+    columns of ``V22`` add nothing): there ``V22 V22ᵀ = 0.06…0.22`` and ``X`` is
+    determined to 1e-11 under the same perturbation. ``p' = 0`` (``X = 0``) when no rank
+    reaches the level (``B`` orthogonal to every direction of ``A``)."""
+    r = V21.shape[0]
+    while p > 0:
+        Vk = V21[:, :p]
+        if float(np.linalg.eigvalsh(np.eye(r) - Vk @ Vk.T)[0]) >= TLS_MIN_DEN:
+            break
+        p -= 1
+    return p
+
+
 def _tls_svd(A, B, rcond, noise_level, rank):
     """The reference truncated TLS: the economy SVD of ``[A | B]`` (``gesdd``) and the kept
-    right singular vectors (any truncation rule of :func:`tls_rank`)."""
+    right singular vectors (any truncation rule of :func:`tls_rank`, then
+    :func:`_nongeneric_rank`)."""
     M, r = A.shape[1], B.shape[1]
     Cmat = np.hstack([A, B])
     _, s, Vt = scipy.linalg.svd(Cmat, full_matrices=False, lapack_driver="gesdd")
-    p = tls_rank(s, Cmat.shape, M, rcond=rcond, noise_level=noise_level, rank=rank)
+    p0 = tls_rank(s, Cmat.shape, M, rcond=rcond, noise_level=noise_level, rank=rank)
+    p = _nongeneric_rank(Vt[:p0, M:].T, p0)
     info = _tls_info(p, rank, noise_level, rcond, float(s[0] / s[p - 1]) if p > 0 else None)
     if p == 0:
-        _warn_no_kept()
+        if p0 == 0:
+            _warn_no_kept()
+        else:
+            warnings.warn(
+                f"truncated_tls: the TLS denominator is below {TLS_MIN_DEN:g} at every rank "
+                "(the right-hand sides have no weight on any direction of A that the data "
+                "determine); returning X = 0", PodbenchWarning, stacklevel=4)
         return np.zeros((M, r)), info
     V = Vt[:p].T  # (M + r) × p, the kept right singular vectors
     V11, V21 = V[:M], V[M:]
@@ -304,7 +358,8 @@ def _tls_gram(A, B, rcond):
     error. Rank, ``condition = σ_1/σ_p`` and ``X`` as :func:`_tls_svd` (to about ``1e-10``
     relative on the Chapter 5 systems, ``tests/sysid/test_dense_fast.py``); returns None
     where the interval misses the cut's neighbours or the TLS denominator is below
-    :data:`GRAM_MIN_DEN` (the caller then takes the SVD)."""
+    :data:`TLS_MIN_DEN` (the caller then takes the SVD, which lowers the rank:
+    :func:`_nongeneric_rank`)."""
     rc = DEFAULT_TLS_RCOND if rcond is None else check_positive(rcond, "rcond")
     if rc >= 1:
         raise InputError(f"Parameter `rcond`: must be below 1, got {rc!r}")
@@ -316,19 +371,20 @@ def _tls_gram(A, B, rcond):
     if not lam1 > 0:
         _warn_no_kept()
         return np.zeros((M, r)), _tls_info(0, None, None, rcond, None)
-    thr = rc * rc * lam1
+    cut = _cut_level(rc, np.sqrt(lam1))
+    thr = cut * cut
     w, V = scipy.linalg.eigh(G, subset_by_value=(-np.inf, 16.0 * thr), driver="evr")
     need = min(max(int(np.count_nonzero(w < thr)), n1 - M) + 1, n1)
     if V.shape[1] < need:  # the cap at M reaches past the interval
         w, V = scipy.linalg.eigh(G, subset_by_index=(0, need - 1), driver="evr")
     Vr, s = _ritz(C, V)  # refined: s descending, Vr's columns in that order
     m = s.size
-    d = max(int(np.count_nonzero(s < rc * np.sqrt(lam1))), n1 - M)
+    d = max(int(np.count_nonzero(s < cut)), n1 - M)
     if d >= m and d < n1:
         return None
     p = n1 - d
     V22 = Vr[M:, m - d:]
-    if float(np.linalg.eigvalsh(V22 @ V22.T)[0]) < GRAM_MIN_DEN:
+    if float(np.linalg.eigvalsh(V22 @ V22.T)[0]) < TLS_MIN_DEN:
         return None
     condition = float(np.sqrt(lam1) / s[m - d - 1]) if p > 0 else None
     return (_tls_from_discarded(Vr[:, m - d:], M, r),
