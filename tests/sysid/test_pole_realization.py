@@ -100,7 +100,8 @@ def test_capping_an_exact_kernel_drops_real_modes():
     the round-off cut and 6 at the identified kernels' cut (Hankel singular values 6.7e-12
     and 1.3e-14 of the largest belong to real modes at Δt = 1e-4 s); coupled to the beam,
     the 6-state model is 0.4 % off (measured 0.37 % of the beam's displacements, against
-    1.9e-7 for 8 states)."""
+    1.9e-7 for 8 states on OpenBLAS's Haswell kernel and 2.2e-6 on SkylakeX: the eighth
+    state's singular value, 1.3e-14, is near round-off, so its accuracy is the kernel's)."""
     cs = _chain()
     beam, f, q_true = _truth(cs)
     H = newmark_kernel(cs.M, cs.C, cs.K, [TAIL], N, DT)
@@ -111,7 +112,7 @@ def test_capping_an_exact_kernel_drops_real_modes():
         real = kernel_realization(H, 10, rank_tol=tol)
         errs[real[0].shape[0]] = _error(beam, f, q_true, Component((TIP,), H, realization=real))
     assert set(errs) == {8, 6}
-    assert errs[8] < 1e-6 and 2e-3 < errs[6] < 6e-3
+    assert errs[8] < 1e-5 and 2e-3 < errs[6] < 6e-3
 
 
 @pytest.mark.slow
