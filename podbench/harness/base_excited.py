@@ -5,7 +5,7 @@ structures (each with ``dt`` s, ``n_samples``, the resultant ``resultant`` lbf o
 Chapter 4 pulse, the pulse length ``pulse`` s, and the strain channels), the training and
 target base motions, the outputs. For every structure and output quantity, the records are
 simulated from rest (:func:`podbench.dynamics.base_excitation.simulate_base`, Newmark),
-converted to SI where they are made (:func:`podbench.core.iorecords.convert`), every method
+converted to SI where they are made (:func:`podbench.core.records.convert`), every method
 is fitted on the training records and predicts every target; the error is
 ``‖ŷ − y‖_F / ‖y‖_F`` over every output channel and the whole record.
 
@@ -30,12 +30,12 @@ Study layer: it knows the structures, motions and methods; the methods see only 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord, convert
+from podbench.core.records import Record, convert
 from podbench.core.resources import bundled_scenarios
 from podbench.core.threads import single_blas_thread
 from podbench.core.tomlfile import load_toml, typed_field
@@ -177,7 +177,7 @@ def _structure(spec: StructureSpec):
     return load_structure(spec.structure, overrides=overrides, name=spec.label)
 
 
-def make_records(spec: StructureSpec, motions, output: str) -> list[IORecord]:
+def make_records(spec: StructureSpec, motions, output: str) -> list[Record]:
     """One SI record per base motion: input ü_g (m/s²), outputs ``output`` (m/s² or strain)."""
     s = _structure(spec)
     r = influence_vector(s)
@@ -196,7 +196,7 @@ def make_records(spec: StructureSpec, motions, output: str) -> list[IORecord]:
         ag = base_motion(m, spec.dt, spec.n_samples, spec.pulse, A)
         y = simulate_base(s, ag, spec.dt, outputs=(output,), **kw)[output]
         chans = _channels(s, output, kw)
-        rec = IORecord(u=ag[None, :], y=y, dt=spec.dt, input_units="in/s^2",
+        rec = Record(u=ag[None, :], y=y, dt=spec.dt, input_units="in/s^2",
                        output_units=unit, input_channels=("base",), output_channels=chans,
                        name=m)
         recs.append(convert(rec, "SI"))
@@ -265,7 +265,7 @@ def _errors(label: str, make, train, targets, preds, where: tuple) -> list[float
             for g, yh in zip(targets, preds, strict=True)]
     if label not in PROBED:
         return errs
-    probed = [replace(r, y=probe_perturbation(r.y, *where, str(r.name))) for r in train]
+    probed = [r.replace(y=probe_perturbation(r.y, *where, str(r.name))) for r in train]
     again, _, _ = _one(make, probed, targets)
     return [determined(e, float(np.linalg.norm(yh - g.y) / np.linalg.norm(g.y)))
             for e, g, yh in zip(errs, targets, again, strict=True)]

@@ -30,7 +30,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord, read_io_record
+from podbench.core.recordfiles import read_record
+from podbench.core.records import Record
 from podbench.core.resources import bundled_scenarios
 from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
@@ -55,8 +56,8 @@ def data_folder() -> Path:
     return bundled_scenarios() / "painter_street" / "data"
 
 
-def load_events(folder=None, inputs: str = "three") -> list[IORecord]:
-    """The events as IORecords (names: the file stems), sorted by file name.
+def load_events(folder=None, inputs: str = "three") -> list[Record]:
+    """The events as records (names: the file stems), sorted by file name.
 
     ``inputs="three"``: channels 3, 17, 20; ``"ground"``: every ground-level channel."""
     folder = Path(folder) if folder is not None else data_folder()
@@ -65,12 +66,12 @@ def load_events(folder=None, inputs: str = "three") -> list[IORecord]:
         raise InputError(f"{folder}: no .npz records")
     recs = []
     for f in files:
-        rec = read_io_record(f)
+        rec = read_record(f)
         if inputs == "ground":
             with np.load(f, allow_pickle=False) as z:
                 if "ground" not in z.files:
                     raise InputError(f"{f.name}: variable `ground`: missing")
-                rec = IORecord(u=z["ground"], y=rec.y, dt=rec.dt,
+                rec = Record(u=z["ground"], y=rec.y, dt=rec.dt,
                                input_units=str(z["ground_units"]),
                                output_units=rec.output_units,
                                input_channels=tuple(str(c) for c in z["ground_channels"]),

@@ -39,18 +39,12 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
-from podbench.core.iofiles import is_io_layout
-from podbench.core.iorecords import (
-    UNITS,
-    IORecord,
-    check_records,
-    convert,
-    from_record,
-    read_io_record,
-)
+from podbench.core.recordfiles import read_record
+from podbench.core.records import Record as IORecord
+from podbench.core.records import check_records, convert
 from podbench.core.threads import single_blas_thread
+from podbench.core.units import UNITS
 from podbench.errors import InputError
-from podbench.sysid.measured import read_record
 from podbench.sysid.methods import MultipleLoad, SingleLoad
 from podbench.sysid.methods.bands import check_coverage
 from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, SingleLoadIO
@@ -76,38 +70,17 @@ POD_METHODS = {"ML": MultipleLoad, "SL": SingleLoad}
 
 def read_any(path, *, input_units=None, output_units=None, system=None,
              default_output_units=None) -> IORecord:
-    """An input/output record from a file (input/output layout or W/F layout; ``.npz``,
-    ``.mat``, CSV, UFF 58). ``default_output_units``: the unit of a target without outputs."""
-    path = Path(path)
-    if _is_io_file(path):
-        return read_io_record(path, input_units=input_units, output_units=output_units,
-                              require_outputs=False, system=system,
-                              default_output_units=default_output_units)
-
-    rec = from_record(read_record(path), name=path.name)
-    return convert(rec, system) if system else rec
+    """A record from a file (input/output layout or W/F layout; ``.npz``, ``.mat``, CSV,
+    UFF 58). ``default_output_units``: the unit of a target without outputs."""
+    return read_record(path, input_units=input_units, output_units=output_units,
+                       require_outputs=False, system=system,
+                       default_output_units=default_output_units)
 
 
 def _is_io_file(path: Path) -> bool:
-    """True for the input/output layout, False for a displacement/force (W/F) file."""
-    suffix = path.suffix.lower()
-    return bool((suffix in (".npz", ".mat") and _has(path, "inputs"))
-                or (suffix in (".csv", ".uff", ".unv") and is_io_layout(path)))
-
-
-def _has(path: Path, key: str) -> bool:
-    if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                return key in z.files
-        except (OSError, ValueError) as exc:
-            raise InputError(f"{path.name}: not a readable .npz file ({exc})") from None
-    import scipy.io
-
-    try:
-        return key in scipy.io.whosmat(path) or any(v[0] == key for v in scipy.io.whosmat(path))
-    except (ValueError, NotImplementedError, OSError) as exc:
-        raise InputError(f"{path.name}: not a readable MATLAB file ({exc})") from None
+    """True unless the file holds the dissertation's displacement/force record."""
+    rec = read_record(path, require_outputs=False)
+    return not (rec.collocated and rec.output_quantity == "displacement")
 
 
 def make_method(name: str, *, solver: str = "auto", n_modes=None, n_train: int = 1):
@@ -210,8 +183,7 @@ def _predict_wf(method, train, targets, *, solver, n_modes, coverage, units):
     est = POD_METHODS[method](n_modes=n_modes, solver=solver)
     recs = [read_record(p) for p in train]
     tgs = [read_record(p) for p in targets]
-    io_tr = [from_record(r, name=Path(p).name) for r, p in zip(recs, train, strict=True)]
-    io_tg = [from_record(r, name=Path(p).name) for r, p in zip(tgs, targets, strict=True)]
+    io_tr, io_tg = recs, tgs
     check_records(io_tr, io_tg, min_samples=2)
     with single_blas_thread():
         est.fit(recs if method == "ML" else recs[0])

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from podbench.core.recordfiles import read_record
 from podbench.core.resources import display_path as _display
 from podbench.core.response import Response, displacement_norm, norm_percent_error
 from podbench.dynamics import simulate
@@ -41,7 +42,6 @@ from podbench.study.estimators import all_cases, build_estimator, is_user_method
 from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
 from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from podbench.sysid.conditioning import Conditioning, WindowCorrected, condition
-from podbench.sysid.measured import read_record
 from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
 __all__ = ["run_study", "run_unit", "UnitResult", "SideTasks", "COLUMNS", "response_counts",
@@ -188,7 +188,8 @@ def read_case(scenario: Scenario, case_name: str, structure) -> Response:
                                  f"{structure.name!r}'s {list(np.asarray(pos))}")
     w0 = rec.W[:, 0].copy() if rec.w0 is None else rec.w0
     v0 = np.zeros(m) if rec.v0 is None else rec.v0
-    return Response(t=np.arange(n) * scenario.dt, W=rec.W, F=rec.F, w0=w0, v0=v0,
+    F = np.zeros((m, n)) if rec.F is None else rec.F  # a free response: no load
+    return Response(t=np.arange(n) * scenario.dt, W=rec.W, F=F, w0=w0, v0=v0,
                     dt=scenario.dt, structure=structure.name, engine="measured",
                     label=case_name)
 

@@ -98,6 +98,8 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.core.recordfiles import record_bytes
+from podbench.core.records import Record
 from podbench.core.response import Response
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import MISSING, Table
@@ -433,27 +435,10 @@ def _sensor_info(exp: Experiment, test: TestCampaign):
 
 
 def _npz_bytes(rec: Response, labels, positions) -> bytes:
-    buf = io.BytesIO()
-    arrays = {"W": np.asarray(rec.W, dtype=np.float64), "F": np.asarray(rec.F, dtype=np.float64),
-              "dt": np.float64(rec.dt), "sensors": np.asarray(labels, dtype=str)}
-    if positions is not None:
-        arrays["sensor_positions"] = np.asarray(positions, dtype=np.float64)
-    np.savez_compressed(buf, **arrays)
-    return _deterministic_zip(buf.getvalue())
-
-
-def _deterministic_zip(data: bytes) -> bytes:
-    """The same zip with fixed member timestamps (numpy stamps the current time)."""
-    import zipfile
-
-    src = zipfile.ZipFile(io.BytesIO(data))
-    out = io.BytesIO()
-    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        for info in src.infolist():
-            zi = zipfile.ZipInfo(info.filename, date_time=(1980, 1, 1, 0, 0, 0))
-            zi.compress_type = zipfile.ZIP_DEFLATED
-            z.writestr(zi, src.read(info.filename))
-    return out.getvalue()
+    """The record file's bytes (:func:`podbench.core.recordfiles.record_bytes`): ``W``,
+    ``F``, ``dt``, the sensor labels and positions, zip members stamped with a fixed time."""
+    return record_bytes(Record(W=rec.W, F=rec.F, dt=rec.dt), "npz", sensors=labels,
+                        sensor_positions=positions, deterministic=True)
 
 
 def _files(exp: Experiment) -> dict:

@@ -6,7 +6,7 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from podbench import load_structure
-from podbench.core.iorecords import IORecord
+from podbench.core.records import Record
 from podbench.dynamics.base_excitation import (
     beam_strain_matrix,
     ground_motion,
@@ -88,7 +88,7 @@ def test_ml_from_base_excited_acceleration_records_is_exact(beam):
 
     def rec(ag, name):
         y = simulate_base(beam, ag, DT)["absolute_acceleration"]
-        return IORecord(u=ag[None, :], y=y, dt=DT, input_units="in/s^2",
+        return Record(u=ag[None, :], y=y, dt=DT, input_units="in/s^2",
                         output_units="in/s^2", input_channels=("ground",),
                         output_channels=beam.sensor_labels, name=name)
 

@@ -5,7 +5,7 @@ import csv
 import numpy as np
 import pytest
 
-from podbench.core.iorecords import INCH, convert
+from podbench.core.records import INCH, convert
 from podbench.errors import InputError
 from podbench.harness.base_excited import (
     StructureSpec,

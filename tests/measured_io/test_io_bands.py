@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from podbench.cli import main
-from podbench.core.iorecords import IORecord, write_io_record
+from podbench.core.recordfiles import write_record
+from podbench.core.records import Record
 from podbench.errors import InputError
 from podbench.sysid.methods.bands import Prediction
 from podbench.sysid.methods.inputs import MultipleLoadIO
@@ -19,7 +20,7 @@ def _rec(rng, n, sigma, name="r", outputs=True):
     u = rng.normal(size=(2, n))
     y = np.stack([sum(np.convolve(u[i], H[o, i])[:n] for i in range(2)) for o in range(3)])
     noisy = y + sigma * rng.normal(size=y.shape)
-    rec = IORecord(u=u, y=noisy if outputs else None, dt=0.01, input_units="m/s^2",
+    rec = Record(u=u, y=noisy if outputs else None, dt=0.01, input_units="m/s^2",
                    output_units="m/s^2", name=name)
     return rec, y
 
@@ -79,7 +80,7 @@ def _files(tmp_path, lengths, seed, outputs=True):
     for j, n in enumerate(lengths):
         rec, _ = _rec(rng, n, 0.02, outputs=outputs)
         p = tmp_path / f"s{seed}_{j}.csv"
-        write_io_record(p, rec)
+        write_record(p, rec, layout="io")
         paths.append(str(p))
     return paths
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from podbench.core.iorecords import IORecord, convert
+from podbench.core.records import Record, convert
 from podbench.errors import InputError
 from podbench.harness.predict import make_method
 from podbench.sysid.deconvolution.lagged import lag_response, record_grams
@@ -36,7 +36,7 @@ def _records(sys, lengths, seed=2, units="m/s^2"):
     out = []
     for j, n in enumerate(lengths):
         u = rng.normal(size=(sys[1].shape[1], n))
-        out.append(IORecord(u=u, y=_respond(sys, u), dt=0.01, input_units=units,
+        out.append(Record(u=u, y=_respond(sys, u), dt=0.01, input_units=units,
                             output_units=units, name=f"r{j}.npz"))
     return out
 
@@ -77,7 +77,7 @@ def test_ml_full_length_kernel_by_block_deconvolution():
     (square block system), solved exactly by 'block'."""
     sys = _lti(n_in=1, n_out=3)
     pulse = 0.6 ** np.arange(400)[None, :]  # minimum phase: the substitution is stable
-    tr = [IORecord(u=pulse, y=_respond(sys, pulse), dt=0.01, input_units="m/s^2",
+    tr = [Record(u=pulse, y=_respond(sys, pulse), dt=0.01, input_units="m/s^2",
                    output_units="m/s^2", name="pulse.npz")]
     target = _records(sys, [400], seed=5)[0]
     ml = MultipleLoadIO(n_lags=None, solver="block").fit(tr)
@@ -89,7 +89,7 @@ def test_ml_with_as_many_modes_as_outputs_is_the_fir_baseline():
     sys = _lti()
     rng = np.random.default_rng(3)
     tr = _records(sys, [300, 350, 420])
-    tr = [IORecord(u=r.u, y=r.y + 0.3 * rng.normal(size=r.y.shape), dt=r.dt,
+    tr = [Record(u=r.u, y=r.y + 0.3 * rng.normal(size=r.y.shape), dt=r.dt,
                    input_units="m/s^2", output_units="m/s^2", name=r.name) for r in tr]
     target = _records(sys, [500], seed=4)[0]
     a = MultipleLoadIO(n_lags=25).fit(tr).predict(target)
@@ -105,7 +105,7 @@ def test_tc_prior_helps_on_noisy_short_records_and_chooses_on_training_only():
     sys = _lti(seed=4)
     rng = np.random.default_rng(6)
     tr = _records(sys, [250, 300, 280, 260], seed=7)
-    tr = [IORecord(u=r.u, y=r.y + 0.5 * np.std(r.y) * rng.normal(size=r.y.shape), dt=r.dt,
+    tr = [Record(u=r.u, y=r.y + 0.5 * np.std(r.y) * rng.normal(size=r.y.shape), dt=r.dt,
                    input_units="m/s^2", output_units="m/s^2", name=r.name) for r in tr]
     target = _records(sys, [400], seed=8)[0]
     from podbench.core.threads import single_blas_thread
@@ -132,7 +132,7 @@ def test_si_and_inch_lbf_give_the_same_prediction_converted():
 def test_strain_or_displacement_outputs_start_at_lag_one():
     sys = _lti()
     r = _records(sys, [200, 220])
-    r = [IORecord(u=x.u, y=x.y, dt=x.dt, input_units="m/s^2", output_units="strain",
+    r = [Record(u=x.u, y=x.y, dt=x.dt, input_units="m/s^2", output_units="strain",
                   name=x.name) for x in r]
     assert MultipleLoadIO(n_lags=10).fit(r).first_lag_ == 1
 

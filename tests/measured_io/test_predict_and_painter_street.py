@@ -5,11 +5,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from podbench.measured import write_record
 
 import podbench as pb
 from podbench.cli import main
-from podbench.core.iorecords import IORecord, write_io_record
+from podbench.core.recordfiles import write_record
+from podbench.core.records import Record
 from podbench.dynamics.excitations import Pulse
 from podbench.harness.painter_street import data_folder, load_events
 from podbench.sysid.methods import MultipleLoad, SingleLoad
@@ -26,8 +26,9 @@ def _sys_records(tmp_path, lengths, seed=0, units="m/s^2"):
         u = rng.normal(size=(2, n))
         y = np.stack([sum(np.convolve(u[i], h[o, i])[:n] for i in range(2)) for o in range(2)])
         p = tmp_path / f"rec{seed}_{j}.npz"
-        write_io_record(p, IORecord(u=u, y=y, dt=0.01, input_units=units, output_units=units,
-                                    input_channels=("g1", "g2"), output_channels=("d1", "d2")))
+        write_record(p, Record(u=u, y=y, dt=0.01, input_units=units, output_units=units,
+                               input_channels=("g1", "g2"), output_channels=("d1", "d2")),
+                     layout="io")
         paths.append(str(p))
     return paths
 
@@ -48,9 +49,10 @@ def test_predict_writes_errors_and_predictions(tmp_path, capsys):
 def test_predict_refuses_bad_records_before_writing(tmp_path, capsys):
     train = _sys_records(tmp_path, [300, 400])
     bad = tmp_path / "bad.npz"
-    write_io_record(bad, IORecord(u=np.ones((2, 300)), y=np.ones((2, 300)), dt=0.02,
-                                  input_units="m/s^2", output_units="m/s^2",
-                                  input_channels=("g1", "g2"), output_channels=("d1", "d2")))
+    write_record(bad, Record(u=np.ones((2, 300)), y=np.ones((2, 300)), dt=0.02,
+                             input_units="m/s^2", output_units="m/s^2",
+                             input_channels=("g1", "g2"), output_channels=("d1", "d2")),
+                 layout="io")
     out = tmp_path / "out"
     assert main(["predict", "--method", "ML", "--train", *train, "--target", str(bad),
                  "--out", str(out)]) == 2
@@ -77,10 +79,10 @@ def test_predict_si_and_inch_lbf_files_give_the_same_prediction(tmp_path):
     for p in si:
         with np.load(p) as z:
             q = d / Path(p).name
-            write_io_record(q, IORecord(u=z["inputs"] / 0.0254, y=z["outputs"] / 0.0254,
-                                        dt=0.01, input_units="in/s^2", output_units="in/s^2",
-                                        input_channels=("g1", "g2"),
-                                        output_channels=("d1", "d2")))
+            write_record(q, Record(u=z["inputs"] / 0.0254, y=z["outputs"] / 0.0254,
+                                   dt=0.01, input_units="in/s^2", output_units="in/s^2",
+                                   input_channels=("g1", "g2"), output_channels=("d1", "d2")),
+                         layout="io")
             ip.append(str(q))
     for files, out in ((si, "a"), (ip, "b")):
         assert main(["predict", "--method", "ML", "--train", *files[:3], "--target",

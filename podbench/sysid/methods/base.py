@@ -22,7 +22,6 @@ from typing import cast
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord
 from podbench.core.records import Record, as_record, is_record
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, IllConditionedError, InputError, NotFittedError
@@ -330,7 +329,7 @@ def _banded_predict(predict):
             return mean
         c = check_coverage(coverage)
         record = args[0] if args else kwargs.get("record")
-        if not (is_record(record) or isinstance(record, IORecord)):
+        if not is_record(record):
             raise InputError(f"{type(self).__name__}.predict: a band (`coverage`) needs the "
                              "target as a record (an object with W, F, w0, v0, dt)")
         cal = getattr(self, "band_calibration_", None)

@@ -41,7 +41,8 @@ import weakref
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord, check_compatible, check_records
+from podbench.core.records import Record as IORecord
+from podbench.core.records import check_compatible, check_records
 from podbench.errors import InputError, NotFittedError
 from podbench.sysid.deconvolution.lagged import lag_response, record_grams, solve_ls
 from podbench.sysid.methods.base import PODMethod, make_method_solver, solve_deconvolution

@@ -32,7 +32,7 @@ import inspect
 import numpy as np
 import scipy.signal
 
-from podbench.core.iorecords import check_records
+from podbench.core.records import check_records
 from podbench.errors import InputError
 from podbench.sysid.methods.inputs import io_records
 from podbench.sysid.methods.peers_io import IOPeer

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.core.iorecords import check_records
+from podbench.core.records import check_records
 from podbench.errors import InputError
 from podbench.sysid.methods.inputs import IOMethod, given_basis, io_records
 from podbench.sysid.methods.peers import ERA, DMDc, OpInf
