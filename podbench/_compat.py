@@ -39,6 +39,8 @@ ALIASES: dict[str, str] = {
     "podbench.measured": "podbench.core.recordfiles",
     "podbench.sysid.measured": "podbench.core.recordfiles",
     "podbench.core.iorecords": "podbench.core.records",
+    "podbench.sysid.methods.peers_io": "podbench.sysid.methods.peers",
+    "podbench.study.hints": "podbench.core.hints",
     "podbench.scenarios": "podbench.study.scenarios",
     "podbench.experiments": "podbench.study.experiments",
 }
@@ -81,19 +83,42 @@ class Retired:
 
     new: str
     fixed: dict = field(default_factory=dict)
-    renamed: dict = field(default_factory=dict)
+    renamed: dict = field(default_factory=dict)  # old keyword → new one (None: dropped)
+    warn: bool = True  # False: the name moved, it is not retired
+    positional: tuple = ()  # the old name's positional parameters, passed as keywords
 
 
 RETIRED: dict[tuple[str, str], Retired] = {
     ("podbench.core.records", "IORecord"): Retired("podbench.core.records:Record"),
+    ("podbench.sysid.methods", "BUILTIN_METHODS"):
+        Retired("podbench.sysid.registry:BUILTIN_METHODS", warn=False),
     ("podbench.core.records", "from_record"): Retired("podbench.core.records:as_record"),
     ("podbench.core.records", "read_io_record"):
         Retired("podbench.core.recordfiles:read_record"),
     ("podbench.core.records", "write_io_record"):
         Retired("podbench.core.recordfiles:write_record", fixed={"layout": "io"}),
     ("podbench.core.recordfiles", "MeasuredRecord"):
-        Retired("podbench.core.records:Record",
+        Retired("podbench.core.records:Record", positional=("W", "F", "dt"),
                 renamed={"sensors": "output_channels", "path": "name"}),
+    **{(module, name): spec for module in ("podbench.sysid.methods",
+                                           "podbench.sysid.methods.inputs")
+       for name, spec in {
+           "MultipleLoadIO": Retired("podbench.sysid.methods:MultipleLoad", fixed={
+               "inputs": "measured", "n_lags": "auto", "solver": "ls"}),
+           "SingleLoadIO": Retired("podbench.sysid.methods:SingleLoad"),
+       }.items()},
+    ("podbench.sysid.methods.inputs", "FIRLeastSquares"):
+        Retired("podbench.sysid.methods.fir:FIRLeastSquares"),
+    ("podbench.sysid.methods.inputs", "mixed_response_io"):
+        Retired("podbench.sysid.methods.mixed:check_measured_inputs"),
+    ("podbench.sysid.methods.inputs", "io_records"): Retired("podbench.core.records:as_records"),
+    **{(module, name): Retired(f"podbench.sysid.methods:{new}", fixed={
+        "inputs": "measured", **extra}, renamed={"feedthrough": None})
+       for module in ("podbench.sysid.methods", "podbench.sysid.methods.peers")
+       for name, new, extra in (("ERAIO", "ERA", {"blocks": 1.0}), ("DMDcIO", "DMDc", {}),
+                                ("OpInfIO", "OpInf", {}))},
+    **{(module, "MdofIO"): Retired("podbench.sysid.methods.mdof_peer:Mdof")
+       for module in ("podbench.sysid.methods", "podbench.sysid.methods.mdof_peer")},
 }
 """(module where the name is looked up, old name) → :class:`Retired`."""
 
@@ -110,9 +135,14 @@ def _configured(obj, spec: Retired):
 
     @functools.wraps(obj)
     def build(*args, **kwargs):
+        if spec.positional:
+            kwargs.update(zip(spec.positional, args, strict=False))
+            args = args[len(spec.positional):]
         for old, new in spec.renamed.items():
             if old in kwargs:
-                kwargs[new] = kwargs.pop(old)
+                value = kwargs.pop(old)
+                if new is not None:
+                    kwargs[new] = value
         return obj(*args, **{**spec.fixed, **kwargs})
 
     return build
@@ -125,7 +155,7 @@ def retired(module: str, name: str):
     spec = RETIRED.get((module, name))
     if spec is None:
         raise AttributeError(f"module {module!r} has no attribute {name!r}")
-    if (module, name) not in _WARNED:
+    if spec.warn and (module, name) not in _WARNED:
         _WARNED.add((module, name))
         how = ""
         if spec.fixed:
@@ -133,4 +163,4 @@ def retired(module: str, name: str):
         warnings.warn(f"{name} is retired: use {spec.new.replace(':', '.')}{how}",
                       FutureWarning, stacklevel=3)
     obj = _load(spec.new)
-    return _configured(obj, spec) if spec.fixed or spec.renamed else obj
+    return _configured(obj, spec) if spec.fixed or spec.renamed or spec.positional else obj

@@ -45,7 +45,7 @@ from podbench.errors import InputError
 
 __all__ = ["IO_SUFFIXES", "read_csv_vars", "write_csv", "read_uff_vars", "write_uff",
            "is_io_layout", "io_layout_of_header", "io_layout_of_sets", "UFF_TYPES",
-           "read_uff58", "pyuff_module", "uniform_dt"]
+           "read_uff58", "pyuff_module", "uniform_dt", "write_uff_sets"]
 
 IO_SUFFIXES = (".npz", ".mat", ".csv", ".uff", ".unv")
 """File suffixes of input/output records."""
@@ -301,6 +301,14 @@ def write_uff(path, *, u, y, dt: float, input_channels, output_channels, input_u
         sets += [_uff_dataset(pyuff, f"y:{c}", np.asarray(r, dtype=float), dt, output_units,
                               output_quantity, 1001 + k) for k, (c, r) in enumerate(zip(
                                   output_channels, np.atleast_2d(y), strict=True))]
+    write_uff_sets(path, sets)
+
+
+def write_uff_sets(path, sets: list) -> None:
+    """Write pyuff datasets to ``path`` atomically (pyuff writes to a file name: a temporary
+    one beside ``path``, then its bytes in one replace)."""
+    path = Path(path)
+    pyuff = pyuff_module()
     tmp = path.with_name(f".{path.name}.writing")
     if tmp.exists():
         tmp.unlink()

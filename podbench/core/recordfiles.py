@@ -49,6 +49,7 @@ from podbench.core.iofiles import (
     uniform_dt,
     write_csv,
     write_uff,
+    write_uff_sets,
 )
 from podbench.core.records import Record, convert
 from podbench.core.units import normalize_unit
@@ -469,15 +470,7 @@ def _write_wf_uff(path: Path, W, F, dt: float, labels, loaded) -> None:
             orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
             z_axis_len_unit_exp=0, z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0,
             data=np.asarray(y, dtype=float), x=np.arange(y.size) * dt))
-    tmp = path.with_name(f".{path.name}.writing")
-    if tmp.exists():
-        tmp.unlink()
-    try:
-        pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
-        atomic_write_bytes(path, tmp.read_bytes())
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    write_uff_sets(path, sets)
 
 
 def write_record(path, record, *, layout: str = "auto", sensors=None, sensor_positions=None,

@@ -39,7 +39,7 @@ from podbench.core.units import (  # the unit tables, read here by older code to
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, InputError
 
-__all__ = ["Record", "as_record", "is_record", "convert", "check_compatible",
+__all__ = ["Record", "as_record", "as_records", "is_record", "convert", "check_compatible",
            "check_records", "unit_system_of", "UNITS", "QUANTITIES", "LBF", "INCH",
            "normalize_unit", "unit_system"]
 
@@ -139,8 +139,13 @@ class Record:
             u, y = self._dissertation_arrays(W, F, w0, v0)
             input_units = input_units or ("lbf" if u is not None else None)
             output_units = output_units or "in"
-            if output_channels is None and input_channels is None and u is not None:
-                input_channels = output_channels = tuple(str(i) for i in range(u.shape[0]))
+            if u is not None:  # forces at the output sensors: one channel name per sensor
+                if output_channels is None and input_channels is None:
+                    output_channels = tuple(str(i) for i in range(u.shape[0]))
+                output_channels = output_channels if output_channels is not None \
+                    else input_channels
+                input_channels = input_channels if input_channels is not None \
+                    else output_channels
         else:
             u, y = self._measured_arrays(u, y)
             dt = self._measured_dt(dt)
@@ -384,6 +389,20 @@ def as_record(obj, name: str = "record") -> Record:
                       v0=getattr(obj, "v0", None), dt=getattr(obj, "dt", None))
     except InputError as exc:
         raise type(exc)(f"{name}: {exc}") from None
+
+
+def as_records(records, name: str = "records") -> list[Record]:
+    """A record or a sequence of records as a list of :class:`Record` (each checked by
+    :func:`as_record`); InputError naming ``name`` for anything else or none."""
+    if isinstance(records, Record) or is_record(records):
+        return [as_record(records, name)]
+    try:
+        recs = list(records)
+    except TypeError:
+        raise InputError(f"Parameter `{name}`: expected records") from None
+    if not recs:
+        raise InputError(f"Parameter `{name}`: no record given")
+    return [as_record(r, f"{name}[{j}]") for j, r in enumerate(recs)]
 
 
 def is_record(obj) -> bool:

@@ -419,7 +419,7 @@ def is_floored(spec, scenario: Scenario) -> bool:
     :data:`~podbench.harness.digits.FLOOR_METHODS`, or a superposition of one)."""
     if spec.method in FLOOR_METHODS:
         return True
-    parts = [scenario.method(p) for p in spec.parts] if spec.method == "superposition" else []
+    parts = [scenario.method(p) for p in spec.parts] if spec.composite else []
     return any(p.method in FLOOR_METHODS for p in parts)
 
 

@@ -182,5 +182,5 @@ def test_predict_reads_csv_records_as_it_reads_npz(tmp_path):
         rows = list(csv.DictReader(open(out / "errors.csv")))
         assert float(rows[0]["total_error"]) < 1e-10 and rows[1]["total_error"] == ""
         with np.load(out / "r3.npz") as z:
-            preds[suffix] = z["W_hat"]
+            preds[suffix] = z["y_hat"]
     np.testing.assert_array_equal(preds[".csv"], preds[".npz"])
