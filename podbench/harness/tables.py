@@ -16,8 +16,8 @@ FLOAT_FORMAT = "%.6g"
 
 #: ``error_estimate`` (a prediction's own estimate of its total error, the band's scale) is
 #: written to three significant digits: it is an estimate (scored within a factor of 2), and
-#: its sixth digit differs between OpenBLAS kernels (measured on Chapter 4: up to 1.2e-5
-#: relative, Haswell against SkylakeX kernels), which would make the table depend on the CPU.
+#: its sixth digit is round-off that depends on the BLAS build (up to 1.2e-5 relative on
+#: Chapter 4), which would make the table depend on the CPU.
 ESTIMATE_DIGITS = 3
 
 

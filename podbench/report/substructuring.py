@@ -57,8 +57,8 @@ def medians(df: pd.DataFrame) -> pd.DataFrame:
 
 ROUNDOFF_ERROR = 1e-10
 """Errors below this (the exact kernels' round-off, 1e-12…1e-11) are written as 0: their
-digits differ between OpenBLAS kernels (measured: 8.97e-12 against 8.10e-12 for the same
-run, Haswell against the default kernel). tests/dynamics/test_coupling.py bounds them."""
+digits depend on the BLAS build (about 9e-12 in the substructuring study).
+tests/dynamics/test_coupling.py bounds them."""
 
 
 def _three_digits(v: float) -> float:

@@ -10,7 +10,7 @@ received from rest) the coupled energy cannot grow, and the coupled step is stab
 construction (growth factor ≤ 1), over any horizon. A real, passive component's exact
 Newmark kernel is passive; a kernel identified from noisy records need not be, and coupled
 to an undamped parent a non-passive kernel grows slowly (growth factor 1.0005–1.02 per step
-on the heavy chain of issue 25).
+on the heavy chain of the substructuring study).
 
 The condition in the frequency domain (``z = e^{jω}``, ``ω`` in radians per sample, ``H(z)``
 the kernel's z-transform ``Σ_k H[k] z^{−k}``, ``Ψ(X) = (X − Xᴴ)/(2j)`` the Hermitian
