@@ -212,3 +212,27 @@ def test_every_label_the_structures_page_names_exists():
     assert not missing, missing
     kinds = set(re.findall(r"^\| `(\w+)` \|", section, re.M))
     assert kinds == {k for k, parse in KINDS.items() if parse.__module__.startswith("podbench.")}
+
+
+# ------------------------------------------------------------------------------ any page
+def _named(pattern: str) -> set[tuple[str, str]]:
+    """``(page, value)`` of every ``<pattern>"value"`` on the README and the docs pages,
+    templates (``<name>``, ``…``) and user paths (``file.py:Class``) aside."""
+    out = set()
+    for doc in (ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))):
+        for v in re.findall(pattern + r'"([^"]+)"', doc.read_text(encoding="utf-8")):
+            if not re.search(r"[<…:]", v):
+                out.add((doc.relative_to(ROOT).as_posix(), v))
+    return out
+
+
+def test_every_solver_method_and_kind_a_page_names_exists():
+    from podbench.sysid.deconvolution import available_solvers
+
+    # the solver option in a scenario (solver = "ls") or in Python (solver="ls"); a scenario's
+    # method and kind entries (TOML: spaces around "=")
+    bad = [x for x in _named(r"\bsolver ?= ?") if x[1] not in available_solvers()]
+    bad += [x for x in _named(r"\bmethod = ") if x[1] not in scenarios.BUILTIN_METHODS]
+    kinds = set(KINDS) | {k for ks in scenarios._EXCITATION_KINDS.values() for k in ks}
+    bad += [x for x in _named(r"(?<![\w.])kind = ") if x[1] not in kinds]
+    assert not bad, sorted(bad)
