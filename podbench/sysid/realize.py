@@ -11,14 +11,19 @@ any class with them realizes):
   the substructuring and realization solvers share) in the method's POC coordinates, and
   mapped to the channels: ``y = U (C x + D u)`` and, where the inputs are forces at the
   sensors, ``u = Uᵀ F``. SL's and MR's kernels are diagonal (their assumption): the
-  diagonal is realized. Order: ``order`` if given, else ``2k`` (``k`` the method's modes,
-  one mode per POM: the issue's "ERA's order is 2 × K"), at most the numerical rank of the
-  Hankel matrix (singular values above
-  :data:`~podbench.sysid.components.KERNEL_RANK_TOL` of the largest: directions below are
-  round-off of the kernel). A kernel that a pole solver returned (``"realization"``,
-  ``"subspace"``, or ``"auto"`` choosing one) *is* a low-order model: it is realized at that
-  numerical rank, which reproduces the solver's own model. The other orders of the same
-  Hankel matrix give the stabilization check of :mod:`podbench.sysid.modal`.
+  diagonal is realized. Order: ``order`` if given, else the **lag rule**: the lowest even
+  order whose realized Markov parameters reproduce the kernel over *all* its lags within
+  1 % of the best of the orders up to the numerical rank of the Hankel matrix (singular
+  values above :data:`~podbench.sysid.components.KERNEL_RANK_TOL` of the largest;
+  directions below are round-off of the kernel), at most :data:`MAX_ORDER` (reproduction
+  errors below 1e-9 count as equal: the peers' hold-out tolerances,
+  :data:`~podbench.sysid.methods.peers._common.HOLDOUT_RTOL`). ERA builds its Hankel matrix
+  from the first lags only (at most
+  :data:`~podbench.sysid.deconvolution.realization.MAX_HANKEL_ROWS` rows), so the later lags
+  judge the order on data the realization did not use. A kernel that a pole solver returned
+  (``"realization"``, ``"subspace"``) is a low-order model: the rule finds its order. The
+  other orders of the same Hankel matrix give the stabilization check of
+  :mod:`podbench.sysid.modal`.
 * **ERA/OKID** (``A_, B_, C_, D_`` in the basis, or ``model_ = (A, B, C, D)`` on
   input/output records): the model itself, outputs mapped by ``U`` (and inputs by ``Uᵀ`` on
   displacement/force records). Its Markov parameters (``markov_`` where kept) give the
@@ -37,8 +42,8 @@ OpInf (delay coordinates whose step input holds the next force sample ``u_{j+1}`
 The realized model reproduces the method's own prediction where the method's model is
 exactly of the realized order (clean records of a linear structure, a kernel over the whole
 record, ``k`` = the number of sensors): :class:`StateSpaceModel` ``.respond``. A truncated
-kernel (``n_lags``) or a noisy one is approximated: the realization keeps its ``2k``
-dominant Hankel directions.
+kernel (``n_lags``) or a noisy one is approximated by the order its own later lags
+support.
 """
 
 from __future__ import annotations
@@ -53,6 +58,7 @@ from podbench.core.modeshapes import ModeSet
 from podbench.errors import InputError
 from podbench.sysid.components import KERNEL_RANK_TOL
 from podbench.sysid.deconvolution.realization import MAX_HANKEL_ROWS
+from podbench.sysid.methods.peers._common import HOLDOUT_FLOOR, HOLDOUT_RTOL
 from podbench.sysid.modal import discrete_modes, physical_modes
 from podbench.sysid.statespace import era_realization, realize
 
@@ -60,6 +66,9 @@ __all__ = ["StateSpaceModel", "to_statespace", "kernel_markov", "POLE_SOLVERS"]
 
 POLE_SOLVERS = ("realization", "subspace")
 """Deconvolution solvers whose kernel is a low-order pole model."""
+
+MAX_ORDER = 200
+"""Largest realization order the lag rule tries (100 complex pole pairs)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -233,7 +242,45 @@ def _is_pole_model(method) -> bool:
                and "order" in i for i in dicts)
 
 
-def _kernel_order(order, k: int, rank: int, rows: int, pole_model: bool) -> tuple[int, str]:
+def markov_parameters(A, B, C, D, n: int) -> np.ndarray:
+    """``h[0] = D``, ``h[p] = C A^{p−1} B`` for ``p < n``: (n, n_out, n_in), by the
+    eigen-decomposition of ``A`` (by the recursion where its eigenvectors are
+    ill-conditioned)."""
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (A, B, C, D))
+    h = np.empty((n, C.shape[0], B.shape[1]))
+    h[0] = D
+    if n < 2:
+        return h
+    lam, V = np.linalg.eig(A)
+    if A.size == 0:
+        h[1:] = 0.0
+    elif np.linalg.cond(V) < 1e10:
+        with np.errstate(over="ignore", invalid="ignore"):
+            powers = lam[:, None] ** np.arange(n - 1)[None, :]
+            h[1:] = np.einsum("on,nl,ni->loi", C @ V, powers, np.linalg.solve(V, B)).real
+    else:
+        X = B.copy()
+        with np.errstate(over="ignore", invalid="ignore"):
+            for p in range(1, n):
+                h[p] = C @ X
+                X = A @ X
+    return h
+
+
+def _reproduction_error(factors, order: int, h: np.ndarray) -> float:
+    P, sv, Qt, H1, D = factors
+    A, B, C, D = realize(P, sv, Qt, H1, D, order)
+    hN = markov_parameters(A, B, C, D, h.shape[0])
+    if not np.all(np.isfinite(hN)):
+        return float("inf")
+    with np.errstate(over="ignore", invalid="ignore"):
+        err = float(np.linalg.norm(hN - h) / max(float(np.linalg.norm(h)), 1e-300))
+    return err if np.isfinite(err) else float("inf")
+
+
+def _kernel_order(order, factors, rank: int, h: np.ndarray) -> tuple[int, str]:
+    """The realization order: given, or the lag rule (module docstring)."""
+    rows = factors[1].size
     if order is not None:
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 1:
             raise InputError(f"Parameter `order`: expected an integer >= 1, got {order!r}")
@@ -241,11 +288,17 @@ def _kernel_order(order, k: int, rank: int, rows: int, pole_model: bool) -> tupl
             raise InputError(f"Parameter `order`: {order} exceeds the {rows} rows of the "
                              "kernel's Hankel matrix")
         return int(order), f"order {int(order)} (given)"
-    if pole_model:
-        return rank, f"order {rank} (the numerical rank of the solver's pole model)"
-    N = min(2 * k, rank)
-    return N, f"order {N} (2 × {k} modes" + (", capped at the Hankel rank)" if N < 2 * k
-                                              else ")")
+    top = min(rank, rows, MAX_ORDER)
+    cands = list(range(2, top + 1, 2)) or [max(top, 1)]
+    errors = np.array([_reproduction_error(factors, N, h) for N in cands])
+    if not np.any(np.isfinite(errors)):
+        raise InputError("no realization order reproduces the kernel with finite Markov "
+                         "parameters")
+    bound = max(float(np.min(errors)) * (1.0 + HOLDOUT_RTOL), HOLDOUT_FLOOR)
+    i = int(np.flatnonzero(errors <= bound)[0])
+    return cands[i], (f"order {cands[i]} (the lowest whose Markov parameters reproduce the "
+                      f"kernel's {h.shape[0]} lags within 1 % of the best of orders 2-{top}: "
+                      f"relative error {errors[i]:.3g})")
 
 
 # ---------------------------------------------------------------------------- channels
@@ -266,17 +319,18 @@ def _realize_kernel(method, order) -> StateSpaceModel:
     h, what = kernel_markov(method)
     U = np.asarray(method.modes_, dtype=float)
     factors, rank = _era_factors(h)
-    k = int(h.shape[1])
-    pole = _is_pole_model(method)
     P, sv, Qt, H1, D0 = factors
-    N, how = _kernel_order(order, k, rank, sv.size, pole)
+    N, how = _kernel_order(order, factors, rank, h)
     A, B, C, D = realize(P, sv, Qt, H1, D0, N)
     sides = _io_sides(method, U.shape[0])
     on_forces = getattr(method, "first_lag_", None) is None  # u = Uᵀ F at the sensors
     Bf, Df = (B @ U.T, U @ D @ U.T) if on_forces else (B, U @ D)
+    notes = (("the kernel is a pole solver's model (its order chosen by the solver's own "
+              "hold-out rule): the order check passes its poles by construction",)
+             if _is_pole_model(method) else ())
     return StateSpaceModel(A, Bf, U @ C, Df, float(method.dt_), None, method=_name(method),
-                           realization=f"ERA of the {what}, {how}",
-                           realize_at=None if pole else _realizer(factors, U), **sides)
+                           realization=f"ERA of the {what}, {how}", notes=notes,
+                           realize_at=_realizer(factors, U), **sides)
 
 
 def _realize_era(method) -> StateSpaceModel:
@@ -330,7 +384,7 @@ def _realize_free(method, order, dt) -> StateSpaceModel:
     hh = np.concatenate([np.zeros((1, k, k)), Phi])  # hh[t + 1] = Φ(t_t) = C A^t B
     factors, rank = _era_factors(hh)
     P, sv, Qt, H1, D0 = factors
-    N, how = _kernel_order(order, k, rank, sv.size, False)
+    N, how = _kernel_order(order, factors, rank, hh)
     A, B, C, _ = realize(P, sv, Qt, H1, D0, N)
     excitation = getattr(method, "excitation", "displacement")
     return StateSpaceModel(A, None, U @ C, None, _free_dt(method, dt), B @ U.T,
