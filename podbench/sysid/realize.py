@@ -212,22 +212,29 @@ def _realizer(factors, out_map: np.ndarray):
 
 def kernel_markov(method) -> tuple[np.ndarray, str]:
     """The Markov parameters ``h[p]`` (L, k_out, k_in) of a fitted kernel method in its POC
-    coordinates (module docstring) and what they are, in words."""
+    coordinates (module docstring) and what they are, in words. Trailing lags that are
+    exactly zero are dropped: a truncated kernel (``n_lags``) is zero by construction beyond
+    its lags, and the last lags of a kernel over the whole record are undetermined (zero,
+    the minimum-norm solution) when the forces start after the first sample; neither is
+    data a realization should reproduce."""
     K = np.asarray(method.kernel_, dtype=float)
     dt = float(method.dt_)
     first = getattr(method, "first_lag_", None)
     if first is not None:  # input/output records: kernel_[:, :, j] is lag first + j
         h = np.zeros((K.shape[2] + int(first), K.shape[0], K.shape[1]))
         h[int(first):] = dt * K.transpose(2, 0, 1)
-        return h, "kernel (measured inputs → POC histories)"
-    h = dt * K.transpose(2, 0, 1)
-    if not getattr(method, "coupled", True):
-        idx = np.arange(K.shape[0])
-        diag = np.zeros_like(h)
-        diag[:, idx, idx] = h[:, idx, idx]
-        h = diag
-        return h, "diagonal kernel (modal forces → POC histories)"
-    return h, "kernel (modal forces → POC histories)"
+        what = "kernel (measured inputs → POC histories)"
+    else:
+        h = dt * K.transpose(2, 0, 1)
+        what = "kernel (modal forces → POC histories)"
+        if not getattr(method, "coupled", True):
+            idx = np.arange(K.shape[0])
+            diag = np.zeros_like(h)
+            diag[:, idx, idx] = h[:, idx, idx]
+            h, what = diag, "diagonal kernel (modal forces → POC histories)"
+    nonzero = np.flatnonzero(np.any(h.reshape(h.shape[0], -1) != 0, axis=1))
+    last = int(nonzero[-1]) + 1 if nonzero.size else 0
+    return h[: max(last, 3)], what
 
 
 def _is_pole_model(method) -> bool:
