@@ -215,3 +215,15 @@ def test_beam_ml_realization_is_exact_and_holds_scipys_modes():
     assert np.max(np.abs(table["frequency_error_pct"])) < 1e-6
     assert np.max(np.abs(table["damping_error_rel"])) < 1e-6
     assert table["mac"].min() > 1 - 1e-9
+
+
+def test_forms_without_a_state_space_are_refused_with_the_reason():
+    from types import SimpleNamespace
+
+    parts = SimpleNamespace(modes_=np.eye(2), parts_=[], abbreviation="MDS+ML")
+    with pytest.raises(InputError, match="superposition"):
+        to_statespace(parts)
+    delay = SimpleNamespace(modes_=np.eye(2), model_=(np.eye(2), np.eye(2)), delays=2,
+                            abbreviation="OpInf")
+    with pytest.raises(InputError, match="delay coordinates"):
+        to_statespace(delay)
