@@ -76,7 +76,7 @@ class _Encoder:
         self.arrays[key] = a
         return {_TAG: "array", "key": key}
 
-    def value(self, v: Any, where: str):  # noqa: C901, PLR0911 (one branch per type)
+    def value(self, v: Any, where: str):
         if v is None or isinstance(v, (bool, str)):
             return v
         if isinstance(v, int) and not isinstance(v, bool):
@@ -141,7 +141,7 @@ class _Decoder:
         self.arrays = arrays
         self.name = name
 
-    def value(self, v):  # noqa: PLR0911 (one branch per tag)
+    def value(self, v):
         if isinstance(v, list):
             return [self.value(x) for x in v]
         if not isinstance(v, dict):

@@ -62,7 +62,8 @@ from podbench.sysid.methods.peers._common import HOLDOUT_FLOOR, HOLDOUT_RTOL
 from podbench.sysid.modal import discrete_modes, physical_modes
 from podbench.sysid.statespace import era_realization, realize
 
-__all__ = ["StateSpaceModel", "to_statespace", "kernel_markov", "POLE_SOLVERS"]
+__all__ = ["StateSpaceModel", "to_statespace", "kernel_markov", "markov_parameters",
+           "POLE_SOLVERS", "MAX_ORDER"]
 
 POLE_SOLVERS = ("realization", "subspace")
 """Deconvolution solvers whose kernel is a low-order pole model."""
