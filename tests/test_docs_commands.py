@@ -171,6 +171,12 @@ COMMANDS: dict[str, object] = {
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
     "python benchmarks/dense_tls.py": SLOW,
+    "python benchmarks/modal.py": NOT_RUN(
+        "fits ML and ERA on two structures at two noise levels (minutes; accuracy is measured, "
+        "never asserted) and rewrites its rows of results/benchmarks.csv; its one-structure "
+        "clean form below is run (slow), the realizations and modes are tested in "
+        "tests/sysid/test_modal.py"),
+    "python benchmarks/modal.py --structures chain_coupled --levels 0 --no-write": SLOW,
     "python benchmarks/study_time.py": NOT_RUN(
         "times a cold `podbench run chapter5` (35 min on the shared 2-core machine) and "
         "appends to results/benchmarks.csv; `podbench run chapter5` itself is run (slow)"),
@@ -216,6 +222,8 @@ BLOCKS: dict[tuple[str, str], object] = {
      "run chapter5, --jobs auto, no figures"): "shell",
     ("benchmarks/README.md", "python benchmarks/defaults.py                        # n = 1000, "
      "k = 4, dt = 1e-3 s"): "shell",
+    ("benchmarks/README.md", "python benchmarks/modal.py                 # chain_coupled and "
+     "aluminium_beam, clean and 1 % noise"): "shell",
     # Python blocks
     ("docs/studies/calibration.md", "p = model.predict(target, coverage=0.9)     # "
      "model.predict(target) still returns the array"): "python",
@@ -226,6 +234,7 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("docs/python-api.md", "import numpy as np"): COVERED("tests/harness/test_readme_api.py"),
     ("docs/dynamics.md", "from podbench.dynamics import simulate"): "python",
     ("docs/methods.md", "from podbench import Record"): "python",
+    ("docs/models.md", "import numpy as np"): "python",
     ("docs/structures.md", "from podbench.fem import load_structure, list_structures"): "python",
     ("docs/structures.md", "from podbench.fem.files import register_kind"): "python",
     # TOML blocks
