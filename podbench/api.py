@@ -256,7 +256,7 @@ class StudyResult:
         ``figures/``, ``report.html``).
     summary : DataFrame
         ``summary.csv``: one row per scenario × structure × method × target, errors as
-        fractions of ‖W‖_F (README, *Error decomposition*).
+        fractions of ‖W‖_F (docs/error-decomposition.md).
     fits : DataFrame
         ``fits.csv``: what each fit measured about itself.
     claims : list of dict or None

@@ -34,10 +34,10 @@ from podbench.sysid.paramdocs import entries, parameter_help
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
-target) and the norm percent errors follow Eq. 4.2 of Allison (2007); README.md defines
-every column. Exit codes: 0 ok, 1 regression found (regress), 2 unusable input (one line
-naming the file and field, or the option), 3 internal error (a bug; --debug shows the
-traceback), 130 interrupted.
+target) and the norm percent errors follow Eq. 4.2 of Allison (2007);
+docs/error-decomposition.md defines every column. Exit codes: 0 ok, 1 regression found
+(regress), 2 unusable input (one line naming the file and field, or the option), 3 internal
+error (a bug; --debug shows the traceback), 130 interrupted.
 """
 
 

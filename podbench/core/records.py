@@ -336,7 +336,18 @@ class Record:
         for old, new in (("W", "y"), ("F", "u")):
             if old in changes:
                 changes[new] = changes.pop(old)
-        return dataclasses.replace(self, **changes)
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return type(self).from_fields(**{**fields, **changes})
+
+    @classmethod
+    def from_fields(cls, **fields) -> Record:
+        """The record whose dataclass fields are ``fields`` (what :meth:`replace` and a model
+        file rebuild). A free response without ``dt`` is the dissertation's form (POVR and
+        MDS need no sampling interval), so its outputs are read as ``W``."""
+        if fields.get("u") is None and fields.get("dt") is None and fields.get("y") is not None:
+            fields = {**fields, "W": fields["y"]}
+            del fields["y"], fields["u"]
+        return cls(**fields)
 
 
 def unit_system_of(rec: Record) -> str:

@@ -40,7 +40,7 @@ Either way a unit with a measured case has no linear twin: its linearization col
     n_modes = 4                          # optional (method default otherwise)
     train = ["load1"]                    # training cases, in order (the first gives the POMs)
     options = { solver = "ls" }          # optional constructor keywords of the method
-    twin = "ML"                          # optional: label of the coupled twin (see README)
+    twin = "ML"                          # optional: label of the coupled twin
     report = true                        # optional: false = used only as another's twin
 
     [sweep]                              # optional: axes of `podbench sweep` (ignored by run)
