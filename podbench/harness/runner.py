@@ -429,8 +429,8 @@ _NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status",
 
 
 def _row_digits(spec, scenario: Scenario):
-    """How the rows of ``spec`` are written (issue 23: the same bytes on every OpenBLAS
-    kernel; :func:`~podbench.harness.digits.row_writer`): for a method of :func:`is_floored`,
+    """How the rows of ``spec`` are written (the same bytes whatever the CPU's round-off;
+    :func:`~podbench.harness.digits.row_writer`): for a method of :func:`is_floored`,
     every estimate at :data:`podbench.harness.digits.FLOOR_DIGITS` significant digits (the
     digits its round-off floor leaves in place); for an iterative deconvolution solver, every
     number at the digits its stopping tolerance determines, its residuals at those the

@@ -28,7 +28,7 @@ def _csv(rows, columns) -> str:
     w.writeheader()
     for r in rows:
         # error estimates to three significant digits (the project's rule for band numbers:
-        # their sixth digit moves between BLAS kernels); everything else to four decimals
+        # their sixth digit is round-off); everything else to four decimals
         w.writerow({k: (f"{v:.3g}" if k == "error_estimate" and isinstance(v, float) else
                         f"{v:.4f}" if isinstance(v, float) else v) for k, v in r.items()})
     return buf.getvalue()

@@ -62,8 +62,8 @@ tests/dynamics/test_coupling.py bounds them."""
 
 
 def _three_digits(v: float) -> float:
-    """Errors to three significant digits (the project's table rule: their sixth digit moves
-    between BLAS kernels)."""
+    """Errors to three significant digits (the project's table rule: their sixth digit is
+    round-off, which differs between CPUs)."""
     return float(f"{v:.3g}") if np.isfinite(v) else v
 
 
@@ -78,9 +78,9 @@ def _growth(g: float) -> float:
 
 def _step(k: float) -> float:
     """A divergence step to one significant digit: a run that diverges from round-off (the
-    two-step's growth factor just above 1) crosses the threshold some tens of steps apart on
-    two BLAS kernels (measured: 1192 against 1181, 1249 against 1251), so only its order
-    regenerates; the growth factor beside it says how fast."""
+    two-step's growth factor just above 1) crosses the threshold some tens of steps apart
+    from one CPU's round-off to another's, so only its order regenerates; the growth factor
+    beside it says how fast."""
     return float(f"{k:.1g}") if np.isfinite(k) else k
 
 

@@ -86,7 +86,7 @@ Regenerating over committed records keeps each record that the check below calls
 Command line: ``podbench experiment <folder or experiment.toml>`` (``--check`` compares the
 files with a fresh generation instead of writing: byte for byte, or, for a record written on
 another CPU, ``W`` and ``F`` to :data:`CHECK_ULPS` single-precision steps of each channel's
-peak — another BLAS kernel moves the last bits).
+peak — another CPU's round-off moves the last bits).
 """
 
 from __future__ import annotations
@@ -458,7 +458,7 @@ def _files(exp: Experiment) -> dict:
 def write_experiment(path) -> list[Path]:
     """Generate and write every record of the experiment file ``path`` (a file or its folder);
     each ``data/<test>`` folder is replaced atomically. A record already there that
-    :func:`check_experiment` calls the same (:data:`CHECK_ULPS`: another CPU's BLAS kernel
+    :func:`check_experiment` calls the same (:data:`CHECK_ULPS`: another CPU's round-off
     moved its last bits) is kept byte for byte, so regenerating the committed records leaves
     them unchanged on any CPU. Returns the files written."""
     exp = load_experiment(path)
@@ -480,10 +480,9 @@ def write_experiment(path) -> list[Path]:
 
 #: How far a fresh generation may differ from a committed record and still be "the same":
 #: in units of the single-precision spacing (2⁻²³) of each channel's peak. The records are
-#: byte-identical on one machine; another CPU's BLAS kernel (OpenBLAS picks one per CPU
-#: type) changes the last bits of the simulation, and the single-precision rounding of a
-#: value next to a rounding boundary then moves by one float32 step (measured between two
-#: OpenBLAS kernels on the Chapter 5 records: 17 values differ, by at most 0.44 step).
+#: byte-identical on one machine; another CPU's round-off changes the last bits of the
+#: simulation, and the single-precision rounding of a value next to a rounding boundary
+#: then moves by one float32 step (docs/noise.md gives the measured differences).
 CHECK_ULPS = 8
 
 
