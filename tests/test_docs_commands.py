@@ -108,6 +108,7 @@ COMMANDS: dict[str, object] = {
     "podbench list": RUN,
     "podbench methods": RUN,
     "podbench methods <name>": SYNOPSIS,
+    "podbench predict --method": SYNOPSIS,
     "podbench methods [NAME ...]": SYNOPSIS,
     "podbench predict --method ML --train FILE ... --target FILE ... --out DIR": COVERED(
         "tests/measured_io/test_predict_and_painter_street.py"),
@@ -259,6 +260,9 @@ BLOCKS: dict[tuple[str, str], object] = {
      "Structure: M, C, K(t)"): NOT_CODE,
     ("docs/ARCHITECTURE.md", "record files (.npz, .mat; CSV, UFF 58 via podbench.core.iofiles)"):
         NOT_CODE,
+    ("docs/ARCHITECTURE.md", "# podbench/sysid/methods/scaled.py: the one class"): COVERED(
+        "tests/test_architecture.py::"
+        "test_the_worked_example_adds_a_method_with_one_class_and_one_registry_line"),
     ("docs/ARCHITECTURE.md", "[study]"): NOT_RUN(
         "a template (`...` stands for the runner's own table): the complete files are "
         "scenarios/substructuring/substructuring.toml and scenarios/painter_street/"

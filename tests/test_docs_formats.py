@@ -17,12 +17,12 @@ import pytest
 import tomllib
 
 from podbench import api
-from podbench.core.iorecords import UNITS
+from podbench.core.recordfiles import FORMATS
+from podbench.core.units import UNITS
 from podbench.dynamics import excitations
 from podbench.structures.files import KINDS, list_structures, load_structure
 from podbench.study import bounds, claims, nonlinearity, scenarios
 from podbench.sysid.conditioning import DETREND_KINDS
-from podbench.sysid.measured import FORMATS
 from podbench.sysid.noise import NOISE_MODELS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -126,7 +126,8 @@ def test_the_documented_choices_are_the_parsers():
     assert _choices("## `[conditioning]`", "detrend") == list(DETREND_KINDS)
     methods = _section(SCENARIOS, "## `[[methods]]`")
     (row,) = [ln for ln in methods.splitlines() if ln.startswith("| `method`")]
-    named = re.findall(r"`(\w+)`", row.split("the built-in methods are", 1)[1].split("(")[0])
+    named = re.findall(r"`([\w-]+)`", row.split("the built-in methods are", 1)[1]
+                       .split("):", 1)[1].split("(")[0])
     assert named == list(scenarios.BUILTIN_METHODS)
     runners = _section(SCENARIOS, "## Studies with their own runner: `[study]`")
     (row,) = [ln for ln in runners.splitlines() if ln.startswith("| `runner`")]

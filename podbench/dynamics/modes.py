@@ -153,7 +153,7 @@ def fe_modes(structure: Structure, *, t: float = 0.0, kind: str = "auto",
         (:func:`newmark_poles`).
     channels : sequence of str, optional
         Channel names of the sensors (default ``"0"``, ``"1"``, …, the names of
-        :class:`~podbench.core.iorecords.IORecord`).
+        :class:`~podbench.core.records.Record`).
 
     Returns
     -------

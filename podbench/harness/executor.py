@@ -161,7 +161,8 @@ def _dask_client(address: str, timeout: float):
     try:
         from distributed import Client
     except ImportError:
-        raise InputError("--scheduler needs Dask distributed: pip install 'podbench[dask]' "
+        raise InputError("Parameter `scheduler`: needs Dask distributed: pip install "
+                         "'podbench[dask]' "
                          "(or pip install 'dask[distributed]')") from None
     from distributed.comm import parse_address, parse_host_port
     from distributed.comm.registry import backends

@@ -44,7 +44,6 @@ from typing import Any
 import numpy as np
 
 from podbench.core.atomic import atomic_write_bytes, atomic_write_text
-from podbench.core.iorecords import IORecord
 from podbench.core.records import Record
 from podbench.core.version import __version__
 from podbench.errors import InputError
@@ -98,13 +97,10 @@ class _Encoder:
             return {_TAG: "dict", "items": [[self.value(k, f"{where} key"),
                                              self.value(x, f"{where}[{k!r}]")]
                                             for k, x in v.items()]}
-        if isinstance(v, IORecord):
-            return {_TAG: "iorecord", "fields": {f.name: self.value(getattr(v, f.name),
-                                                                    f"{where}.{f.name}")
-                                                 for f in dataclasses.fields(v)}}
-        if hasattr(v, "W") and np.ndim(v.W) == 2:  # a Record, a Response: what methods read
-            return {_TAG: "record", "fields": {k: self.value(getattr(v, k, None), f"{where}.{k}")
-                                               for k in ("W", "F", "w0", "v0", "dt")}}
+        if isinstance(v, Record):  # a Record, a Response: what methods read
+            return {_TAG: "record", "fields": {f.name: self.value(getattr(v, f.name),
+                                                                  f"{where}.{f.name}")
+                                               for f in dataclasses.fields(Record)}}
         if hasattr(v, "get_params") and not isinstance(v, type):
             return self.estimator(v, where)
         if dataclasses.is_dataclass(v) and not isinstance(v, type):
@@ -159,10 +155,8 @@ class _Decoder:
             return tuple(self.value(x) for x in v["items"])
         if tag == "dict":
             return {_hashable(self.value(k)): self.value(x) for k, x in v["items"]}
-        if tag == "iorecord":
-            return IORecord(**{k: self.value(x) for k, x in v["fields"].items()})
-        if tag == "record":
-            return Record(**{k: self.value(x) for k, x in v["fields"].items()})
+        if tag in ("record", "iorecord"):  # "iorecord": files of before the one record type
+            return Record.from_fields(**{k: self.value(x) for k, x in v["fields"].items()})
         if tag == "object":
             obj = self.cls(v["class"])(**{k: self.value(x) for k, x in v["parameters"].items()})
             for k, x in v["state"].items():

@@ -6,12 +6,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from podbench.core.iorecords import IORecord
 from podbench.core.modeshapes import ModeSet, mac
 from podbench.core.records import Record
 from podbench.errors import InputError
 from podbench.sysid.methods import ERA, MDS, POVR, MixedResponse, MultipleLoad, SingleLoad
-from podbench.sysid.methods.inputs import MultipleLoadIO
 from podbench.sysid.modal import (
     STABILITY,
     discrete_modes,
@@ -168,11 +166,11 @@ def test_io_ml_realization_and_the_refusals():
     F = np.zeros((5, case.n))
     F[2] = u[0]
     W = newmark(case.M, case.C, case.K, case.dt, case.n, F=F)[0]
-    recs = [IORecord(u=u, y=W, dt=case.dt, input_units="lbf", output_units="in",
+    recs = [Record(u=u, y=W, dt=case.dt, input_units="lbf", output_units="in",
                      input_channels=("f",), name="r.npz")]
-    ml = MultipleLoadIO(n_lags=None, solver="block").fit(recs[:1])
+    ml = MultipleLoad(inputs="measured", n_lags=None, solver="block").fit(recs[:1])
     ss = to_statespace(ml)
-    target = IORecord(u=case.F_new[[1]], y=None, dt=case.dt, input_units="lbf",
+    target = Record(u=case.F_new[[1]], y=None, dt=case.dt, input_units="lbf",
                       output_units="in", input_channels=("f",))
     assert rel_err(ss.respond(target.u), ml.predict(target)) < 1e-8
     assert ss.input_channels == ("f",) and ss.output_units == "in"

@@ -6,11 +6,10 @@ import pickle
 import numpy as np
 import pytest
 
-from podbench.core.iorecords import IORecord
 from podbench.core.records import Record
 from podbench.errors import InputError
 from podbench.sysid.methods import ERA, MDS, POVR, MixedResponse, MultipleLoad, SingleLoad
-from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO
+from podbench.sysid.methods.fir import FIRLeastSquares
 from podbench.sysid.models import FORMAT_VERSION, load_model, read_header, save_model
 
 from ._cases import forced_case, free_case, mixed_case
@@ -38,10 +37,10 @@ def _mixed():
 def _io():
     c = forced_case("coupled")
     rng = np.random.default_rng(5)
-    recs = [IORecord(u=F, y=W + 1e-4 * np.std(W) * rng.normal(size=W.shape), dt=c.dt,
+    recs = [Record(u=F, y=W + 1e-4 * np.std(W) * rng.normal(size=W.shape), dt=c.dt,
                      input_units="lbf", output_units="in", name=f"r{j}.npz")
             for j, (W, F) in enumerate(zip(c.W, c.F, strict=True))]
-    return recs, IORecord(u=c.F_new, y=c.W_new, dt=c.dt, input_units="lbf",
+    return recs, Record(u=c.F_new, y=c.W_new, dt=c.dt, input_units="lbf",
                           output_units="in", name="target.npz")
 
 
@@ -54,7 +53,8 @@ CASES = {
     "MR": (lambda: MixedResponse(n_modes=3), _mixed),
     "ERA": (lambda: ERA(n_modes=5, max_order=12), _forced),
     "FIR-LS": (lambda: FIRLeastSquares(lag_grid=(0.05, 0.1)), _io),
-    "ML-IO": (lambda: MultipleLoadIO(lag_grid=(0.05, 0.1), prior="tc"), _io),
+    "ML-IO": (lambda: MultipleLoad(inputs="measured", n_lags="auto", solver="ls",
+                                   lag_grid=(0.05, 0.1), prior="tc"), _io),
 }
 
 
@@ -76,7 +76,7 @@ def test_a_loaded_model_predicts_exactly_as_the_fitted_one(name, tmp_path):
 
 def test_the_band_and_its_calibration_travel_with_the_model(tmp_path):
     train, target = _io()
-    est = MultipleLoadIO(lag_grid=(0.05, 0.1))
+    est = MultipleLoad(inputs="measured", n_lags="auto", solver="ls", lag_grid=(0.05, 0.1))
     est.fit(train[:4])
     est.calibrate_band(n_draws=2, seed=3)  # not the defaults: must be carried, not redone
     back = load_model(save_model(est, tmp_path / "m.npz"))
