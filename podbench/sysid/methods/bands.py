@@ -221,6 +221,8 @@ import numpy as np
 from podbench.core.iorecords import IORecord
 from podbench.core.records import Record, as_record
 from podbench.errors import InputError
+from podbench.sysid.methods import band_target
+from podbench.sysid.methods.band_target import TargetTerms
 
 __all__ = ["Prediction", "BandCalibration", "calibrate", "predict_band", "check_coverage",
            "interval_score", "band_coverage"]
@@ -370,7 +372,11 @@ class Prediction:
         ``n_folds`` folds), ``"in-sample"`` (one design only: no split) or ``"noise"``
         (the noise part alone was asked for).
     details : dict
-        Scalars of the calibration (conformal quantile, folds, noise level, …).
+        Scalars of the calibration (conformal quantile, folds, noise level, the target's
+        leverage, blind spot and projection share, …).
+    note : str
+        Why no error estimate can be made (``error_estimate`` is then NaN); empty when
+        it can.
     """
 
     mean: np.ndarray
@@ -381,6 +387,7 @@ class Prediction:
     dt: float | None = None
     source: str = ""
     details: dict = field(default_factory=dict)
+    note: str = ""
 
     @property
     def half_width(self) -> np.ndarray:
@@ -499,6 +506,11 @@ class BandCalibration:
     amplitude_range: tuple = (0.0, 0.0)  # RMS range of the training records' W
     reference_rms: np.ndarray | None = None  # per-sensor RMS of the training records' W
     inside_score: float | None = None  # mean_square_score of the residuals inside the basis
+    gains: tuple | None = None       # (κ_Λ², κ_Δ²) of the target-aware estimate (folds)
+    excitations: object = None       # band_target.Excitations of the training records in U
+    fold_errors: np.ndarray | None = None     # realized relative error of each fold
+    fold_estimates: np.ndarray | None = None  # the estimate's value for each fold
+    note: str = ""                   # why no estimate can be made (empty: it can)
 
     def quantile(self, coverage: float) -> float:
         """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
@@ -604,9 +616,9 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
 
 
 def _fold_envelopes(Whs, recs) -> list[np.ndarray]:
-    """Each fold's difficulty: the envelope of its prediction, floored by the per-sensor
-    RMS of the records it was fitted on, times its amplitude-extrapolation factor
-    (computed for all folds at once where the predictions share a shape)."""
+    """``(envelopes, factors)``: each fold's envelope of its prediction, floored by the
+    per-sensor RMS of the records it was fitted on (computed for all folds at once where
+    the predictions share a shape), and its amplitude-extrapolation factor ``d^β``."""
     N = len(recs)
     ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
     amps = [_rms(r.W) for r in recs]
@@ -618,17 +630,17 @@ def _fold_envelopes(Whs, recs) -> list[np.ndarray]:
         factors.append(extrapolation(_rms(Wh), min(rest_rms), max(rest_rms))
                        ** AMPLITUDE_POWER)
     if len({Wh.shape for Wh in Whs}) == 1:
-        return list(_envelope(np.stack(Whs), np.stack(refs))
-                    * np.asarray(factors)[:, None, None])
-    return [_envelope(Wh, ref) * f for Wh, ref, f in zip(Whs, refs, factors, strict=True)]
+        return list(_envelope(np.stack(Whs), np.stack(refs))), factors
+    return [_envelope(Wh, ref) for Wh, ref in zip(Whs, refs, strict=True)], factors
 
 
 def _residuals(model, recs, U, can_split: bool, frozen=None):
-    """``(source, residuals, envelopes, cv_modes)``: leave-one-record-out residuals where the
-    records allow a split, else the in-sample residuals."""
-    residuals, envs = [], []
+    """``(source, residuals, envelopes, cv_modes, predictions, factors)``: leave-one-record-out
+    residuals where the records allow a split, else the in-sample residuals."""
+    residuals, envs, factors = [], [], []
     source = "in-sample"
     cv_modes = None
+    Whs: list = []
     if can_split:
         source = "cross-validation"
         k = int(U.shape[1])
@@ -636,7 +648,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
-        envs = _fold_envelopes(Whs, recs)
+        envs, factors = _fold_envelopes(Whs, recs)
         for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
@@ -653,7 +665,9 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             W = np.asarray(r.W, dtype=float)[:, :Wh.shape[1]]
             residuals.append(W - Wh)
             envs.append(_envelope(Wh))
-    return source, residuals, envs, cv_modes
+            Whs.append(Wh)
+            factors.append(1.0)
+    return source, residuals, envs, cv_modes, Whs, factors
 
 
 def _time_profile(residuals, envs) -> np.ndarray:
@@ -685,14 +699,13 @@ def _time_profile(residuals, envs) -> np.ndarray:
 
 def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
               cross_validate: bool = True, reuse_choices: bool = True) -> BandCalibration:
-    """Calibrate the band of a fitted ``model`` on its training ``records`` (see the module
-    docstring). ``noise_std``: per-channel noise std of the training records (scalar or
-    (m,)), default estimated; ``n_draws`` noise refits (default: 2 where the records allow
-    no split, 0 where they are cross-validated — each fold is then fitted on noisy records
-    and scored against a noisy one, so the noise reaches the band through the folds, at
-    the cost of no extra refit); ``cross_validate=False`` gives the noise part alone (the
-    known-answer case); ``reuse_choices=False`` lets every refit choose its regularization
-    again (see the module docstring, *Regularization of the refits*)."""
+    """Calibrate the band of a fitted ``model`` on its training ``records`` (docs/bands.md).
+    ``noise_std``: per-channel noise std of the training records (scalar or (m,)), default
+    estimated; ``n_draws`` noise refits (default: 2 where the records allow no split, 0
+    where they are cross-validated — each fold is then fitted on noisy records and scored
+    against a noisy one, so the noise reaches the band through the folds, at the cost of
+    no extra refit); ``cross_validate=False`` gives the noise part alone (the known-answer
+    case); ``reuse_choices=False`` lets every refit choose its regularization again."""
     recs = list(records)
     if isinstance(recs[0], IORecord) and cross_validate and len(recs) < 2:
         raise InputError(f"{type(model).__name__}: a prediction band on input/output records "
@@ -703,40 +716,125 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
         (hi is None or len(recs) - 1 <= hi)
     if n_draws is None:
         n_draws = 0 if can_split else 2
-    m = np.asarray(model.modes_).shape[0]
     U = np.asarray(model.modes_, dtype=float)
-    sig = _noise_std(model, recs, noise_std, m)
+    sig = _noise_std(model, recs, noise_std, U.shape[0])
     frozen = _frozen(model) if reuse_choices else {}
     noise_models = _noise_refits(model, recs, sig, n_draws, seed, U, frozen)
     if not cross_validate:
         return BandCalibration("noise", np.zeros(0), 0.0, np.ones(N_TIME_BINS), sig, 0,
                                len(noise_models), None, noise_models)
-    source, residuals, envs, cv_modes = _residuals(model, recs, U, can_split, frozen)
+    source, residuals, envs, cv_modes, Whs, factors = _residuals(model, recs, U, can_split,
+                                                                  frozen)
     g = _time_profile(residuals, envs)
-    difficulty = [E * g[_bins(R.shape[1])][None, :] for R, E in zip(residuals, envs,
-                                                                   strict=True)]
-    scores = np.concatenate([(np.abs(R) / S).ravel()
-                             for R, S in zip(residuals, difficulty, strict=True)])
-    # the error estimate's scale: per fold, κ_j² = ‖R_j‖²/‖s_j‖² (the fold's Frobenius
-    # error in units of its difficulty, so that the estimate is the same quantity as
-    # total_error); the geometric mean over folds (relative errors differ by orders of
-    # magnitude between records — a load near the clamp — and the estimate is scored on a
-    # log scale: within a factor of 2)
-    ms = np.array([np.sum(R ** 2) / np.sum(S ** 2)
-                   for R, S in zip(residuals, difficulty, strict=True)])
-    ms_gm = _geometric_mean(ms)
-    inside = None
-    if PROJECTION_SHARE and callable(getattr(model, "projection_share", None)):
-        # the same scale from the residuals' part inside the basis (U Uᵀ R_j): the error the
-        # identification adds; the target's own share outside the basis is added per target
-        inside = _geometric_mean(np.array([np.sum((U @ (U.T @ R)) ** 2) / np.sum(S ** 2)
-                                           for R, S in zip(residuals, difficulty,
-                                                           strict=True)]))
     amps = [_rms(r.W) for r in recs]
-    return BandCalibration(source, scores, ms_gm, g, sig,
-                           len(residuals) if source == "cross-validation" else 0,
-                           len(noise_models), cv_modes, noise_models,
-                           (min(amps), max(amps)), _sensor_rms(recs), inside)
+    cal = BandCalibration(source, np.zeros(0), 0.0, g, sig,
+                          len(residuals) if source == "cross-validation" else 0,
+                          len(noise_models), cv_modes, noise_models,
+                          (min(amps), max(amps)), _sensor_rms(recs))
+    if source == "cross-validation":
+        _fold_estimate(cal, model, recs, U, residuals, Whs, factors)
+    else:
+        _in_sample_scale(cal, residuals, envs)
+    return cal
+
+
+def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, factors) -> None:
+    """The target-aware estimate's gains, each fold's estimate and the band's normalized
+    scores (docs/bands.md, *The estimate*): each fold's realized error against its
+    :func:`~podbench.sysid.methods.band_target.fold_terms`, the gains fitted to them
+    (:func:`fit_gains`), and every residual sample over the fold's difficulty — its
+    estimate spread over the prediction's envelope."""
+    U_cv = U if cal.cv_modes is None else U[:, :cal.cv_modes]
+    terms = band_target.fold_terms(model, recs, U_cv)
+    if terms is None:  # no excitation to compare: one number per model
+        terms = [TargetTerms(0.0, 0.0, None)] * len(recs)
+    errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
+        np.asarray(r.W, float)[:, :R.shape[1]])), 1e-300)
+        for R, r in zip(residuals, recs, strict=True)])
+    d = np.asarray(factors, dtype=float)
+    cal.gains = fit_gains(errors, terms, d)
+    cal.fold_errors = errors
+    cal.fold_estimates = np.array([estimate(cal.gains, t, f)
+                                   for t, f in zip(terms, d, strict=True)])
+    cal.excitations = band_target.excitations(model, recs, U)
+    scores = []
+    for R, Wh, e in zip(residuals, Whs, cal.fold_estimates, strict=True):
+        S = _difficulty(Wh, cal, e)
+        scores.append((np.abs(R) / S).ravel())
+    cal.scores = np.concatenate(scores)
+    cal.mean_square_score = float(np.mean(cal.scores ** 2))
+
+
+def _in_sample_scale(cal: BandCalibration, residuals, envs) -> None:
+    """One design only: the in-sample residuals in units of the envelope (the scale of the
+    band's in-sample part and of its estimate)."""
+    difficulty = [E * cal.time_profile[_bins(R.shape[1])][None, :]
+                  for R, E in zip(residuals, envs, strict=True)]
+    cal.scores = np.concatenate([(np.abs(R) / S).ravel()
+                                 for R, S in zip(residuals, difficulty, strict=True)])
+    cal.mean_square_score = _geometric_mean(np.array([
+        np.sum(R ** 2) / np.sum(S ** 2) for R, S in zip(residuals, difficulty, strict=True)]))
+
+
+def estimate(gains, terms: TargetTerms, factor: float = 1.0) -> float:
+    """The predicted relative error ``sqrt(d²(κ_Λ²(Λ² + 1) + κ_Δ²Δ²) + ρ²)`` of a target
+    (or a fold) with :class:`~podbench.sysid.methods.band_target.TargetTerms` ``terms``
+    and amplitude factor ``d`` (docs/bands.md, *The estimate*)."""
+    a, b = gains
+    rho2 = (terms.rho or 0.0) ** 2
+    return math.sqrt(factor ** 2 * (a * (terms.leverage2 + 1.0) + b * terms.blind2) + rho2)
+
+
+FLOOR_SHARE = 0.01
+"""A fold's error left after its projection share ρ is at least this share of its error²
+(the gains are fitted on logarithms)."""
+GAIN_GRID = 41
+"""Candidates of the blind-spot gain κ_Δ² (log-spaced over five decades, and 0)."""
+
+
+def fit_gains(errors, terms, factors) -> tuple[float, float]:
+    """``(κ_Λ², κ_Δ²)`` fitted to the folds' realized errors ``e_j`` in log space:
+    ``Σ_j (ln y_j − ln(κ_Λ²(Λ_j² + 1) + κ_Δ²Δ_j²))²`` least, with
+    ``y_j = (e_j² − ρ_j²)/d_j²`` (the share outside the basis is known, the amplitude
+    factor stated). For each κ_Δ² on a grid (0, and five decades about the value that
+    explains the folds by the blind spot alone) κ_Λ² is the geometric mean that the
+    logarithmic fit gives; the pair of least loss is kept (deterministic: a grid, no
+    optimizer)."""
+    e2 = np.asarray(errors, dtype=float) ** 2
+    rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
+    y = np.maximum(e2 - rho2, FLOOR_SHARE * e2) / np.asarray(factors, float) ** 2
+    L = np.array([t.leverage2 + 1.0 for t in terms])
+    D = np.array([t.blind2 for t in terms])
+    ok = np.isfinite(y) & (y > 0) & np.isfinite(L) & np.isfinite(D)
+    if not np.any(ok):
+        return 0.0, 0.0
+    y, L, D = y[ok], L[ok], D[ok]
+    cands = [0.0]
+    if np.any(D > 0):
+        base = float(np.median(y[D > 0] / D[D > 0]))
+        cands += list(base * np.logspace(-4, 1, GAIN_GRID))
+    best = None
+    for b in cands:
+        a = _geometric_mean(np.maximum(y - b * D, 1e-12 * y) / L)
+        loss = float(np.sum((np.log(y) - np.log(a * L + b * D)) ** 2))
+        if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
+            best = (loss, a, b)
+    return best[1], best[2]
+
+
+def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float) -> np.ndarray:
+    """The band's difficulty of a prediction ``Ŵ`` whose relative error is estimated as
+    ``err``: its envelope (floored by the training records' per-sensor RMS) times the time
+    profile ``g``, scaled so that its Frobenius norm is the absolute error that ``err``
+    means, ``‖Ŵ‖ err/sqrt(1 + err²)`` (the truth's norm is ``‖Ŵ‖/sqrt(1 + err²)`` for an
+    error uncorrelated with it)."""
+    E = _envelope(Wh, cal.reference_rms) * cal.time_profile[_bins(Wh.shape[1])][None, :]
+    norm_e = float(np.linalg.norm(E))
+    if not (math.isfinite(err) and norm_e > 0):
+        return E
+    scale = float(np.linalg.norm(Wh)) * err / math.sqrt(1.0 + err ** 2)
+    tiny = 1e-12 * (float(np.sqrt(np.mean(Wh ** 2))) or 1.0)
+    return np.maximum(E * (scale / norm_e), tiny)
 
 
 def _geometric_mean(ms: np.ndarray) -> float:
@@ -784,7 +882,7 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
     """The band of ``model``'s prediction ``mean`` for ``record`` at ``coverage``."""
     c = check_coverage(coverage)
     Wh = np.asarray(mean, dtype=float)
-    m, n = Wh.shape
+    n = Wh.shape[1]
     var_noise = np.zeros_like(Wh)
     if cal.noise_models:
         devs = np.stack([np.asarray(e.predict(record), dtype=float) - Wh
@@ -793,34 +891,60 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
         var_noise = _moving_rms(np.sqrt(np.mean(devs ** 2, axis=0)),
                                 max(3, round(ENVELOPE_FRACTION * n))) ** 2
     z = NormalDist().inv_cdf(0.5 + c / 2)
-    if cal.source == "noise":
-        s_model = np.zeros_like(Wh)
-        q = 0.0
-    else:
-        bins = _bins(n)
-        d = extrapolation(_rms(Wh), *cal.amplitude_range) if cal.source == \
-            "cross-validation" else 1.0
-        ref = cal.reference_rms if cal.source == "cross-validation" else None
-        s_model = _envelope(Wh, ref) * cal.time_profile[bins][None, :] * d ** AMPLITUDE_POWER
-        q = cal.quantile(c)
-    s_diag, diag_details, norm = _diagonal_part(model, record, Wh, cal)
-    half = np.sqrt((z ** 2) * (var_noise + s_diag ** 2) + (q * s_model) ** 2)
-    share = getattr(model, "projection_share", None)
-    rho = share(record) if cal.inside_score is not None and callable(share) else None
-    if rho is None:
-        pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise
-                               + s_diag ** 2))
-        err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
-    else:  # the identification's error inside the basis, and the target's own outside it
-        pred_sq = float(np.sum(cal.inside_score * s_model ** 2 + var_noise + s_diag ** 2))
-        err = math.sqrt(pred_sq / norm ** 2 + rho ** 2) if norm > 0 else math.inf
-    details = {"conformal_quantile": q, "n_folds": cal.n_folds, "n_draws": cal.n_draws,
+    details = {"n_folds": cal.n_folds, "n_draws": cal.n_draws,
                "n_scores": int(cal.scores.size),
                "noise_std_max": float(np.max(cal.noise_std)) if cal.noise_std is not None
                else 0.0}
     if cal.cv_modes is not None:
         details["cv_modes"] = cal.cv_modes
-    details.update(diag_details)
+    if cal.source == "cross-validation":
+        err, s_model, q, terms = _cross_validated(model, record, Wh, cal, c)
+        details.update(conformal_quantile=q, leverage=math.sqrt(terms.leverage2),
+                       blind_spot=math.sqrt(terms.blind2))
+        if terms.rho is not None:
+            details["projection_share"] = terms.rho
+        half = np.sqrt((q * s_model) ** 2 + z ** 2 * var_noise)
+        note = ""
+    else:
+        err, half, note, more = _one_design(model, record, Wh, cal, c, z, var_noise)
+        details.update(more)
     return Prediction(mean=Wh, lower=Wh - half, upper=Wh + half, coverage=c,
                       error_estimate=err, dt=getattr(model, "dt_", None) or
-                      getattr(record, "dt", None), source=cal.source, details=details)
+                      getattr(record, "dt", None), source=cal.source, details=details,
+                      note=note)
+
+
+def _cross_validated(model, record, Wh, cal: BandCalibration, c: float):
+    """``(estimate, difficulty, conformal quantile, terms)`` of a cross-validated band."""
+    U = np.asarray(model.modes_, dtype=float)
+    terms = band_target.target_terms(model, cal.excitations, record, U)
+    if terms is None:
+        terms = TargetTerms(0.0, 0.0, None)
+    d = extrapolation(_rms(Wh), *cal.amplitude_range) ** AMPLITUDE_POWER
+    err = estimate(cal.gains, terms, d)
+    return err, _difficulty(Wh, cal, err), cal.quantile(c), terms
+
+
+def _one_design(model, record, Wh, cal: BandCalibration, c: float, z: float, var_noise):
+    """``(estimate, half-width, note, details)`` of a band fitted on one design only (no
+    split): the in-sample residual's part, the noise part and, for SL and POVR, the
+    diagonal assumption's split; no estimate (NaN and a note) for a method that has no
+    model-form term (MR)."""
+    s_model = np.zeros_like(Wh)
+    q = 0.0
+    if cal.source == "in-sample":
+        s_model = _envelope(Wh) * cal.time_profile[_bins(Wh.shape[1])][None, :]
+        q = cal.quantile(c)
+    s_diag, details, norm = _diagonal_part(model, record, Wh, cal)
+    half = np.sqrt((z ** 2) * (var_noise + s_diag ** 2) + (q * s_model) ** 2)
+    details["conformal_quantile"] = q
+    if cal.source == "in-sample" and "diagonal_unexplained" not in details and \
+            "diagonal_inconsistency" not in details:
+        note = (f"no error estimate: {type(model).__name__} was fitted on one design "
+                f"({len(getattr(model, 'training_records_', None) or ())} records, none of "
+                "which can be left out) and its in-sample residual does not show the "
+                "model-form error; the band holds the noise and the in-sample residual only")
+        return math.nan, half, note, details
+    pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise + s_diag ** 2))
+    err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
+    return err, half, "", details
