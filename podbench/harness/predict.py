@@ -167,7 +167,7 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
             for stem, rec, p in zip(stems, tg, preds, strict=True)]
     columns = ["target", "method", "total_error", "units"]
     if coverage is not None:
-        columns += ["error_estimate", "coverage"]
+        columns += ["error_estimate", "coverage", "note"]
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
     w.writeheader()
@@ -249,10 +249,16 @@ def _row(stem: str, method: str, rec: IORecord, p, coverage) -> dict:
            f"{float(np.linalg.norm(yh - rec.y) / np.linalg.norm(rec.y)):.6g}")
     row = {"target": stem, "method": method, "total_error": err, "units": rec.output_units}
     if coverage is not None:
-        if not (np.all(np.isfinite(p.lower)) and np.all(np.isfinite(p.upper))):
+        if np.isfinite(p.error_estimate) and not (np.all(np.isfinite(p.lower))
+                                                 and np.all(np.isfinite(p.upper))):
             raise InputError(f"--coverage: {coverage:g} needs more calibration residuals "
                              "than the training records give (the band would be infinite); "
                              "lower it or add --train files")
+        if not np.isfinite(p.error_estimate):  # no estimate can be made: say why
+            row["error_estimate"], row["coverage"] = "", ""
+            row["note"] = p.note
+            return row
         row["error_estimate"] = f"{p.error_estimate:.3g}"
         row["coverage"] = "" if rec.y is None else f"{p.covers(rec.y):.6g}"
+        row["note"] = ""
     return row

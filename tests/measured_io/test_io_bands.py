@@ -92,7 +92,8 @@ def test_predict_with_coverage_writes_the_band_and_the_estimate(tmp_path, capsys
                  "--out", str(out), "--solver", "ls", "--coverage", "0.9"]) == 0
     rows = list(csv.DictReader(open(out / "errors.csv")))
     assert list(rows[0]) == ["target", "method", "total_error", "units", "error_estimate",
-                             "coverage"]
+                             "coverage", "note"]
+    assert rows[0]["note"] == ""  # an estimate was made
     assert 0.7 < float(rows[0]["coverage"]) <= 1.0 and rows[1]["coverage"] == ""
     assert 0.5 < float(rows[0]["error_estimate"]) / float(rows[0]["total_error"]) < 2.0
     with np.load(out / "s2_0.npz") as z:
