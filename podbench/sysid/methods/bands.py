@@ -1,212 +1,24 @@
-"""Prediction bands and error estimates: every prediction states its own error (issue 21).
+"""Prediction bands and error estimates: every prediction states its own error.
 
 ``model.predict(target, coverage=0.9)`` returns a :class:`Prediction` (``mean``, ``lower``,
-``upper``, ``error_estimate``, ``to_pandas()``); ``model.predict(target)`` still returns the
-array. The band is built from the training records only (no truth), from two sources:
+``upper``, ``error_estimate``, ``note``, ``to_pandas()``); ``model.predict(target)`` still
+returns the array. Everything is built from the training records, never from the truth
+(docs/bands.md has the derivations and the measurements):
 
-1. **Identification uncertainty** (measurement noise through the deconvolution). The noise
-   of each sensor channel is estimated from the training records — the part of every
-   record outside the fitted basis, ``(I − UUᵀ)W``, holds ``(m − k)/m`` of white per-channel
-   noise (and the projection error, so the estimate errs high) — or given (``noise_std``).
-   It is propagated by refitting the method on the training records with fresh noise of that
-   level (``n_draws`` Monte-Carlo refits in the fitted basis; by default only where the
-   records allow no split — with cross-validation the noise reaches the band through the
-   folds, which are fitted on noisy records and scored against a noisy one); the spread of
-   the target's prediction over the draws is ``s_noise(i, t)`` (a moving RMS over time
-   smooths the few draws). Under Gaussian noise and a linear fit this part alone is exact:
-   ``half-width = z_{(1+c)/2} · s_noise``.
-2. **Model-form error** (projection, diagonalization, linearization, time variance) by
-   cross-validation over the training records: each training record is predicted by a
-   model fitted to the others in the fitted basis ``U`` (leave one record out; the basis
-   stays that of the whole fit, so the folds differ from the model only in the dynamics
-   they identify; a method whose ``k`` is bounded by the number of records refits in the
-   first ``N − 1`` columns of ``U``: see below). Each
-   residual ``R_j(i, t)`` is normalized by a difficulty ``s(i, t)`` computed from the
-   *prediction only* — its local RMS envelope at that sensor times a time profile ``g(t)``
-   (10 bins, learned from the folds' residuals: phase errors grow with time) — and the
-   conformal quantile ``q`` of the pooled normalized residuals at the level ``c`` (with the
-   ``(n + 1)`` correction of split-conformal regression, as crepes' normalized
-   ``ConformalRegressor`` computes it) scales the target's band:
-   ``half-width = q · s(i, t)``.
-
-The two half-widths add in quadrature. **Exchangeability.** Samples of one time history are
-not exchangeable (neighbouring samples share their error), so no per-sample guarantee is
-claimed. The unit that is argued exchangeable is the *record*: training load cases and the
-target are draws of one test design (load position, shape, initial profile); the coverage
-podbench scores is the fraction of a target's samples inside the band, and the pooled
-quantile estimates the quantile of that fraction's distribution over records. With N
-records the guarantee is at the record level only, and weak (N = 3…6); it is measured, not
-assumed (the calibration study). Where a method takes one design only (POVR, SL: one
-record; MR: exactly three) there is no split: the model-form part then rests on the
-training record's in-sample residual (its projection error) alone, which cannot see the
-diagonal assumption's error (SL and POVR add its split, *One design only* below) —
-such bands are reported with their calibration and ``Prediction.source`` says
-``"in-sample"``.
-
-The error estimate (the predicted ``total_error`` ‖Ŵ − W‖_F/‖W‖_F) is the RMS of the band's
-predicted residual, ``sqrt(Σ (μ·s² + s_noise²)) / ‖Ŵ‖_F`` (SL, POVR: plus the
-diagonal part, over the truth's norm its split supports: below; MDS and POVR on an initial
-displacement: the part inside the basis plus the target's own share outside it, *The
-target's own projection share* below), with ``μ`` the geometric mean over
-the folds of ``‖R_j‖²_F / ‖s_j‖²_F`` (each fold's Frobenius error in units of its
-difficulty, so the estimate measures what ``total_error`` measures): relative errors differ
-by orders of magnitude between records (a load near the clamp barely moves the beam and its
-relative projection error is ten times the others'), and an estimate scored within a factor
-of 2 is a log-scale estimate, for which the geometric mean is the central value. The band
-keeps the pooled quantile (its coverage is a fraction of samples over all folds).
-
-**Cost** (``python benchmarks/bands.py``, issue 21: at most 5× the plain fit and
-predict). A method may give its folds without refits, ``fold_predictions(records, basis,
-frozen)`` (the same predictions as the refits, to round-off; tested): MDS's fold
-prediction is linear in the other records' projections (``U Σ_l c_l Uᵀ ˡW``, ``c`` from
-the fold's ``V̂0``), ML's folds are deconvolved together (``Solver.solve_many``; ``"block"``:
-one batched forward substitution). The band's arithmetic runs on the stacked folds (one
-envelope pass, the moving RMS by slices of a cumulative sum, the conformal quantile by
-selection). Measured (a machine at load 13–17 on 2 cores; sub-millisecond ratios vary up
-to 2× between runs): MDS5 12–49× → 4.9–6.0×, ML4-block 5–7× → 2.5–4.7×, POVR 6–7.3× →
-5.4–7.6× (its 0.4-ms fit against two noise refits and the diagonal split: over target);
-clean / 1 % noise: ML6-cgls 2.6 / 3.5×, ML6-fft 4.1 / 3.8×, ML4-cgls 1.5 / 1.6×, SL
-2.6 / 2.9×, FIR-LS 3.6 / 3.9×, ML-TC 2.2 / 2.2×.
-
-**The target's own projection share** (:data:`PROJECTION_SHARE`). A free-response
-method on an initial displacement (MDS, POVR) knows the target's ``w̃0`` and predicts in
-the span of ``U``: its relative error at ``t = 0`` is exactly ``ρ = ‖(I − UUᵀ)w̃0‖/‖w̃0‖``
-(``projection_share``), measurable before the truth is known, and on the free beams the
-whole history's error follows it (MDS5 on the LTI beam: realized 0.042 / 0.0007 / 0.0035
-/ 0.0022 / 0.0060 / 0.0007 against ρ = 0.043 / 0.0007 / 0.0033 / 0.0019 / 0.0061 /
-0.0008). The estimate of such a target is ``sqrt(e_in² + ρ²)``: the identification's
-error inside the basis (the same scale rule on the residuals' part ``U Uᵀ R_j``) plus the
-target's own share outside it, instead of the training records' projection error; the
-band is unchanged. Measured on results/calibration (before → after; no constant; found on
-the LTI beam, checked on the others): within ×2 0.328 → 0.361, Spearman 0.861 → 0.871;
-cross-validated within ×2 0.352 → 0.402, Spearman 0.778 → 0.809 (median
-estimate/realized 2.11 → 1.91); free beams within ×2 0.438 → 0.519 (LTV MDS5 0.22 → 0.50,
-Spearman 0.47 → 0.75; NL unchanged); coverage identical. On the 5-DOF chain (k = 3 of 5)
-MDS's estimate 0.837 → 0.326 against a realized 0.310.
-
-**What limits the estimate's accuracy** (measured on results/calibration's 402
-predictions, log₂ of estimate/realized). The estimate is the expected error (the RMS of
-the band's predicted residual), not a quantile. Its misses are mostly *within* a fitted
-model: the study fits 60 models (method × structure class × noise level), each predicting
-4–8 targets, and an oracle constant per fitted model, chosen on the truth, puts 0.79 of
-the estimates within ×2 (0.774 before the projection share; one constant for all 0.44,
-per method 0.60). Any correction that is one number per fitted model — a rescaling, a
-leave-one-out fold-size correction derived from the folds, a mean of the folds instead of
-their geometric mean — is at most that oracle, so none reaches "within ×2 for 80 %":
-
-* cross-validated estimates are nearly one number per model: across a model's targets
-  log₂(estimate) has a standard deviation of 0.43 (median over models) against 1.54 for
-  the realized error, within-model Spearman 0.53 (0.25 before the projection share;
-  oracle per model 0.74): the difficulty ``s`` follows the prediction's own envelope, so
-  ``‖s‖/‖Ŵ‖`` hardly depends on the target; for forced targets nothing like ``ρ`` is
-  known (the response starts at rest), and the folds cannot tell how far a target lies
-  from the training design;
-* the one-design split (SL, POVR) ranks a model's targets (within-model Spearman 0.98,
-  oracle per model 0.89) but its level is off (SL ×7.8 high on the beams, where the
-  realized ``‖W_⊥‖`` is 5–16× the training pattern's gain ``‖T‖``).
-
-A per-(method, class) shift tuned at 0 % noise and checked at 1 and 5 % reaches 0.64 of
-the former estimates within ×2 (unshifted 0.33) — a constant fitted on the truth, so not
-adopted.
-
-**Regularization of the refits.** Every refit (fold or noise draw) runs at the full fit's
-data-driven choices (:meth:`~podbench.sysid.methods.base.PODMethod.frozen_params`: the GCV
-``reg`` of ``"cgls"``/``"fft"``/``"stls"``, a realization's hold-out order, ERA's order,
-OpInf's regularizer, the FIR lags and TC prior of the IO methods) instead of choosing them
-again from its own records. The folds then measure the model-form error *at the full fit's
-regularization*, which is the regularization of the model whose prediction the band is
-for; re-choosing would add the variability of the choice (a different λ per fold) to the
-band, and its search is most of the cost (ML6 with ``"cgls"``: the band cost 6.4× the plain
-fit and predict with a GCV search per fold, 2.5× without; ``benchmarks/bands.py``). Bias:
-the full fit's λ was chosen with the held-out record among the data (a mild leak, which
-makes a fold's error optimistic), while a fold has fewer records at the same λ than the
-choice was made for (its system is less determined: pessimistic). Measured on the
-calibration study (before the amplitude factor below): class coverage moves by at most a
-few points on the beams, both ways (ML NL 0.82 → 0.82, ML4 LTI 0.95 → 0.93); on the truss a
-fold whose own GCV λ collapsed (2e-4 instead of 0.135: error 176× its response) now
-predicts at the full λ (error 0.99), i.e. almost nothing, and its residual in units of its
-own envelope dominated the pooled quantile (ML7: coverage 0.89 → 0.99, interval score 19×
-the constant band's) until the envelope's floor below was tied to the training
-amplitudes. ``reuse_choices=False`` (:func:`calibrate`) re-chooses in every refit.
-
-**Amplitude extrapolation.** A fold (or target) whose prediction is larger than every
-record its model was fitted on is not exchangeable with the others: the linearization error
-of a nonlinear structure grows with amplitude. Its difficulty is multiplied by ``d^β``
-(:func:`extrapolation`, ``d = max(a/a_max, 1)``, ``a`` the RMS of the prediction — what the
-method sees — and ``a_max`` the largest RMS of its training records; β =
-:data:`AMPLITUDE_POWER` = 1, stated, not fitted: with N = 4…7 folds and one of them beyond
-the range a fitted β is one point's slope), in the folds' scores and in the target's band.
-The envelope's floor is also taken relative to the training records' per-sensor RMS
-(:data:`TRAINING_FLOOR`), so that a fold predicting almost nothing gets a band on the scale
-of what its model was fitted on. Measured on the calibration study (reuse on; class means
-of ML): LTI 0.95 → 0.94, LTV 0.91 → 0.95, NL 0.82 → 0.82, truss 0.99 → 0.99 with its
-interval score 19 → 1.8× the constant band's; Spearman over the cross-validated
-predictions 0.751 → 0.778. Counting a prediction *below* the range as extrapolated too
-(:data:`EXTRAPOLATE_BELOW`) was measured and is off: the fold of the load nearest the clamp
-(a response 10× smaller, ten times the others' relative projection error — a position
-effect) is then charged to amplitude, its scores are divided by ``d`` ≈ 7–9 and the pooled
-quantile drops (ML NL 0.79). The NL misses are targets beyond the training amplitudes
-(ML6's 2-ms pulse: 2.2× the largest training tip amplitude, realized error 1.27 against an
-estimate of 0.05) whose error grows much faster than ``d`` (a cubic spring): the factor
-does not reach them, and nothing the records show tells how fast it grows. Measured
-(ML4 and ML6 on the NL beam, results/calibration): the training records are one load
-(500 lbf, 0.5 ms) at several positions, so their amplitudes differ by position only, and
-the one fold beyond the others' range (22 in, ``d`` = 1.3) has 3–9× the error of the
-folds inside — on the *linear* beam too (0.0041 against 0.0011–0.0013: a position
-effect, the load nearest the free end), so a slope fitted to the folds (β ≈ 4 on the LTI
-beam) measures position, not nonlinearity. Of the misses two lie *inside* the training
-RMS range (the 200-lbf pulse at 13 in: ``a/a_max`` = 0.19, realized 0.10, coverage
-0.57–0.76; the 1.5-ms half-sine: 0.51, 0.09, 0.71–0.84): the nonlinearity shows in the
-load's amplitude and shape at one position, which the design never varies, and no factor
-of the prediction's RMS can see it. ML's NL coverage over the targets of the training
-load's amplitude and shape is 0.92 / 0.89 / 0.96 (0 / 1 / 5 % noise), over the other
-three 0.61 / 0.52 / 0.82; β stays 1.
-
-**One design only (SL, POVR): the diagonal assumption.** One record cannot cross-validate,
-and its in-sample residual cannot see the diagonal assumption's error (SL: estimate 0.047
-against a realized 2.1). SL and POVR scale each mode's training response by
-``s_i = q'_i/u_i`` (Chapter 3: SL's ``ṽ_i = c_ii * q̃_i`` with ``c_ii`` deconvolved from the
-training mode's response to ``u_i``, Eqs. 3.43–3.44; POVR's ``σ̃_i = σ_i q'_i/u_i``,
-Eq. 3.24; ``u`` the training record's modal excitation, ``q'`` the target's). Their
-prediction is linear in ``q'``, and the scaling is *exact* on the part of the target with
-the training pattern, ``q'_∥ = â âᵀq'`` (``â = u/‖u‖``): there every mode sees the same
-scale and the method returns the training response itself, scaled — the linear
-structure's own (``c_ii u_i = Σ_l c_il u_l`` is what the deconvolution identifies). Hence,
-for a linear structure and a training load of one spatial pattern, the prediction's error
-is exactly ``Ŵ − W = Ŵ_⊥ − W_⊥`` (:func:`diagonal_split`; tested to round-off on the
-coupled chain): the method's response to the rest ``q'_⊥ = q' − q'_∥`` (known) minus the
-structure's (unknown: the record never saw that excitation). ``W_⊥`` is bounded by what
-the record determines, the response to each mode's unexplained excitation applied in the
-training pattern, ``T² = Σ_i respond(â q'_⊥,i)²`` (the structure's gain along the one
-direction the record shows). The band's model-form part is then ``s_diag² = env(Ŵ_⊥)² +
-env(T)²`` (``env``: the local mean square over the envelope's window; half-width
-``z·s_diag``, the two unknown-signed parts added in quadrature, Gaussian reading), and
-the error estimate is relative to the truth's norm the split supports,
-``‖W‖² ≈ ‖Ŵ − Ŵ_⊥‖² + ‖T‖²``, instead of ``‖Ŵ‖`` (a prediction that is mostly artefact
-is measured against what the record says the truth is). Nothing in it divides by ``u_i``:
-a mode the training load barely excites inflates ``Ŵ_⊥`` exactly as much as it inflates
-the prediction, so the band is bounded by the prediction's own unexplained part.
-
-The former rule (:data:`DIAGONAL_RULE` ``"tangent"``, :func:`diagonal_inconsistency`:
-the spread ``D`` of the ``s_i``, the tangent of the angle between ``q'`` and ``u``, spread
-over the prediction as ``‖s_diag‖_F = D‖Ŵ‖_F``) divides by ``cos`` of that angle: on the
-truss's face-10 double hit ``D`` = 5910 / 161 / 6.5 at 0 / 1 / 5 % training noise against
-a realized 49, and the study's interval score was 50× the constant band's. Measured on
-the calibration study (results/calibration, ``"tangent"`` → ``"split"``): interval score
-over all 402 predictions 50 → 0.31 × the best constant band's (beams alone 0.77 → 0.54;
-SL 56 → 0.20, POVR 0.84 → 0.91); the double hit's estimate 5910 / 161 / 6.5 → 31 / 31 /
-28 (realized 49 / 49 / 47), coverage 1.0 → 0.99; Spearman(error_estimate, total_error)
-0.857 → 0.861; within a factor of 2 0.38 → 0.33: ``T`` is the gain along the training
-pattern only, and on the beams the target's unexplained excitation falls on modes of
-larger gain (``‖W_⊥‖`` is 5–16× ``‖T‖``), so SL's estimates there err high (median
-estimate/realized 1.7 → 7.8) while the truss's come within ×2 (0.25 → 1.0). Coverage: SL
-LTI 1.0 → 1.0, LTV 0.83 → 0.78, NL 1.0 → 0.97, truss 0.99 → 0.99; POVR LTI 0.99 → 1.0,
-LTV 0.79 → 0.94, NL 0.57 → 0.70. :data:`DIAGONAL_TERM` switches the term off.
-
-With as many records as modes (MDS, ML on Chapter 4's designs) a fold refits in the first
-``N − 1`` columns of ``U``; its residual is taken as the fold's error inside those modes plus
-the whole basis's projection error ``(I − UUᵀ)W_j`` (not the error of the missing mode,
-which the fitted model does identify).
+* **Cross-validation** (a method whose records allow leaving one out): each training record
+  is predicted by the method refitted on the others in the fitted basis (at the full fit's
+  regularization, :meth:`~podbench.sysid.methods.base.PODMethod.frozen_params`). The error
+  estimate of a prediction is ``sqrt(d²(κ_Λ²(Λ² + 1) + κ_Δ²Δ²) + ρ²)``: the target's
+  leverage ``Λ``, blind spot ``Δ`` and projection share ``ρ``
+  (:mod:`~podbench.sysid.methods.band_target`), the amplitude factor ``d``
+  (:func:`extrapolation`), and two gains fitted to the folds' realized errors
+  (:func:`fit_gains`). The band is normalized conformal: each fold's residual in units of
+  its own estimate spread over its prediction's envelope, the conformal quantile of the
+  pooled scores scaling the target's difficulty (:func:`_difficulty`).
+* **One design only** (POVR, SL: one record; MR: exactly three): the in-sample residual,
+  the noise propagated by refits on noisy copies, and for SL and POVR the diagonal
+  assumption's split (:func:`diagonal_split`); MR has no model-form term and gives no
+  estimate (NaN, with ``Prediction.note`` saying why).
 """
 
 from __future__ import annotations
