@@ -235,7 +235,7 @@ def test_single_load_band_carries_the_diagonal_term(monkeypatch):
     """SL on the coupled chain (its diagonal assumption is broken): a target loaded where
     the training load was (same modal pattern, other amplitude) has nothing unexplained and
     the in-sample band; a target loaded elsewhere gets the split's wider band, an estimate
-    relative to the truth's norm the record supports (``‖Ŵ − Ŵ_⊥‖² + ‖T‖²``), and a band
+    relative to the truth's norm the record supports (``‖Ŵ − Ŵ_⊥‖² + ‖Ŵ_⊥‖‖T‖``), and a band
     that covers the truth. The ``"tangent"`` variant carries :func:`diagonal_inconsistency`."""
     from podbench.sysid.methods import bands
 
@@ -251,7 +251,10 @@ def test_single_load_band_carries_the_diagonal_term(monkeypatch):
     Wh = p.mean
     assert p.details["diagonal_unexplained"] == pytest.approx(
         np.linalg.norm(W_perp) / np.linalg.norm(Wh))
-    ref = math.sqrt(np.sum((Wh - W_perp) ** 2) + np.sum(T2))
+    # the truth's norm: the explained part plus ‖W_⊥‖, read as the geometric mean of the
+    # method's own ‖Ŵ_⊥‖ and the training pattern's gain ‖T‖ (bands.DIAGONAL_NORM)
+    ref = math.sqrt(np.sum((Wh - W_perp) ** 2)
+                    + math.sqrt(np.sum(W_perp ** 2) * np.sum(T2)))
     assert p.error_estimate >= math.sqrt(np.sum(W_perp ** 2) + np.sum(T2)) / ref * 0.999
     assert p.covers(case.W[4]) >= 0.85
     assert q.error_estimate < 0.5 * p.error_estimate

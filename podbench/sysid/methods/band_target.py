@@ -196,16 +196,18 @@ def target_terms(model, ex: Excitations | None, record, U) -> TargetTerms | None
     return _terms(ex, list(range(N)), part[0], part[1], _rho(model, record, U))
 
 
-def fold_terms(model, records, U) -> list[TargetTerms] | None:
-    """The terms of each training record against the others (its fold), in ``U``."""
+def fold_terms(model, records, U, U_full=None) -> list[TargetTerms] | None:
+    """The terms of each training record against the others (its fold), in the fold's
+    basis ``U``; the projection share in ``U_full`` (default ``U``): a fold refitted in
+    fewer modes than the model is charged the whole basis's projection error."""
     ex = excitations(model, records, U)
     if ex is None:
         return None
-    U = np.asarray(U, dtype=float)
+    U_full = np.asarray(U if U_full is None else U_full, dtype=float)
     N = len(records)
     out = []
     for j in range(N):
         keep = [i for i in range(N) if i != j]
         x = None if ex.X is None else ex.X[..., j]
-        out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U)))
+        out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U_full)))
     return out

@@ -557,7 +557,7 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, factors
     (:func:`fit_gains`), and every residual sample over the fold's difficulty — its
     estimate spread over the prediction's envelope."""
     U_cv = U if cal.cv_modes is None else U[:, :cal.cv_modes]
-    terms = band_target.fold_terms(model, recs, U_cv)
+    terms = band_target.fold_terms(model, recs, U_cv, U)
     if terms is None:  # no excitation to compare: one number per model
         terms = [TargetTerms(0.0, 0.0, None)] * len(recs)
     errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
@@ -674,7 +674,7 @@ def _diagonal_part(model, record, Wh: np.ndarray, cal: BandCalibration):
         W_perp, T2 = hook(record)
         width = max(3, round(ENVELOPE_FRACTION * Wh.shape[1]))
         s2 = _moving_rms(W_perp, width) ** 2 + _moving_rms(np.sqrt(T2), width) ** 2
-        ref = math.sqrt(float(np.sum((Wh - W_perp) ** 2)) + float(np.sum(T2)))
+        ref = math.sqrt(float(np.sum((Wh - W_perp) ** 2)) + _unexplained_norm2(W_perp, T2))
         details = {"diagonal_unexplained": float(np.linalg.norm(W_perp)) / norm
                    if norm > 0 else math.inf,
                    "diagonal_bound": math.sqrt(float(np.sum(T2))) / norm if norm > 0
@@ -687,6 +687,24 @@ def _diagonal_part(model, record, Wh: np.ndarray, cal: BandCalibration):
     env = _envelope(Wh)
     ratio = norm / float(np.linalg.norm(env))
     return D * env * ratio, {"diagonal_inconsistency": D}, norm
+
+
+DIAGONAL_NORM = "bracket"
+"""How a single-record diagonal method's error estimate reads the norm of the structure's
+unknown response ``W_⊥`` to the target's unexplained excitation (docs/bands.md, *One design
+only*): ``"bracket"`` the geometric mean of its two readings, the method's own ``‖Ŵ_⊥‖``
+(exact when the POMs are uncoupled modes, the diagonal assumption) and the training
+pattern's gain ``‖T‖`` (exact when the structure's gain is the same in every direction);
+``"pattern"`` ``‖T‖`` alone (the former rule: far too small when the training load excites
+only stiff directions, e.g. a load near a clamp, and then the relative estimate explodes)."""
+
+
+def _unexplained_norm2(W_perp: np.ndarray, T2: np.ndarray) -> float:
+    """``‖W_⊥‖²`` as :data:`DIAGONAL_NORM` reads it."""
+    t2 = float(np.sum(T2))
+    if DIAGONAL_NORM == "pattern":
+        return t2
+    return math.sqrt(float(np.sum(W_perp ** 2)) * t2)
 
 
 def predict_band(model, record, coverage: float, cal: BandCalibration,
