@@ -157,7 +157,7 @@ def _coefficients(E: np.ndarray, e: np.ndarray) -> np.ndarray:
     return np.einsum("bji,bj,bkj,bk->bi", vh.conj(), inv, u.conj(), e)
 
 
-def _terms(ex: Excitations, keep, e: np.ndarray, x, rho) -> TargetTerms:
+def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetTerms:
     E, R = ex.E[..., keep], ex.R[..., keep]
     c = _coefficients(E, e)
     power = np.sum(np.abs(R) ** 2, axis=1)  # (B, N)
@@ -167,6 +167,8 @@ def _terms(ex: Excitations, keep, e: np.ndarray, x, rho) -> TargetTerms:
     blind2 = 0.0
     if ex.X is not None and x is not None:
         left = x - np.einsum("bmn,bn->bm", ex.X[..., keep], c)
+        if U_full is not None:  # a fold in fewer modes: only what the whole basis misses
+            left = left - (left @ U_full) @ U_full.T
         inside = float(np.sum(np.abs(e) ** 2))
         blind2 = float(np.sum(np.abs(left) ** 2)) / inside if inside > 0 else math.inf
     return TargetTerms(lev2, blind2, rho)
@@ -198,8 +200,9 @@ def target_terms(model, ex: Excitations | None, record, U) -> TargetTerms | None
 
 def fold_terms(model, records, U, U_full=None) -> list[TargetTerms] | None:
     """The terms of each training record against the others (its fold), in the fold's
-    basis ``U``; the projection share in ``U_full`` (default ``U``): a fold refitted in
-    fewer modes than the model is charged the whole basis's projection error."""
+    basis ``U``; the projection share and the blind spot outside ``U_full`` (default
+    ``U``): a fold refitted in fewer modes than the model is charged the whole basis's
+    projection error, not the mode it leaves out."""
     ex = excitations(model, records, U)
     if ex is None:
         return None
@@ -209,5 +212,6 @@ def fold_terms(model, records, U, U_full=None) -> list[TargetTerms] | None:
     for j in range(N):
         keep = [i for i in range(N) if i != j]
         x = None if ex.X is None else ex.X[..., j]
-        out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U_full)))
+        out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U_full),
+                          U_full if U_full.shape[1] > np.shape(U)[1] else None))
     return out
