@@ -147,10 +147,11 @@ def designs(set_name: str, classes=tuple(CLASSES), methods=METHODS,
             per_cell: int = MODELS_PER_CELL) -> list[Design]:
     first = SETS[set_name]
     out = []
-    for ci, cls in enumerate(classes):
-        for mi, method in enumerate(methods):
+    for cls in classes:
+        for method in methods:
             for r in range(per_cell):
-                seed = first + 100 * ci + 10 * mi + r
+                # the seed names the design whatever subset of classes/methods is run
+                seed = first + 100 * list(CLASSES).index(cls) + 10 * METHODS.index(method) + r
                 make = forced_design if method == "ML" else free_design
                 out.append(make(cls, seed, set_name))
     return out
