@@ -24,7 +24,7 @@ Two sets: ``dev`` (seeds 0…, the set any choice was looked at on) and ``test``
 1000…, other shape families and durations; never used to choose anything). The cost of a
 band against the plain fit and predict is ``benchmarks/bands.py``'s.
 
-    python benchmarks/bands_heldout.py --set dev            # about 5 min on 1 core
+    python benchmarks/bands_heldout.py --set dev            # half an hour on 2 cores
     python benchmarks/bands_heldout.py --set test --rows out.csv
 """
 

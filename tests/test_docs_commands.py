@@ -156,6 +156,9 @@ COMMANDS: dict[str, object] = {
         "times a band against the plain fit for nine method cases at two noise levels "
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
+    "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
+        "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
     "python benchmarks/dense_tls.py": SLOW,
     "python benchmarks/study_time.py": NOT_RUN(
         "times a cold `podbench run chapter5` (35 min on the shared 2-core machine) and "
