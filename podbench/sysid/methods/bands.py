@@ -10,8 +10,10 @@ returns the array. Everything is built from the training records, never from the
   regularization, :meth:`~podbench.sysid.methods.base.PODMethod.frozen_params`). The error
   estimate of a prediction is ``sqrt(d²(κ_Λ²(Λ² + 1) + κ_Δ²Δ²) + ρ²)``: the target's
   leverage ``Λ``, blind spot ``Δ`` and projection share ``ρ``
-  (:mod:`~podbench.sysid.methods.band_target`), the amplitude factor ``d``
-  (:func:`extrapolation`), and two gains fitted to the folds' realized errors
+  (:mod:`~podbench.sysid.methods.band_target`), the level factor ``d`` (:func:`levels`,
+  :func:`extrapolation`: a measured input's RMS outside the training inputs' range, above
+  or below, else the prediction's RMS above the training responses'), and two gains
+  fitted to the folds' realized errors
   (:func:`fit_gains`). The band is normalized conformal: each fold's residual in units of
   its own estimate spread over its prediction's envelope, the conformal quantile of the
   pooled scores scaling the target's difficulty (:func:`_difficulty`).
@@ -69,21 +71,57 @@ TRAINING_FLOOR = True
 """Whether the envelope's floor also scales with the training records' per-sensor RMS."""
 AMPLITUDE_POWER = 1.0
 """β of the amplitude-extrapolation factor ``d^β`` of the model-form difficulty
-(:func:`extrapolation`); 0 switches it off."""
+(:func:`extrapolation`); 0 switches it off. For the input level (:data:`LEVEL_RULE`) the
+folds may raise it (:func:`fit_level_power`)."""
+LEVEL_RULE = "input"
+"""How a prediction's level is compared with the training records' range (:func:`levels`):
+``"input"``: where every record carries a measured input (input/output records: the force or
+ground motion a test applies, e.g. a ground-vibration test run at several force levels) the
+RMS of that input, outside the range *above or below* it (a structure whose best linear
+model changes with the level, through friction, clearance or a stiffening spring, is as far
+from a low level as from a high one); every other record: the prediction's RMS against the
+training responses', above the range only (:data:`EXTRAPOLATE_BELOW`). ``"response"``: the
+latter for every record (the former rule)."""
+LEVEL_POWERS = (1.0, 1.5, 2.0, 3.0)
+"""The exponents β of the input level's excursion the folds choose from (:func:`fit_level_power`);
+the smallest is :data:`AMPLITUDE_POWER`'s default."""
+LEVEL_SPREAD = 1.1
+"""A fold counts as outside the others' input-level range when its excursion exceeds this:
+below it, the spread of the folds' errors from every other cause swamps a level effect."""
 
 
 def _rms(X) -> float:
     return float(np.sqrt(np.mean(np.asarray(X, dtype=float) ** 2)))
 
 
-def extrapolation(amplitude: float, lo: float, hi: float) -> float:
+def extrapolation(amplitude: float, lo: float, hi: float, below: bool | None = None) -> float:
     """How far a prediction of RMS ``amplitude`` lies beyond the RMS range ``[lo, hi]`` of
-    the records the model was fitted on: ``max(amplitude/hi, 1)`` (and ``lo/amplitude``
-    below the range when :data:`EXTRAPOLATE_BELOW`)."""
+    the records the model was fitted on: ``max(amplitude/hi, 1)``, and ``lo/amplitude``
+    below the range when ``below`` (default :data:`EXTRAPOLATE_BELOW`)."""
     if not amplitude > 0 or not hi > 0:
         return 1.0
-    below = lo / amplitude if EXTRAPOLATE_BELOW else 1.0
-    return float(max(amplitude / hi, below, 1.0))
+    below = EXTRAPOLATE_BELOW if below is None else below
+    under = lo / amplitude if below and lo > 0 else 1.0
+    return float(max(amplitude / hi, under, 1.0))
+
+
+def input_level(record) -> float | None:
+    """The RMS of a record's measured input over all input channels (input unit), or None
+    for a record without one (simulated records: ``F``, ``w0`` are loads, not measured
+    inputs) or when :data:`LEVEL_RULE` is ``"response"``."""
+    if LEVEL_RULE != "input" or not isinstance(record, IORecord):
+        return None
+    return _rms(record.u)
+
+
+def levels(records) -> tuple[str, list[float]]:
+    """``(rule, levels)`` of the training records: ``"input"`` and their input RMS where
+    every record has a measured input (:func:`input_level`), else ``"response"`` and the
+    RMS of their responses ``W``."""
+    lv = [input_level(r) for r in records]
+    if all(v is not None and v > 0 for v in lv):
+        return "input", [float(v) for v in lv]
+    return "response", [_rms(r.W) for r in records]
 
 
 def diagonal_split(pattern, excitation, respond) -> tuple[np.ndarray, np.ndarray]:
@@ -315,7 +353,7 @@ class BandCalibration:
     n_draws: int
     cv_modes: int | None = None      # k of the cross-validation refits
     noise_models: list = field(default_factory=list)  # refits on noisy copies
-    amplitude_range: tuple = (0.0, 0.0)  # RMS range of the training records' W
+    amplitude_range: tuple = (0.0, 0.0)  # level range of the training records (levels())
     reference_rms: np.ndarray | None = None  # per-sensor RMS of the training records' W
     inside_score: float | None = None  # mean_square_score of the residuals inside the basis
     gains: tuple | None = None       # (κ_Λ², κ_Δ²) of the target-aware estimate (folds)
@@ -323,6 +361,8 @@ class BandCalibration:
     fold_errors: np.ndarray | None = None     # realized relative error of each fold
     fold_estimates: np.ndarray | None = None  # the estimate's value for each fold
     note: str = ""                   # why no estimate can be made (empty: it can)
+    level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
+    level_power: float = AMPLITUDE_POWER  # β of the level's excursion d = a^β
 
     def quantile(self, coverage: float) -> float:
         """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
@@ -427,29 +467,32 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
             for j in range(len(recs))]
 
 
-def _fold_envelopes(Whs, recs) -> list[np.ndarray]:
-    """``(envelopes, factors)``: each fold's envelope of its prediction, floored by the
+def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float]]:
+    """``(envelopes, excursions)``: each fold's envelope of its prediction, floored by the
     per-sensor RMS of the records it was fitted on (computed for all folds at once where
-    the predictions share a shape), and its amplitude-extrapolation factor ``d^β``."""
+    the predictions share a shape), and how far its level lies outside the others'
+    (:func:`extrapolation` of :func:`levels`: the left-out record's input RMS against the
+    others', both ways, or its prediction's RMS against the others' responses)."""
     N = len(recs)
     ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
-    amps = [_rms(r.W) for r in recs]
-    refs, factors = [], []
+    rule, amps = levels(recs)
+    refs, excursions = [], []
     for j, Wh in enumerate(Whs):
         rest = [ms[l] for l in range(N) if l != j]
-        rest_rms = [amps[l] for l in range(N) if l != j]
+        rest_lv = [amps[l] for l in range(N) if l != j]
         refs.append(np.sqrt(np.mean(rest, axis=0)))
-        factors.append(extrapolation(_rms(Wh), min(rest_rms), max(rest_rms))
-                       ** AMPLITUDE_POWER)
+        own = amps[j] if rule == "input" else _rms(Wh)
+        excursions.append(extrapolation(own, min(rest_lv), max(rest_lv),
+                                        below=True if rule == "input" else None))
     if len({Wh.shape for Wh in Whs}) == 1:
-        return list(_envelope(np.stack(Whs), np.stack(refs))), factors
-    return [_envelope(Wh, ref) for Wh, ref in zip(Whs, refs, strict=True)], factors
+        return list(_envelope(np.stack(Whs), np.stack(refs))), excursions
+    return [_envelope(Wh, ref) for Wh, ref in zip(Whs, refs, strict=True)], excursions
 
 
 def _residuals(model, recs, U, can_split: bool, frozen=None):
-    """``(source, residuals, envelopes, cv_modes, predictions, factors)``: leave-one-record-out
+    """``(source, residuals, envelopes, cv_modes, predictions, excursions)``: leave-one-record-out
     residuals where the records allow a split, else the in-sample residuals."""
-    residuals, envs, factors = [], [], []
+    residuals, envs, excursions = [], [], []
     source = "in-sample"
     cv_modes = None
     Whs: list = []
@@ -460,7 +503,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
-        envs, factors = _fold_envelopes(Whs, recs)
+        envs, excursions = _fold_envelopes(Whs, recs)
         for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
@@ -478,8 +521,8 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             residuals.append(W - Wh)
             envs.append(_envelope(Wh))
             Whs.append(Wh)
-            factors.append(1.0)
-    return source, residuals, envs, cv_modes, Whs, factors
+            excursions.append(1.0)
+    return source, residuals, envs, cv_modes, Whs, excursions
 
 
 def _time_profile(residuals, envs) -> np.ndarray:
@@ -535,22 +578,22 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     if not cross_validate:
         return BandCalibration("noise", np.zeros(0), 0.0, np.ones(N_TIME_BINS), sig, 0,
                                len(noise_models), None, noise_models)
-    source, residuals, envs, cv_modes, Whs, factors = _residuals(model, recs, U, can_split,
-                                                                  frozen)
+    source, residuals, envs, cv_modes, Whs, excursions = _residuals(model, recs, U, can_split,
+                                                                     frozen)
     g = _time_profile(residuals, envs)
-    amps = [_rms(r.W) for r in recs]
+    rule, amps = levels(recs)
     cal = BandCalibration(source, np.zeros(0), 0.0, g, sig,
                           len(residuals) if source == "cross-validation" else 0,
                           len(noise_models), cv_modes, noise_models,
-                          (min(amps), max(amps)), _sensor_rms(recs))
+                          (min(amps), max(amps)), _sensor_rms(recs), level_rule=rule)
     if source == "cross-validation":
-        _fold_estimate(cal, model, recs, U, residuals, Whs, factors)
+        _fold_estimate(cal, model, recs, U, residuals, Whs, excursions)
     else:
         _in_sample_scale(cal, residuals, envs)
     return cal
 
 
-def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, factors) -> None:
+def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursions) -> None:
     """The target-aware estimate's gains, each fold's estimate and the band's normalized
     scores (docs/bands.md, *The estimate*): each fold's realized error against its
     :func:`~podbench.sysid.methods.band_target.fold_terms`, the gains fitted to them
@@ -563,7 +606,10 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, factors
     errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
         np.asarray(r.W, float)[:, :R.shape[1]])), 1e-300)
         for R, r in zip(residuals, recs, strict=True)])
-    d = np.asarray(factors, dtype=float)
+    a = np.asarray(excursions, dtype=float)
+    if cal.level_rule == "input":
+        cal.level_power = fit_level_power(errors, terms, a)
+    d = a ** cal.level_power
     cal.gains = fit_gains(errors, terms, d)
     cal.fold_errors = errors
     cal.fold_estimates = np.array([estimate(cal.gains, t, f)
@@ -604,6 +650,28 @@ GAIN_GRID = 41
 """Candidates of the blind-spot gain κ_Δ² (log-spaced over five decades, and 0)."""
 
 
+def fit_level_power(errors, terms, excursions) -> float:
+    """β of the input level's excursion ``d = a^β`` (:data:`LEVEL_RULE`): the
+    :data:`LEVEL_POWERS` value whose :func:`fit_gains` explains the folds' errors with the
+    least logarithmic loss, when at least two folds lie outside the others' level range
+    (excursion above :data:`LEVEL_SPREAD`: a left-out lowest and highest level); else the
+    smallest, :data:`AMPLITUDE_POWER`. Never below it: two or three folds cannot tell a
+    structure whose error does not grow with the level from one whose error does, and a
+    level outside the training range is an extrapolation of a model that the records show
+    only inside it."""
+    a = np.asarray(excursions, dtype=float)
+    if np.count_nonzero(a > LEVEL_SPREAD) < 2:
+        return AMPLITUDE_POWER
+    best = None
+    for beta in sorted({AMPLITUDE_POWER, *LEVEL_POWERS}):
+        if beta < AMPLITUDE_POWER:
+            continue
+        loss = _fit(errors, terms, a ** beta)[0]
+        if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
+            best = (loss, beta)
+    return float(best[1])
+
+
 def fit_gains(errors, terms, factors) -> tuple[float, float]:
     """``(κ_Λ², κ_Δ²)`` fitted to the folds' realized errors ``e_j`` in log space:
     ``Σ_j (ln y_j − ln(κ_Λ²(Λ_j² + 1) + κ_Δ²Δ_j²))²`` least, with
@@ -612,6 +680,11 @@ def fit_gains(errors, terms, factors) -> tuple[float, float]:
     explains the folds by the blind spot alone) κ_Λ² is the geometric mean that the
     logarithmic fit gives; the pair of least loss is kept (deterministic: a grid, no
     optimizer)."""
+    return _fit(errors, terms, factors)[1:]
+
+
+def _fit(errors, terms, factors) -> tuple[float, float, float]:
+    """``(loss, κ_Λ², κ_Δ²)`` of :func:`fit_gains`."""
     e2 = np.asarray(errors, dtype=float) ** 2
     rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
     y = np.maximum(e2 - rho2, FLOOR_SHARE * e2) / np.asarray(factors, float) ** 2
@@ -619,7 +692,7 @@ def fit_gains(errors, terms, factors) -> tuple[float, float]:
     D = np.array([t.blind2 for t in terms])
     ok = np.isfinite(y) & (y > 0) & np.isfinite(L) & np.isfinite(D)
     if not np.any(ok):
-        return 0.0, 0.0
+        return math.inf, 0.0, 0.0
     y, L, D = y[ok], L[ok], D[ok]
     cands = [0.0]
     if np.any(D > 0):
@@ -631,7 +704,7 @@ def fit_gains(errors, terms, factors) -> tuple[float, float]:
         loss = float(np.sum((np.log(y) - np.log(a * L + b * D)) ** 2))
         if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
             best = (loss, a, b)
-    return best[1], best[2]
+    return best
 
 
 def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float) -> np.ndarray:
@@ -728,9 +801,10 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
     if cal.cv_modes is not None:
         details["cv_modes"] = cal.cv_modes
     if cal.source == "cross-validation":
-        err, s_model, q, terms = _cross_validated(model, record, Wh, cal, c)
+        err, s_model, q, terms, a = _cross_validated(model, record, Wh, cal, c)
         details.update(conformal_quantile=q, leverage=math.sqrt(terms.leverage2),
-                       blind_spot=math.sqrt(terms.blind2))
+                       blind_spot=math.sqrt(terms.blind2), level_excursion=a,
+                       level_power=cal.level_power, level_rule=cal.level_rule)
         if terms.rho is not None:
             details["projection_share"] = terms.rho
         half = np.sqrt((q * s_model) ** 2 + z ** 2 * var_noise)
@@ -745,14 +819,25 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
 
 
 def _cross_validated(model, record, Wh, cal: BandCalibration, c: float):
-    """``(estimate, difficulty, conformal quantile, terms)`` of a cross-validated band."""
+    """``(estimate, difficulty, conformal quantile, terms, level excursion)`` of a
+    cross-validated band."""
     U = np.asarray(model.modes_, dtype=float)
     terms = band_target.target_terms(model, cal.excitations, record, U)
     if terms is None:
         terms = TargetTerms(0.0, 0.0, None)
-    d = extrapolation(_rms(Wh), *cal.amplitude_range) ** AMPLITUDE_POWER
-    err = estimate(cal.gains, terms, d)
-    return err, _difficulty(Wh, cal, err), cal.quantile(c), terms
+    a = target_excursion(record, Wh, cal)
+    err = estimate(cal.gains, terms, a ** cal.level_power)
+    return err, _difficulty(Wh, cal, err), cal.quantile(c), terms, a
+
+
+def target_excursion(record, Wh, cal: BandCalibration) -> float:
+    """How far a target lies outside the training records' level range (:func:`levels`):
+    its measured input's RMS, both ways, or its prediction's RMS, above."""
+    if cal.level_rule == "input":
+        level = input_level(record)
+        if level is not None:
+            return extrapolation(level, *cal.amplitude_range, below=True)
+    return extrapolation(_rms(Wh), *cal.amplitude_range)
 
 
 def _one_design(model, record, Wh, cal: BandCalibration, c: float, z: float, var_noise):
