@@ -274,7 +274,8 @@ def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> 
             a1.fill_between(x, np.maximum(y - h, 0), y + h, where=fits, color=color,
                             alpha=0.15, lw=0, zorder=1)
             if not np.all(fits):
-                name += f", 90 % band off scale at {np.mean(~fits):.0%} of the samples"
+                name += (f", 90 % band off scale at {100 * np.mean(~fits):.0f} % of the "
+                         "samples")
         ex = _exits(y, top, gap=max(1, y.size // 25))
         if ex.size:
             a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,
