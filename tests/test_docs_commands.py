@@ -171,6 +171,21 @@ COMMANDS: dict[str, object] = {
         "times a band against the plain fit for nine method cases at two noise levels "
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
+    "podbench predict --coverage 0.9": SYNOPSIS,
+    "python benchmarks/bands_heldout.py": NOT_RUN(
+        "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
+    "python benchmarks/bands_levels.py --data DIR": NOT_RUN(
+        "reads the F-16 ground-vibration test's measured records, which are not in the "
+        "checkout (the F-16 study's data); fits ML on 16384 samples with a 1600-sample FIR "
+        "(minutes); the level term it measures is tested in "
+        "tests/measured_io/test_io_bands.py"),
+    "python benchmarks/bands_heldout.py --set dev": NOT_RUN(
+        "simulates and fits 48 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
+    "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
+        "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
     "python benchmarks/dense_tls.py": SLOW,
     "python benchmarks/modal.py": NOT_RUN(
         "fits ML and ERA on two structures at two noise levels (minutes; accuracy is measured, "

@@ -268,8 +268,14 @@ def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> 
         band = s.get(label + "__band")
         if band is not None:  # the norm of the 90 % band's half-width per time
             h = np.asarray(band, dtype=float)
-            a1.fill_between(x, np.maximum(y - h, 0), y + h, color=color, alpha=0.15, lw=0,
-                            zorder=1)
+            # shaded only where it stays on the axis: a band wider than the truth's scale
+            # would cover the whole plot; the legend says where it was left out
+            fits = np.isfinite(h) & (y + h <= top)
+            a1.fill_between(x, np.maximum(y - h, 0), y + h, where=fits, color=color,
+                            alpha=0.15, lw=0, zorder=1)
+            if not np.all(fits):
+                name += (f", 90 % band off scale at {100 * np.mean(~fits):.0f} % of the "
+                         "samples")
         ex = _exits(y, top, gap=max(1, y.size // 25))
         if ex.size:
             a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,

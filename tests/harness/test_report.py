@@ -162,6 +162,27 @@ def test_the_figure_is_fitted_to_the_truth_and_marks_what_leaves_it(tmp_path):
     assert a2.get_xlabel() == "Time, s"
 
 
+def test_a_band_is_shaded_only_where_it_stays_inside_the_truths_axis(tmp_path):
+    """A 90 % band narrow over the first half and 50× the truth over the second: the axis
+    stays fitted to the truth, the shading covers the first half only (its top never above
+    the axis) and the legend says at which share of the samples the band was left out."""
+    task = _task(tmp_path)
+    n = task.series["t"].size
+    task.series["A__band"] = np.where(np.arange(n) < n // 2, 0.1, 50.0 * 3.0)
+    fig = make_figure(task)
+    a1 = fig.axes[0]
+    bottom, top = a1.get_ylim()
+    truth = task.series["truth"]
+    assert bottom == 0.0 and truth.max() < top < 1.2 * truth.max()
+    shades = [c for c in a1.collections if len(c.get_paths())]
+    assert len(shades) == 1
+    verts = np.concatenate([p.vertices for p in shades[0].get_paths()])
+    assert verts[:, 1].max() <= top
+    assert verts[:, 0].max() < task.series["t"][n // 2]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend[1] == "A: total error 2.13 %, 90 % band off scale at 50 % of the samples"
+
+
 @pytest.mark.parametrize("fmt, magic, uri", [
     ("png", b"\x89PNG", "data:image/png;base64,"),
     ("svg", b"<?xml", "data:image/svg+xml;base64,"),
