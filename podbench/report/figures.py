@@ -224,7 +224,10 @@ def _axes(plt, wide: bool):
     if wide:
         right = outer[1].subgridspec(2, 1, height_ratios=[2, 1.2], hspace=0.42)
         pair = right[0].subgridspec(2, 1, hspace=0.08)
-        ax["sensors"] = [fig.add_subplot(pair[i], sharex=ax["norm"]) for i in range(2)]
+        # the sensors share their time axis with each other only: matplotlib lays out a
+        # shared axis's label against every sibling's ticks, four siblings cost twice two
+        top = fig.add_subplot(pair[0])
+        ax["sensors"] = [top, fig.add_subplot(pair[1], sharex=top)]
         ax["sensors"][0].tick_params(labelbottom=False)
         ax["spectrum"] = fig.add_subplot(right[1])
     return fig, ax
@@ -276,6 +279,7 @@ def make_figure(task: FigureTask):
                     _plot_sensor(task, x, k, a)
                     timed.append(a)
                 ax["sensors"][-1].set_xlabel(f"Time, {unit}")
+                ax["sensors"][0].set_xlim(x[0], x[-1])
                 _plot_spectrum(task, ax["spectrum"])
             _mark_events(task.events, x, scale, unit, timed, a2)
             _lay_out(fig, task, handles, ax)
