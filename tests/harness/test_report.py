@@ -23,7 +23,14 @@ from conftest import CHAIN_FORCED, CHAIN_FREE  # noqa: E402
 
 from podbench import cli
 from podbench.harness.runner import run_unit
-from podbench.report.figures import FigureTask, describe_case, draw_figure, make_figure
+from podbench.harness.series import prediction_series, truth_series
+from podbench.report.figures import (
+    MARGIN,
+    FigureTask,
+    describe_case,
+    draw_figure,
+    make_figure,
+)
 from podbench.report.html import text_to_html
 from podbench.study.scenarios import Case
 
@@ -161,6 +168,46 @@ def test_the_figure_is_fitted_to_the_truth_and_marks_what_leaves_it(tmp_path):
                    for ln in ax.lines)
     assert "element 10 breaks (t = 3 s)" in [t.get_text() for t in a2.texts]
     assert a2.get_xlabel() == "Time, s"
+
+
+def test_the_wide_figure_shows_two_sensors_and_the_spectrum(tmp_path):
+    """A cantilever-like record at 25 sensors (a 4 Hz sinusoid, amplitude growing to the
+    tip): the sensor panels hold the tip and mid-span histories, method B (5× the truth)
+    leaves their scale and is marked; the spectrum peaks at 4 Hz at the truth's amplitude."""
+    dt, n = 0.01, 400
+    t = dt * np.arange(n)
+    x = np.arange(25.0)
+    W = np.outer((x / 24) ** 2, 0.5 * np.sin(2 * np.pi * 4.0 * t))  # 4 Hz: 16 cycles
+    s = {"t": t, "truth": np.linalg.norm(W, axis=0)}
+    s.update(truth_series(W, dt, positions=x, labels=[f"x{int(v)}" for v in x]))
+    for label, g in (("A", 1.02), ("B", 5.0)):
+        s[label] = g * s["truth"]
+        s[label + "__pe"] = np.full(n, 100 * abs(g - 1))
+        s.update(prediction_series(label, g * W, dt, s["sensors"]))
+    task = FigureTask(path=tmp_path / "wide.png", title="Beam", subtitle="lti_beam, target p",
+                      series=s, methods=(("A", 0.02), ("B", 4.0)), events=(), fmt="png")
+    fig = make_figure(task)
+    try:
+        assert len(fig.axes) == 5
+        tip, mid, spec = fig.axes[2:]
+        assert [t.get_text() for t in tip.texts] == ["tip: x24"]
+        assert [t.get_text() for t in mid.texts] == ["mid-span: x12"]
+        # the tip's truth (±0.5 in, to the sampling) and the margin
+        peak, trough = np.max(W[24]), np.min(W[24])
+        margin = MARGIN * (peak - trough)
+        assert tip.get_ylim() == pytest.approx((trough - margin, peak + margin))
+        assert peak == pytest.approx(0.5, rel=5e-3)
+        assert {ln.get_marker() for ln in tip.lines} >= {"^", "v"}  # B leaves it both ways
+        assert tip.get_ylabel() == "w, in" and fig.axes[0].get_ylabel().endswith(
+            "(Eq. 4.1), in")
+        f, amp = spec.lines[0].get_data()
+        assert f[np.argmax(amp)] == pytest.approx(4.0)
+        assert np.max(amp) == pytest.approx(np.linalg.norm(0.5 * (x / 24) ** 2), rel=5e-3)
+        assert spec.get_yscale() == "log" and spec.get_xlabel() == "Frequency, Hz"
+    finally:
+        plt.close(fig)
+    draw_figure(task)
+    assert mpimg.imread(task.path).shape[1] == 1800  # 12 in at 150 dpi
 
 
 @pytest.mark.parametrize("fmt, magic, uri", [
