@@ -375,7 +375,7 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=figures, jobs=jobs, figure_format=figure_format,
                                 progress=progress, command=command, sensitivity=linked,
-                                nonlinearity=nonlinearity, seeds=seeds)
+                                nonlinearity=nonlinearity, seeds=seeds, seconds=seconds)
     n_sim, n_cached = response_counts(results)
     drawn = sorted((out / "figures").glob(f"*.{figure_format}")) if figures else []
     return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),

@@ -38,6 +38,7 @@ from podbench.harness.digits import (
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
+from podbench.harness.series import prediction_series, truth_series
 from podbench.study.estimators import all_cases, build_estimator, is_user_method, training_records
 from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
 from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
@@ -362,8 +363,13 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     nonlinear, measured = _simulate_needed(scenario, structure, truth)
 
     for target in scenario.targets:
-        W = truth.get(target).W
-        res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
+        r = truth.get(target)
+        res.series[target] = {"t": r.t, "truth": displacement_norm(r.W)}
+        if keep_series:  # the figure's sensors and spectrum (podbench.harness.series)
+            res.series[target].update(truth_series(
+                r.W, r.dt, positions=getattr(structure, "sensor_positions", None),
+                labels=getattr(structure, "sensor_labels", ()),
+                unit=getattr(r, "output_units", None) or "in"))
 
     for spec in scenario.reported_methods():
         _run_method(res, spec, scenario, truth, sweep=overrides is not None,
@@ -506,6 +512,8 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
         if keep_series:
             res.series[t][spec.label] = displacement_norm(Wh)
             res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
+            res.series[t].update(prediction_series(spec.label, Wh, truth.get(t).dt,
+                                                   res.series[t]["sensors"]))
 
 
 def _add_band(res: UnitResult, row: dict, est, target, plain_seconds: float, *,

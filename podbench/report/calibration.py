@@ -309,6 +309,20 @@ def calibration_figure(rows: pd.DataFrame, path, *, title: str = "") -> bytes:
         plt.close(fig)
 
 
+HEADS = {
+    "class": "class", "training_noise": "training noise", "method": "method",
+    "n": "predic&shy;tions", "coverage_mean": "coverage, mean", "coverage_min": "coverage, min",
+    "in_0.85–0.95": "share with coverage in 0.85–0.95",
+    "total_error_median": "realized total error, median",
+    "estimate_median": "estimated error, median",
+    "within_factor_2": "share of estimates within ×2",
+    "half_width_rel": "band half-width / RMS of W, median",
+    "IS/IS_const": "interval score / best constant width's",
+}
+"""The calibration table's column heads on the report page (HTML; they wrap, so the table
+fits the page; the column's name is the tooltip)."""
+
+
 def calibration_html(rows: pd.DataFrame, figure_uri: str | None) -> str:
     """The report page's calibration section (summary, figure, table by class/method)."""
     import html
@@ -337,7 +351,8 @@ def calibration_html(rows: pd.DataFrame, figure_uri: str | None) -> str:
     for c in ("total_error_median", "estimate_median"):  # fractions of ‖W‖_F, shown in %
         t[c] = [f"{100 * v:.3g} %" if math.isfinite(v) else "–" for v in t[c]]
     out.append('<div class="scroll"><table><thead><tr>'
-               + "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
+               + "".join(f'<th title="{html.escape(str(c))}">'
+                         f"{HEADS.get(c, html.escape(str(c)))}</th>" for c in t.columns)
                + "</tr></thead><tbody>")
     for r in t.itertuples(index=False):
         out.append("<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in r) + "</tr>")

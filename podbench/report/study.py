@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import base64
 import math
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -23,6 +24,7 @@ from podbench.harness.digits import iterative_note
 from podbench.harness.executor import execute
 from podbench.harness.progress import as_stage
 from podbench.harness.rewrite import unmoved
+from podbench.harness.runner import response_counts
 from podbench.harness.seeds import seed_table
 from podbench.harness.tables import fits_table, summary_table, table_csv
 from podbench.report.calibration import (
@@ -384,7 +386,8 @@ def _decomposition_figures(df, scenarios: dict, fdir: Path, fmt: str) -> dict:
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
                 jobs: int = 1, figure_format: str = "png", command: str | None = None,
-                progress=None, sensitivity=None, nonlinearity=None, seeds=None):
+                progress=None, sensitivity=None, nonlinearity=None, seeds=None,
+                seconds: float | None = None):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically):
     the tables, ``FINDINGS.md`` (with a claims file), ``figures/*.<figure_format>`` and the
     self-contained ``report.html`` (:mod:`podbench.report.html`; ``command`` is
@@ -399,7 +402,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
     (and figures), their claims judged and swept in FINDINGS.md.
     ``seeds``: the comparisons' rows on every noise seed
     (:func:`podbench.harness.seeds.run_seeds`): written to ``seeds.csv``, the comparisons
-    judged over them.
+    judged over them. ``seconds``: the wall time of simulating and fitting, for the
+    report's summary.
     Returns the summary DataFrame and the claim verdicts (or None).
     """
     if figure_format not in FIGURE_FORMATS:
@@ -428,6 +432,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                                              nonlinearity=nonlinearity, cal_rows=cal_rows,
                                              seeds=seeds)
         embedded: dict = {}
+        t_figures = time.perf_counter()
         if figures:
             fdir = tmp / "figures"
             fdir.mkdir(exist_ok=True)  # the nonlinearity figures may be there
@@ -437,7 +442,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                 embedded.setdefault(m["scenario"], []).append({
                     "uri": uri, "alt": f"{task.title}. {task.subtitle}",
                     "caption": f"{m['structure']}, target {m['target']}: {m['words']} "
-                               f"(figures/{task.path.name})"})
+                               f"(figures/{task.path.name})",
+                    "wide": "sensors" in task.series, "unit": task.series.get("unit")})
         decompositions = (_decomposition_figures(df, scenarios, tmp / "figures", figure_format)
                           if figures else {})
         cal_section = _calibration_section(cal_rows, cal_md, tmp, figures, figure_format,
@@ -446,6 +452,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                              evaluated=evaluated, remarks=remarks, claims_path=claims_path,
                              figures=embedded, figure_format=figure_format if figures else None,
                              command=command, calibration=cal_section,
-                             decompositions=decompositions)
+                             decompositions=decompositions, seconds=seconds,
+                             figure_seconds=time.perf_counter() - t_figures if figures else None,
+                             responses=response_counts(results))
         (tmp / "report.html").write_text(page, encoding="utf-8", newline="\n")
     return df, evaluated
