@@ -28,7 +28,7 @@ import pandas as pd
 
 from podbench.core.response import Response
 from podbench.errors import PodbenchError, ScenarioFileError
-from podbench.harness.digits import row_writer
+from podbench.harness.digits import estimator_writer
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
@@ -42,7 +42,7 @@ from podbench.study.experiments import (
     seed_dependent,
 )
 from podbench.study.resolve import resolve_structure
-from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario, method_solver
+from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
 from podbench.sysid.conditioning import condition
 
 __all__ = ["run_seeds", "plan_seeds", "seed_unit", "SeedPlan", "seed_table", "SEED_COLUMNS"]
@@ -217,9 +217,7 @@ def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
     U = getattr(est, "modes_", None)
     U = None if U is None else np.asarray(U, dtype=float)
     coupled = bool(getattr(est, "coupled", False))
-    spec = sc.method(label)
-    written = row_writer(method_solver(spec, sc),
-                         (spec.options.get("solver_options") or {}).get("tol"))
+    written = estimator_writer(est)
     rows = []
     for t in targets:
         W = get(t).W
