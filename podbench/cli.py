@@ -24,7 +24,7 @@ from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
-from podbench.study.claims import NOT_CHECKABLE, TIE, text_claims
+from podbench.study.claims import counts_words, text_claims
 from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 from podbench.sysid.deconvolution import available_solvers
@@ -433,12 +433,11 @@ def _claims_line(claims) -> str:
     text's claims once each (an entry with its ``part_of`` parts), then how many variants
     were judged besides them (issue 24: the text's claims apart from podbench's variants)."""
     verdicts = [v for _, _, v in text_claims(claims)]
-    n_variants = sum(bool(e["claim"].variant) for e in claims)
+    n_variants = sum(bool(e.claim.variant) for e in claims)
     whose = "the text's " if n_variants else ""
-    line = f"claims: {verdicts.count('reproduced')} of {whose}{len(verdicts)} reproduced"
-    line += "".join(f", {verdicts.count(k)} {k}" for k in ("not reproduced", TIE,
-                                                         "not measured", NOT_CHECKABLE)
-                    if verdicts.count(k))
+    rest = counts_words(verdicts).split(", ", 2)  # reproduced, not reproduced, the others
+    line = f"claims: {rest[0].split()[0]} of {whose}{len(verdicts)} reproduced"
+    line += "".join(f", {w}" for w in rest[1:] if not w.startswith("0 "))
     if n_variants:
         line += f"; {_plural(n_variants, 'variant')} also judged"
     return line

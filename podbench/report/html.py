@@ -32,7 +32,7 @@ from podbench.harness import metrics
 from podbench.report.decomposition import CAPTION
 from podbench.report.figures import percent
 from podbench.report.markdown import inline_html, markdown_to_html
-from podbench.study.claims import NOT_CHECKABLE, TIE, TIE_CHECK, text_claims
+from podbench.study.claims import Outcome, counts_words, text_claims
 
 __all__ = ["as_percent", "provenance", "render_report", "text_to_html"]
 
@@ -336,9 +336,6 @@ def _findings(evaluated, remarks, claims_path) -> str:
         return ('<p class="muted">No claims file (<code>claims.toml</code>) beside the '
                 "scenarios: nothing to check.</p>")
     n = len(evaluated)
-    counts = {k: sum(e["verdict"] == k for e in evaluated)
-              for k in ("reproduced", "not reproduced", "not measured", TIE)}
-    ties = f", {counts[TIE]} {TIE}" if counts[TIE] else ""
     out = [f"<p>Each claim of <code>{_e(claims_path)}</code> checked against this run's "
            "summary table (the same evaluation as <code>FINDINGS.md</code>). The words were "
            "translated into thresholds before any run; the structures and methods were not "
@@ -346,47 +343,39 @@ def _findings(evaluated, remarks, claims_path) -> str:
            "literal check is the tooltip); the notes are the claims file's text, as in "
            "<code>FINDINGS.md</code>, where an error written as a bare number is a fraction "
            "of ‖W‖<sub>F</sub> (0.05 = 5 %).</p>",
-           f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
-           f"{counts['not reproduced']} not reproduced{ties}, {counts['not measured']} not "
-           "measured.</strong></p>"]
-    if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
+           f"<p><strong>{n} claims: {_e(counts_words(e.verdict for e in evaluated))}."
+           "</strong></p>"]
+    if any(e.claim.variant or e.claim.part_of or not e.claim.checkable
            for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
         texts = text_claims(evaluated)
-        tc = {k: sum(v == k for _, _, v in texts)
-              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE, TIE)}
-        tties = f", {tc[TIE]} {TIE}" if tc[TIE] else ""
         out[-1] = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
-                   f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced"
-                   f"{tties}, "
-                   f"{tc['not measured']} not measured, {tc[NOT_CHECKABLE]} "
-                   f"{NOT_CHECKABLE}.</strong> The table lists every entry, the variants "
-                   f"({sum(1 for e in evaluated if e['claim'].variant)} entries: other "
-                   "readings, solvers, units, targets; "
-                   "see FINDINGS.md) among them.</p>")
+                   f"{_e(counts_words(v for _, _, v in texts))}.</strong> The table lists "
+                   f"every entry, the variants ({sum(1 for e in evaluated if e.claim.variant)}"
+                   " entries: other readings, solvers, units, targets; see FINDINGS.md) "
+                   "among them.</p>")
     rows = "".join(
-        f'<tr><td class="l"><a href="#claim-{_slug(e["claim"].id)}">{_e(e["claim"].id)}</a>'
-        f'</td><td class="l">{_e(e["claim"].source)}</td><td class="l">'
-        f'{_e(e["claim"].scenario)}</td><td class="l">{_verdict_badge(e["verdict"])}</td></tr>'
+        f'<tr><td class="l"><a href="#claim-{_slug(e.claim.id)}">{_e(e.claim.id)}</a>'
+        f'</td><td class="l">{_e(e.claim.source)}</td><td class="l">'
+        f'{_e(e.claim.scenario)}</td><td class="l">{_verdict_badge(e.verdict)}</td></tr>'
         for e in evaluated)
     out.append('<div class="scroll"><table class="verdicts"><thead><tr><th>claim</th>'
                "<th>source</th><th>scenario</th><th>verdict</th></tr></thead>"
                f"<tbody>{rows}</tbody></table></div>")
     for e in evaluated:
-        c = e["claim"]
-        cls = _slug(e["verdict"])
+        c = e.claim
+        cls = _slug(e.verdict)
         out.append(f'<article class="claim {cls}" id="claim-{_slug(c.id)}">')
-        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e['verdict'])}</h4>")
+        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e.verdict)}</h4>")
         out.append(f'<p class="source">{_e(c.source)}, {_e(c.scenario)}</p>')
         out.append(f"<blockquote>“{_inline(c.quote)}”</blockquote>")
         if c.criterion:
             out.append(f"<p><strong>Criterion:</strong> {_inline(c.criterion)}.</p>")
         items = []
-        for d in e["details"]:
-            mark = {True: ("holds", "holds"), False: ("fails", "fails"),
-                    None: ("unmeasured", "not measured"), TIE_CHECK: ("tie", "tie")}[d["holds"]]
-            items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
-                         f'<code title="{_e(d["check"])}">{_e(as_percent(d["check"]))}</code>'
-                         f' → {_e(as_percent(d["shown"]))}: {mark[1]}</li>')
+        for d in e.details:
+            css = "unmeasured" if d.outcome == Outcome.NOT_MEASURED else d.outcome.value
+            items.append(f'<li class="{css}">{_e(d.structure)}, {_e(d.target)}: '
+                         f'<code title="{_e(str(d.check))}">{_e(as_percent(str(d.check)))}'
+                         f'</code> → {_e(as_percent(d.shown))}: {d.outcome}</li>')
         out.append(f'<ul class="checks">{"".join(items)}</ul>')
         if getattr(c, "finding", ""):
             out.append(f"<p><strong>In one line:</strong> {_inline(c.finding)}</p>")
@@ -463,7 +452,7 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
 
 def _stats(df, evaluated, n_figs: int) -> str:
     """The counts at the top of the page (scenarios, rows, figures, claims, failures)."""
-    n_ok = None if evaluated is None else sum(e["verdict"] == "reproduced" for e in evaluated)
+    n_ok = None if evaluated is None else sum(e.verdict == "reproduced" for e in evaluated)
     stats: list[tuple[object, str]] = [
         (len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
         (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
