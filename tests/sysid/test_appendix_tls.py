@@ -306,3 +306,25 @@ def test_the_former_name_tls_runs_tls_dt_and_warns_once(recwarn):
     assert "'tls' is now named 'tls-dt'" in str(warned[0].message)
     assert "'tls-appendix'" in str(warned[0].message) and "'tls-balanced'" in str(warned[0].message)
     assert "tls" not in dc.available_solvers() and "tls-dt" in dc.available_solvers()
+
+
+def test_only_null_directions_below_the_cut_lower_the_rank():
+    """A clean force that starts at rest makes X singular (its last column is zero); with a
+    cut so high that only those null directions are discarded, the MATLAB's denominator is
+    0 (a division by zero). The solver discards the next smallest directions, one at a time,
+    until the denominator reaches TLS_MIN_DEN: the SVD's non-generic solution."""
+    q, y = _noisy_pulse_system(60, 8, noise=0.0)
+    y = y + 1e-3 * np.random.default_rng(1).standard_normal(60)
+    X = form_conv_mat(q)
+    C = np.hstack([X, y[:, None]])
+    _, S, Vt = np.linalg.svd(C)
+    V = Vt.T
+    tol = 2.0 * S[0] / S[-1]  # keeps every singular value: only the null direction is cut
+    h_ref, r_ref = tlsdeconv(y, X, tol)
+    assert abs(1 - np.sum(V[60, :r_ref] ** 2)) < 1e-12  # the MATLAB divides by ~0 here
+    res = dc.AppendixTLS(tol=tol).solve(dc.ConvolutionSystem(q[None, :], y, 1.0))
+    r = next(k for k in range(r_ref, 0, -1) if 1 - np.sum(V[60, :k] ** 2) >= dc.dense.TLS_MIN_DEN)
+    den = 1 - np.sum(V[60, :r] ** 2)
+    h = (V[60, :r] * V[:60, :r]).sum(axis=1) / den
+    assert res.info["rank"] == r < r_ref
+    assert np.linalg.norm(res.X - h) <= 1e-7 * np.linalg.norm(h)

@@ -298,28 +298,47 @@ def _largest(sec: dict) -> float:
     return max([top, *sec["silent"].tolist()])
 
 
-def _discarded(sec: dict, thr: float):
-    """The roots below ``thr`` as ``(p, δ)`` (origin pole, offset)."""
+def _count_below(sec: dict, thr: float) -> int:
+    """How many roots of the secular equation lie below ``thr``."""
     poles, w, c = sec["poles"], sec["weights"], sec["c"]
-    K = poles.size
     m = int(np.count_nonzero(poles < thr))
     with np.errstate(divide="ignore", invalid="ignore"):
         g_thr = c - thr + np.sum(w / (thr - poles))
-    d = m + 1 if (m < K and g_thr < 0) else m
-    if d == 0:
+    return m + 1 if (m < poles.size and g_thr < 0) else m
+
+
+def _first_roots(sec: dict, start: int, stop: int):
+    """Roots ``start … stop − 1`` (ascending) as ``(p, δ)`` (origin pole, offset)."""
+    poles, w, c = sec["poles"], sec["weights"], sec["c"]
+    if stop <= start:
         return np.zeros(0, dtype=int), np.zeros(0)
     p, q, lo, hi = _brackets(c, poles, w, sec["low"], sec["high"])
-    p, q, lo, hi = p[:d], q[:d], lo[:d], hi[:d]
+    p, q, lo, hi = p[start:stop], q[start:stop], lo[start:stop], hi[start:stop]
     return p, _roots(c, poles, w, p, q, lo, hi)
 
 
+def _weights(sec: dict, beta: np.ndarray, p, delta):
+    """``(s², x)`` of the eigenvectors at the roots ``μ_p + δ``: ``x_k = β_k/(λ − μ_k)`` over
+    the components kept, ``s² = 1/(1 + ‖x‖²)``."""
+    poles, g = sec["poles"], sec["group"]
+    D = (poles[p][:, None] - poles[g][None, :]) + delta[:, None]  # λ_j − μ_k (kept k)
+    x = beta[sec["keep"]][None, :] / D
+    return 1.0 / (1.0 + np.sum(x * x, axis=1)), x
+
+
 def bordered_tls(mu: np.ndarray, Q: np.ndarray, b: np.ndarray, c: float, tol: float,
-                 nrow: int, sec: dict | None = None) -> tuple:
+                 nrow: int, sec: dict | None = None, min_den: float = 0.0) -> tuple:
     """The appendix's ``tlsdeconv`` from the eigendecomposition ``(μ, Q)`` of ``A = XᵀX``,
     ``b = Xᵀy`` and ``c = yᵀy`` (module docstring): ``(h, r, den)``, ``r`` the directions
     kept (``σ_1/σ_i <= tol`` and ``i <= nrow``, the rows of ``[X y]``) and ``den`` the
     TLS denominator ``1 − Σ_kept V(n+1,i)²``. ``sec``: :func:`secular` of ``(μ, Qᵀb, c)``
-    when already known (it does not depend on ``tol``)."""
+    when already known (it does not depend on ``tol``).
+
+    ``min_den``: where the discarded directions carry less than that weight on ``y`` (the
+    non-generic problem: ``den = 0`` divides by zero in the MATLAB, e.g. only the exact null
+    directions of a clean force's ``X`` below the cut), the next smallest directions are
+    discarded too, one at a time, until ``den`` reaches it (Van Huffel & Vandewalle 1991,
+    §3.4; as :func:`~podbench.sysid.deconvolution.dense.truncated_tls`)."""
     M = mu.size
     beta = Q.T @ b
     sec = secular(mu, beta, c) if sec is None else sec
@@ -327,18 +346,25 @@ def bordered_tls(mu: np.ndarray, Q: np.ndarray, b: np.ndarray, c: float, tol: fl
     poles = sec["poles"]
     z = np.zeros(M)
     if poles.size == 0:  # y orthogonal to X's range: [X y]'s eigenvalues are μ and c
-        s2 = np.array([1.0]) if c < thr else np.zeros(0)
+        s2, cut = (np.array([1.0]), thr) if c < thr else (np.zeros(0), thr)
     else:
-        p, delta = _discarded(sec, thr)
-        below = poles[p] + delta < thr
-        p, delta = p[below], delta[below]
-        g = sec["group"]
-        D = (poles[p][:, None] - poles[g][None, :]) + delta[:, None]  # λ_j − μ_k (kept k)
-        x = beta[sec["keep"]][None, :] / D
-        s2 = 1.0 / (1.0 + np.sum(x * x, axis=1))
+        d = _count_below(sec, thr)
+        p, delta = _first_roots(sec, 0, d)
+        s2, x = _weights(sec, beta, p, delta)
+        cut = thr
+        while float(s2.sum()) < min_den and d < poles.size:  # the largest root stays kept
+            step = min(max(8, d // 8), poles.size - d)
+            pn, dn = _first_roots(sec, d, d + step)
+            s2n, xn = _weights(sec, beta, pn, dn)
+            need = int(np.searchsorted(np.cumsum(s2n), min_den - float(s2.sum()))) + 1
+            take = min(need, step)
+            p, delta = np.concatenate([p, pn[:take]]), np.concatenate([delta, dn[:take]])
+            s2, x = np.concatenate([s2, s2n[:take]]), np.vstack([x, xn[:take]])
+            d += take
+            cut = np.nextafter(float(poles[pn[take - 1]] + dn[take - 1]), np.inf)
         if x.size:
             z[sec["keep"]] = (s2[:, None] * x).sum(axis=0)
-    n_discarded = s2.size + int(np.count_nonzero(sec["silent"] < thr))
+    n_discarded = s2.size + int(np.count_nonzero(sec["silent"] < cut))
     r = min(M + 1 - n_discarded, nrow)
     den = float(s2.sum())
     h = -(Q @ z) / den if den > 0 else np.zeros(M)

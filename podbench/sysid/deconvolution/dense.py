@@ -887,7 +887,7 @@ class AppendixTLS(DenseSolver):
                 wy = 1.0 / ny if ny > 0 else 1.0
             b = border(G, y * wy, wb)
             h, r, den = bordered_tls(mu, Q, b, float((y * wy) @ (y * wy)), tols[col],
-                                     n_cases * n)
+                                     n_cases * n, min_den=TLS_MIN_DEN)
             if r == 0 or den == 0.0:
                 _warn_nothing_kept()
                 h = np.zeros(k * n)
