@@ -4,9 +4,10 @@ A *derived* scenario (``scenario.base``) runs the cases and methods of a study's
 *variants* of its structures (``[variants.<name>]``: a structure file with some fields
 replaced). When every scenario of a run is derived from scenarios of one folder that has a
 ``claims.toml``, each of those claims that names a varied structure is judged again on every
-variant, and ``FINDINGS.md`` says over which values of the parameter it holds (the rule of
-issue 11: where the text is silent, report the verdict as a function of the parameter over a
-stated range instead of one pick).
+variant, and ``FINDINGS.md`` says over which values of the parameter it holds (where the
+text is silent, the verdict as a function of the parameter over a stated range, not one
+pick). The unstated noise level of a virtual experiment is judged the same way
+(:func:`noise_verdicts`).
 
 ``scenarios/sensitivity`` applies this to Chapter 4: the LTV beam over the mean tip mass
 (Fig. 4.3 is not in the text) and the NL beam over the cubic spring's calibration (Fig. 4.2).

@@ -1,16 +1,20 @@
-"""Dense solvers: form ``A`` (the reference, ``O((kn)³)`` time, ``O((kn)²)`` memory).
+"""Dense solvers: the matrix problems of Eqs. 3.76–3.80, ``O((kn)³)`` time, ``O((kn)²)`` memory.
 
 ``"ls"``    :class:`LeastSquares` / :func:`least_squares`, minimum-norm least squares
-            ``X = A⁺ B`` (Eq. 3.76) by an SVD-based LAPACK driver.
-``"tls"``   :class:`TruncatedTLS` / :func:`truncated_tls`, truncated total least squares
+            ``X = A⁺ B`` (Eq. 3.76) from the SVD of the convolution matrix (kept per
+            process: every right-hand side on the same forces shares it).
+``"tls-dt"`` :class:`TruncatedTLS` / :func:`truncated_tls`, truncated total least squares
             (Eqs. 3.78–3.80, several right-hand sides), rank by :func:`tls_rank`; refused
             above :data:`TLS_MAX_COLUMNS` columns. podbench's form: the matrix keeps Δt
-            (``Δt·toeplitz(q)``), so its cut differs from the appendix's. The ``rcond`` rule
-            solves through the discarded eigenvectors of ``[A | B]ᵀ[A | B]`` (about 4× faster
-            than the SVD at 2050 columns, :func:`_tls_gram`).
+            (``Δt·toeplitz(q)``), so its cut depends on Δt and the units (``scale=True``
+            equilibrates the columns). The ``rcond`` rule solves through the discarded
+            eigenvectors of ``[A | B]ᵀ[A | B]`` (:func:`_tls_gram`). Formerly ``"tls"``.
 ``"tls-appendix"`` :class:`AppendixTLS` / :func:`appendix_tls`, the dissertation's TLS: the
-            appendix's ``tlsdeconv`` (raw force samples, no Δt, ``σ_1/σ_i <= 1000``, one
-            right-hand side at a time); ``balance=True`` is its unit-independent form.
+            appendix's ``tlsdeconv`` (raw force samples, no Δt, ``σ_1/σ_i <= tol``, one
+            right-hand side at a time; ``tol`` 1000 or ``"snr"``), through the eigenvalues of
+            ``XᵀX`` (:mod:`~podbench.sysid.deconvolution.bordered`).
+``"tls-balanced"`` :class:`BalancedTLS`, the same with the force blocks and ``y``
+            equilibrated: the same answer in any units.
 
 The solver objects of these four keep their last :data:`MEMO_SIZE` answers per process
 (exact bytes of the system and the options as the key): a repeated solve returns the first
@@ -65,12 +69,9 @@ __all__ = [
 ]
 
 TLS_MAX_COLUMNS = 4096
-"""Largest number of columns of ``[A | B]`` that :func:`truncated_tls` accepts by default.
-
-Measured on the project machine (AMD EPYC, one BLAS thread): the economy SVD (``gesdd``) of a
-square-ish matrix takes 4.6 s at 2000 columns, 15 s at 3000 and 41 s at 4000 (cubic growth;
-about 140 s expected at ML's n = 1000, k = 6, i.e. 6006 columns), with peak memory about
-seven matrices of that size (237 MB measured at 2000 × 2004). Beyond the limit it raises
+"""Largest number of columns of ``[A | B]`` that :func:`truncated_tls` accepts by default:
+an SVD of that size grows as the cube of the columns, with peak memory about seven matrices
+of that size (times measured in docs/noise.md). Beyond the limit it raises
 :class:`InputError` suggesting a structured solver; ``max_columns=`` overrides it."""
 
 DEFAULT_TLS_RCOND = 1e-3
@@ -99,10 +100,8 @@ TLS_CUT_TIE = 1e-10
 """Singular values of ``[A | B]`` within ``TLS_CUT_TIE·σ_1`` below the ``rcond`` cut count as
 at the cut, hence kept: a tie broken one way by every BLAS kernel and by both
 :func:`_tls_gram` and :func:`_tls_svd` (their singular values agree to about ``1e-12 σ_1``;
-an SVD's own round-off is ``~ε σ_1``). Measured: the closest singular value to the cut in
-the committed studies' TLS systems lies ``7.3e-5`` of the cut from it (the beam_forced_noise
-sweep's 315 systems; ``2.4e-4`` on Chapter 5's 207), i.e. at least ``7.3e-8 σ_1``, 730
-times the band."""
+an SVD's own round-off is ``~ε σ_1``); the closest singular value to the cut in the
+committed studies' systems lies hundreds of times the band from it (docs/noise.md)."""
 
 
 def _cut_level(rcond: float, s1: float) -> float:
@@ -310,14 +309,11 @@ def _nongeneric_rank(V21: np.ndarray, p: int) -> int:
     ``[A | B]`` reaches, e.g. a singular ``A`` whose null direction is what the cut
     discards), the truncated TLS solution does not exist (Van Huffel & Vandewalle 1991,
     *The Total Least Squares Problem*, §3.4, the non-generic problem) and the computed
-    ``X`` is round-off divided by round-off: measured on the beam_forced_noise sweep (LTI
-    beam, SL, mode 4 at 3 and 5 % noise: a 250 × 251 ``[A | B]`` whose 250 singular values
-    all pass the cut, so the one discarded is the null vector of ``[A | B]`` with ``V22``
-    at 1e-18), ``|X|`` of 0 to 13 between OpenBLAS kernels and under a 1e-12 perturbation
-    of the records. Their remedy, the non-generic TLS solution, discards the next smallest
-    direction as well (``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` over the enlarged set, whose zero
-    columns of ``V22`` add nothing): there ``V22 V22ᵀ = 0.06…0.22`` and ``X`` is
-    determined to 1e-11 under the same perturbation. ``p' = 0`` (``X = 0``) when no rank
+    ``X`` is round-off divided by round-off (on the beam_forced_noise sweep it moved between
+    BLAS kernels and under a 1e-12 perturbation of the records: docs/noise.md). Their
+    remedy, the non-generic TLS solution, discards the next smallest direction as well
+    (``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` over the enlarged set, whose zero columns of ``V22`` add
+    nothing), which the data determine. ``p' = 0`` (``X = 0``) when no rank
     reaches the level (``B`` orthogonal to every direction of ``A``)."""
     r = V21.shape[0]
     while p > 0:
@@ -702,12 +698,12 @@ def _appendix_discarded(C: np.ndarray, tol: float):
 
     ``tlsdeconv`` keeps ``σ_i`` with ``σ_1/σ_i <= tol`` (``i <= nrow``); ``Σ_{kept}`` of the
     last row of ``V`` and its products equal ``1 −`` / minus those over the discarded
-    vectors (``V`` is orthogonal), and on the Chapter 5 systems the discarded are few (about
-    1 % of ``M + 1``). They are the eigenvectors of ``CᵀC`` with eigenvalue
+    vectors (``V`` is orthogonal). They are the eigenvectors of ``CᵀC`` with eigenvalue
     ``< σ_1²/tol²`` (``σ_1²`` by Lanczos, then one LAPACK ``syevr`` on that interval): one
-    tridiagonalization instead of a full SVD (4–5 times faster at 2049 columns). The
-    subspace is the SVD's to about ``ε σ_1²/gap`` (relative ``1e-9`` on the kernels of
-    Chapter 5; ``tests/methods/test_appendix_tls.py`` compares with the full SVD).
+    tridiagonalization instead of a full SVD, the subspace the SVD's to about
+    ``ε σ_1²/gap`` (``tests/sysid/test_appendix_tls.py`` compares with the full SVD). The
+    path of :func:`appendix_tls` on a given matrix; a convolution system takes
+    :mod:`~podbench.sysid.deconvolution.bordered`.
     """
     n1 = C.shape[1]
     G = C.T @ C
