@@ -27,7 +27,7 @@ from podbench.structures.files import structure_dirs
 from podbench.study.claims import counts_words, text_claims
 from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
-from podbench.sysid.deconvolution import available_solvers
+from podbench.sysid.deconvolution import RENAMED, available_solvers
 from podbench.sysid.methods import BUILTIN_METHODS
 from podbench.sysid.paramdocs import entries, parameter_help
 
@@ -372,7 +372,7 @@ def _add_methods(sub) -> None:
         "each parameter's first sentence; with NAME: the whole description.",
         """Examples:
   podbench methods                 # every method and solver, briefly
-  podbench methods ML tls          # the multiple-load method and the TLS solver in full
+  podbench methods ML tls-appendix # the multiple-load method and the appendix TLS in full
 """)
     m.add_argument("names", nargs="*", metavar="NAME",
                    help="a method as a scenario names it (" + ", ".join(
@@ -385,6 +385,7 @@ def _entry_name(name: str) -> str:
     """The :func:`entries` name ``name`` means (a class name or another letter case is
     accepted when it is unambiguous)."""
     known = entries()
+    name = RENAMED.get(name.lower(), (name,))[0]  # a former solver name: the solver it runs
     if name in known:
         return name
     found = [k for k, cls in known.items() if name.lower() in (cls.__name__.lower(), k.lower())]

@@ -118,7 +118,7 @@ def test_noise_is_per_measured_channel(tmp_path):
 def test_bundled_records_are_what_the_experiment_generates():
     assert check_experiment(CH5) == []
     exp = load_experiment(CH5)
-    assert exp.noise_levels == (0.0, 0.01, 0.02, 0.05)
+    assert exp.noise_levels == (0.0, 0.001, 0.01, 0.02, 0.05)
     W = read_record(CH5 / "data/linear_beam/noise_0pct/load8.npz").W
     assert W.shape == (6, 1024)
     s = np.linalg.svd(W, compute_uv=False)

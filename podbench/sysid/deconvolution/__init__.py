@@ -71,6 +71,7 @@ cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regulariza
 """
 
 from podbench.sysid.deconvolution._api import (
+    RENAMED,
     available_solvers,
     deconvolve,
     get_solver,
@@ -133,6 +134,7 @@ from podbench.sysid.deconvolution.tikhonov import (
 )
 
 __all__ = [
+    "RENAMED",
     # convolution
     "convolution_matrix",
     "block_convolution_matrix",
