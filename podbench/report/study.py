@@ -193,15 +193,20 @@ def _text_first(evaluated, linked, why, linked_note=(), seeds=None, levels=None)
     return out
 
 
-def _linked_note(evaluated, linked, linked_from: str) -> list[str]:
+def _linked_note(evaluated, linked, linked_from: str, *, structures_only: bool) -> list[str]:
+    """The sentence before the claims' table on the entries judged over an unstated parameter
+    (``structures_only``: every such parameter is a structure's, as in Chapter 4)."""
     if linked is None:
         return []
     kinds = {e.claim.id: [k for k, _, _ in linked.get(e.claim.id, ())] for e in evaluated}
     n_linked = sum(1 for ks in kinds.values() if ks)
     n_dep = sum(1 for ks in kinds.values() if any(k.startswith("depends") for k in ks))
     n_held = sum(1 for ks in kinds.values() if ks and all(k.startswith("holds") for k in ks))
-    return [f"{n_linked} entries are judged over a parameter the text does not state; "
-            f"{linked_from} judges them at every value of it (the same checks), and the last "
+    subject = (f"{n_linked} claims name a structure whose parameter the text does not state; "
+               f"{linked_from} judges them again" if structures_only else
+               f"{n_linked} entries are judged over a parameter the text does not state; "
+               f"{linked_from} judges them")
+    return [f"{subject} at every value of it (the same checks), and the last "
             "column says how each fares over the values the text's words admit (the claims "
             "file's `[[bounds]]`; without one, over the whole studied range). Over those "
             f"values {n_held} hold throughout, {n_dep} depend on the parameter and "
@@ -263,7 +268,7 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None,
         out.append(f"**{n[Verdict.REPRODUCED]} of {len(evaluated)} claims reproduced, "
                    f"{counts_words(e.verdict for e in evaluated).split(', ', 1)[1]}.**\n\n")
         out += _seeds_note(seeds)
-    linked_note = _linked_note(evaluated, linked, linked_from)
+    linked_note = _linked_note(evaluated, linked, linked_from, structures_only=levels is None)
     why = any(e.claim.finding for e in evaluated)
     if text_first:  # the text's claims first, the parameter sweep's note after their table
         out += _text_first(evaluated, linked, why, linked_note, seeds, levels)
