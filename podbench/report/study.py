@@ -148,9 +148,10 @@ def _levels_note(levels) -> list[str]:
     if levels is None:
         return []
     pct = f"{100.0 * levels.suggested:g} %"
+    each = ", ".join(f"{100.0 * v:g}" for v in sorted(set(levels.levels.values())))
     return [f"The text states no noise level. A claim judged at several levels of the "
-            f"per-channel noise ({', '.join(f'{100.0 * v:g}' for v in levels.levels.values())}"
-            f" %) is counted at {pct}, the level of the {levels.source}'s “{levels.quote}” "
+            f"per-channel noise ({each} %) is counted at {pct}, the level of the "
+            f"{levels.source}'s “{levels.quote}” "
             f"({levels.reading.strip()}); the last column gives its verdicts over every "
             "level and where it stops holding, as for any other parameter the text does "
             "not state.\n\n"]
