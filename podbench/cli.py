@@ -26,10 +26,10 @@ from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
-from podbench.study.claims import NOT_CHECKABLE, TIE, text_claims
+from podbench.study.claims import counts_words, text_claims
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
 from podbench.sysid import registry
-from podbench.sysid.deconvolution import available_solvers
+from podbench.sysid.deconvolution import RENAMED, available_solvers
 from podbench.sysid.paramdocs import entries, parameter_help
 
 _EPILOG = """\
@@ -379,7 +379,7 @@ def _add_methods(sub) -> None:
         "each parameter's first sentence; with NAME: the whole description.",
         """Examples:
   podbench methods                 # every method and solver, briefly
-  podbench methods ML tls          # the multiple-load method and the TLS solver in full
+  podbench methods ML tls-appendix # the multiple-load method and the appendix TLS in full
 """)
     m.add_argument("names", nargs="*", metavar="NAME",
                    help="a method as a scenario names it (" + ", ".join(
@@ -392,6 +392,7 @@ def _entry_name(name: str) -> str:
     """The :func:`entries` name ``name`` means (a class name or another letter case is
     accepted when it is unambiguous)."""
     known = entries()
+    name = RENAMED.get(name.lower(), (name,))[0]  # a former solver name: the solver it runs
     if name in known:
         return name
     found = [k for k in known if name.lower() == k.lower()] or [
@@ -442,12 +443,11 @@ def _claims_line(claims) -> str:
     text's claims once each (an entry with its ``part_of`` parts), then how many variants
     were judged besides them (the text's claims apart from podbench's variants)."""
     verdicts = [v for _, _, v in text_claims(claims)]
-    n_variants = sum(bool(e["claim"].variant) for e in claims)
+    n_variants = sum(bool(e.claim.variant) for e in claims)
     whose = "the text's " if n_variants else ""
-    line = f"claims: {verdicts.count('reproduced')} of {whose}{len(verdicts)} reproduced"
-    line += "".join(f", {verdicts.count(k)} {k}" for k in ("not reproduced", TIE,
-                                                         "not measured", NOT_CHECKABLE)
-                    if verdicts.count(k))
+    rest = counts_words(verdicts).split(", ", 2)  # reproduced, not reproduced, the others
+    line = f"claims: {rest[0].split()[0]} of {whose}{len(verdicts)} reproduced"
+    line += "".join(f", {w}" for w in rest[1:] if not w.startswith("0 "))
     if n_variants:
         line += f"; {_plural(n_variants, 'variant')} also judged"
     return line

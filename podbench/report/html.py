@@ -40,7 +40,7 @@ from podbench.report.overview import (
     ranking,
     run_words,
 )
-from podbench.study.claims import NOT_CHECKABLE, TIE, TIE_CHECK, text_claims
+from podbench.study.claims import Outcome, Verdict, counts_words, text_claims
 
 __all__ = ["as_percent", "provenance", "render_report", "text_to_html"]
 
@@ -415,26 +415,16 @@ def _headline(evaluated) -> str:
     """The claims' count, as FINDINGS.md gives it (the text's claims once each when the
     claims file marks variants or parts), as an HTML paragraph."""
     n = len(evaluated)
-    counts = {k: sum(e["verdict"] == k for e in evaluated)
-              for k in ("reproduced", "not reproduced", "not measured", TIE)}
-    ties = f", {counts[TIE]} {TIE}" if counts[TIE] else ""
-    out = (f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
-           f"{counts['not reproduced']} not reproduced{ties}, {counts['not measured']} not "
-           "measured.</strong></p>")
-    if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
+    out = (f"<p><strong>{n} claims: {_e(counts_words(e.verdict for e in evaluated))}."
+           "</strong></p>")
+    if any(e.claim.variant or e.claim.part_of or not e.claim.checkable
            for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
         texts = text_claims(evaluated)
-        tc = {k: sum(v == k for _, _, v in texts)
-              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE, TIE)}
-        tties = f", {tc[TIE]} {TIE}" if tc[TIE] else ""
         out = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
-               f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced"
-               f"{tties}, "
-               f"{tc['not measured']} not measured, {tc[NOT_CHECKABLE]} "
-               f"{NOT_CHECKABLE}.</strong> The table lists every entry, the variants "
-               f"({sum(1 for e in evaluated if e['claim'].variant)} entries: other "
-               "readings, solvers, units, targets; "
-               "see FINDINGS.md) among them.</p>")
+               f"{_e(counts_words(v for _, _, v in texts))}.</strong> The table lists "
+               f"every entry, the variants ({sum(1 for e in evaluated if e.claim.variant)}"
+               " entries: other readings, solvers, units, targets; see FINDINGS.md) "
+               "among them.</p>")
     return out
 
 
@@ -450,9 +440,9 @@ def _findings(evaluated, remarks, claims_path) -> str:
            "<code>FINDINGS.md</code>, where an error written as a bare number is a fraction "
            "of ‖W‖<sub>F</sub> (0.05 = 5 %).</p>", _headline(evaluated)]
     rows = "".join(
-        f'<tr><td class="l"><a href="#claim-{_slug(e["claim"].id)}">{_e(e["claim"].id)}</a>'
-        f'</td><td class="l">{_e(e["claim"].source)}</td><td class="l">'
-        f'{_e(e["claim"].scenario)}</td><td class="l">{_verdict_badge(e["verdict"])}</td></tr>'
+        f'<tr><td class="l"><a href="#claim-{_slug(e.claim.id)}">{_e(e.claim.id)}</a>'
+        f'</td><td class="l">{_e(e.claim.source)}</td><td class="l">'
+        f'{_e(e.claim.scenario)}</td><td class="l">{_verdict_badge(e.verdict)}</td></tr>'
         for e in evaluated)
     out.append('<div class="scroll"><table class="verdicts"><thead><tr><th>claim</th>'
                "<th>source</th><th>scenario</th><th>verdict</th></tr></thead>"
@@ -460,21 +450,20 @@ def _findings(evaluated, remarks, claims_path) -> str:
     out.append(f'<details class="sub" id="claims-all"><summary>Every claim: its quote, '
                f"checks and notes ({len(evaluated)})</summary>")
     for e in evaluated:
-        c = e["claim"]
-        cls = _slug(e["verdict"])
+        c = e.claim
+        cls = _slug(e.verdict)
         out.append(f'<article class="claim {cls}" id="claim-{_slug(c.id)}">')
-        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e['verdict'])}</h4>")
+        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e.verdict)}</h4>")
         out.append(f'<p class="source">{_e(c.source)}, {_e(c.scenario)}</p>')
         out.append(f"<blockquote>“{_inline(c.quote)}”</blockquote>")
         if c.criterion:
             out.append(f"<p><strong>Criterion:</strong> {_inline(c.criterion)}.</p>")
         items = []
-        for d in e["details"]:
-            mark = {True: ("holds", "holds"), False: ("fails", "fails"),
-                    None: ("unmeasured", "not measured"), TIE_CHECK: ("tie", "tie")}[d["holds"]]
-            items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
-                         f'<code title="{_e(d["check"])}">{_e(as_percent(d["check"]))}</code>'
-                         f' → {_e(as_percent(d["shown"]))}: {mark[1]}</li>')
+        for d in e.details:
+            css = "unmeasured" if d.outcome == Outcome.NOT_MEASURED else d.outcome.value
+            items.append(f'<li class="{css}">{_e(d.structure)}, {_e(d.target)}: '
+                         f'<code title="{_e(str(d.check))}">{_e(as_percent(str(d.check)))}'
+                         f'</code> → {_e(as_percent(d.shown))}: {d.outcome}</li>')
         out.append(f'<ul class="checks">{"".join(items)}</ul>')
         if getattr(c, "finding", ""):
             out.append(f"<p><strong>In one line:</strong> {_inline(c.finding)}</p>")
@@ -602,11 +591,11 @@ def _not_reproduced(evaluated) -> str:
     """Links to the claims not reproduced (the text's claims when the file marks them)."""
     if not evaluated:
         return ""
-    if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
-           for e in evaluated):
-        ids = [e["claim"].id for e, _, v in text_claims(evaluated) if v == "not reproduced"]
+    if any(e.claim.variant or e.claim.part_of or not e.claim.checkable for e in evaluated):
+        ids = [e.claim.id for e, _, v in text_claims(evaluated)
+               if v == Verdict.NOT_REPRODUCED]
     else:
-        ids = [e["claim"].id for e in evaluated if e["verdict"] == "not reproduced"]
+        ids = [e.claim.id for e in evaluated if e.verdict == Verdict.NOT_REPRODUCED]
     if not ids:
         return ""
     links = ", ".join(f'<a href="#claim-{_slug(i)}">{_e(i)}</a>' for i in ids)
@@ -630,7 +619,7 @@ def _summary(df, evaluated, **timing) -> str:
 def _stats(df, evaluated, n_figs: int, seconds: float | None = None) -> str:
     """The counts at the top of the page (scenarios, rows, figures drawn on the page,
     claims, failures, time)."""
-    n_ok = None if evaluated is None else sum(e["verdict"] == "reproduced" for e in evaluated)
+    n_ok = None if evaluated is None else sum(e.verdict == Verdict.REPRODUCED for e in evaluated)
     stats: list[tuple[object, str]] = [
         (len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
         (len(df), "rows (structure × method × target)"), (n_figs, "figures on this page")]

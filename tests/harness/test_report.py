@@ -522,7 +522,7 @@ def test_fits_table_writes_roundoff_residuals_as_zero():
     unit = SimpleNamespace(fits=[
         {"scenario": "s", "structure": "b", "method": "ML", "n_modes": 4, "solver": "block",
          "fit_residual": 3.26547e-16, "solver_residual": 4.2e-16, "solver_rcond": 1e-15},
-        {"scenario": "s", "structure": "b", "method": "ML-tls", "n_modes": 4, "solver": "tls",
+        {"scenario": "s", "structure": "b", "method": "ML-tls", "n_modes": 4, "solver": "tls-dt",
          "fit_residual": 0.0123, "solver_residual": 2 * ROUNDOFF_RESIDUAL,
          "solver_rcond": 1e-15},
     ])

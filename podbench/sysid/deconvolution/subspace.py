@@ -66,16 +66,12 @@ and the smallest order within one standard error of the best (``rule="1se"``; ``
 the best). Held-out errors that agree to a relative ``1e-6`` count as equal, so round-off
 cannot reorder them. The chosen order is then identified from the whole records.
 
-**Determined by the data** (issue 23): with ``L₃₂`` read from the blocks of the LQ factor,
-as MOESP writes it, the clean NL beam's ML fit of the beam_forced_noise sweep chose order
-16, 30 or 38 under three 1e-12 perturbations of its records (its kernel moving by 9 %),
-and wrote a total error of 0.15038 on OpenBLAS SkylakeX against 0.150422 and 0.150627 on
-Haswell: its pulse loads leave the future inputs of rank 24 of 124 (horizon 31), and the
-LQ factor's rows for the dependent ones are round-off whose directions carry future-output
-content into ``L₃₂``. The projected form (:func:`_l32`) chooses order 28 under every
-perturbation, its kernel moving by at most 2e-7, and gives the same table on both kernels;
-the hold-out tie ``_TIE`` was not the cause (the chosen and the next order's errors differ
-by more than 1e-2 relative there).
+**Determined by the data**: with ``L₃₂`` read from the blocks of the LQ factor, as MOESP
+writes it, a pulse load's future inputs are rank deficient, the LQ factor's rows for the
+dependent ones are round-off, and their directions carry future-output content into
+``L₃₂``: the chosen order and the kernel then move under a 1e-12 perturbation of the
+records and between BLAS kernels (docs/noise.md). The projected form (:func:`_l32`) reads
+``L₃₂`` on the instruments' numerical range only and is determined by the data.
 """
 
 from __future__ import annotations
@@ -186,9 +182,7 @@ def _l32(R: np.ndarray, i: int, k: int, r: int, rank_tol: float = RANK_TOL) -> n
     ``U_f`` and ``Z`` of full row rank: a pulse load's future inputs are zero after the
     pulse, the rows of ``R`` for such dependent rows are round-off, and their directions,
     chosen by the BLAS kernel, carry future-output content in or out of ``L₃₂`` (measured
-    on the clean NL beam, ML: its ninth singular value 1.7231e-3 on OpenBLAS Haswell,
-    1.7248e-3 on SkylakeX, 1.5399e-3 with the records perturbed by 1e-12; the projected
-    form: 3e-12 relative between the kernels)."""
+    in docs/noise.md: the projected form agrees between kernels to 3e-12)."""
     a = i * k
     c = i * r
     m = R.shape[1]
