@@ -1,4 +1,4 @@
-"""Band columns of the study tables (issue 21): every prediction's ``error_estimate`` and the
+"""Band columns of the study tables: every prediction's ``error_estimate`` and the
 ``coverage`` of its 90 % band (:mod:`podbench.sysid.methods.bands`), scored against the truth.
 
 ``coverage`` is the fraction of the truth's samples (every sensor and time) inside the band;

@@ -1,4 +1,4 @@
-"""Calibration section of a study (issue 21): how well the bands and error estimates of
+"""Calibration section of a study: how well the bands and error estimates of
 :mod:`podbench.sysid.methods.bands` held, from the study's rows (``error_estimate``,
 ``coverage``) and the sharpness of each band (:func:`podbench.harness.bands.band_stats`).
 
@@ -61,7 +61,7 @@ def calibration_rows(df: pd.DataFrame, stats: list, scenarios: dict) -> pd.DataF
     # the realized error as the table writes it (six digits): the scores are then computed
     # from calibration.csv's own values, and errors equal to round-off (methods whose
     # predictions agree to the last bits) tie exactly instead of ranking in an order the
-    # BLAS kernel decides (Chapter 4's Spearman read 0.481 / 0.48 on two OpenBLAS kernels)
+    # CPU's round-off decides
     out["total_error"] = out["total_error"].map(
         lambda v: float(f"{v:.6g}") if np.isfinite(v) else v)
     out = out[np.isfinite(out["coverage"].astype(float))]
