@@ -1,7 +1,7 @@
 """The digits podbench's tables write, so that a table regenerates byte-identically on any CPU.
 
 A number is written at the digits its computation determines: a fit diagnostic whose last
-digits move between BLAS kernels at two significant digits (:func:`diagnostic_digits`); the
+digits move between CPUs at two significant digits (:func:`diagnostic_digits`); the
 rows of a fit at what its estimator declares (:func:`estimator_writer`): a method's round-off
 floor (``floor_digits``, ERA/OKID's), or its deconvolution solver's stopping tolerance
 (``SolverResult.determined``: :mod:`podbench.sysid.deconvolution.determined`). The
@@ -32,13 +32,13 @@ __all__ = ["ESTIMATE_COLUMNS", "DIAGNOSTIC_COLUMNS", "ROUNDOFF_COLUMNS", "ROUNDO
 
 #: Estimates in ``fits.csv`` written to two significant digits: the noise floor that ``auto``
 #: compares with its threshold (1e-3) is an evidence estimate whose fourth digit moves
-#: between BLAS kernels on clean single-precision records (docs/noise.md).
+#: between CPUs on clean single-precision records (docs/noise.md).
 ESTIMATE_COLUMNS = ("solver_noise_floor",)
 
 #: Conditioning diagnostics and iteration counts in ``fits.csv`` and ``sweep.csv`` written to
 #: two significant digits: a condition number of an ill-conditioned system, the amplification
 #: and growth of a triangular solve, and the iteration at which a stopping rule is met all
-#: move between BLAS kernels; what they tell — the order of magnitude, roughly how many
+#: move between CPUs; what they tell — the order of magnitude, roughly how many
 #: iterations — is in the first two digits.
 DIAGNOSTIC_COLUMNS = ("condition_number", "solver_condition", "solver_amplification",
                       "solver_growth", "solver_iterations", "solver_solves")
@@ -75,7 +75,7 @@ def diagnostic_digits(name: str, value):
 
 
 #: A band's realized coverage (the fraction of the truth's samples inside it) is written to
-#: two decimals: the band's edges move in their sixth digit between BLAS kernels, so a
+#: two decimals: the band's edges move in their sixth digit between CPUs, so a
 #: sample of the truth lying on an edge falls in or out. The coverage is judged against
 #: 0.85–0.95.
 COVERAGE_DECIMALS = 2
@@ -256,7 +256,7 @@ def iterative_note(solvers) -> str:
         return ""
     digits = ", ".join(f"`{n}`: {solver_digits(n)}" for n in names)
     return ("Rows of a fit with an iterative solver are written at the significant digits its "
-            "stopping tolerance determines, three digits above the BLAS kernel's round-off "
+            "stopping tolerance determines, three digits above the CPU's round-off "
             f"(significant digits {digits}), its iteration counts left empty (docs/noise.md, "
             "*Digits of an iterative solve*).")
 

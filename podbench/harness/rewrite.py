@@ -2,7 +2,7 @@
 
 podbench writes each number at the significant digits its computation determines
 (:mod:`podbench.harness.digits`): six for direct solves, fewer for ERA/OKID and the iterative
-solvers, two for diagnostics. Another BLAS kernel moves a number by its round-off, far below
+solvers, two for diagnostics. Another CPU's round-off moves a number, far below
 its last written digit, and the written digits change only when the number lies within that
 round-off of a rounding boundary. That is rare per number and not rare per study (at three
 digits a number moved by 3.3e-6, relative, is written differently in 0.12 % of cases;

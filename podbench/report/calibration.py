@@ -36,8 +36,8 @@ def structure_class(name: str) -> str:
 
 
 _BAND_SCALES = ("interval_score", "constant_interval_score", "relative_half_width")
-"""Columns that scale with the band's width, whose sixth digit moves between OpenBLAS
-kernels (measured on Chapter 4's MR bands: up to 2e-5 relative): written to three digits."""
+"""Columns that scale with the band's width, whose sixth digit moves with the CPU's
+round-off (docs/noise.md): written to three digits."""
 
 
 def calibration_rows(df: pd.DataFrame, stats: list, scenarios: dict) -> pd.DataFrame:

@@ -211,7 +211,7 @@ def identify_kernel(forces: Sequence, responses: Sequence, dt: float, *, n_lags:
         modes: the 5-DOF chain's exact acceleration kernel at Δt = 1e-4 s has Hankel
         singular values 1 … 6.7e-12, 1.3e-14 over 100 block rows; capped at 1e-10 its ERA
         model keeps 6 of 8 states and couples to the beam 3.7e-3 off the assembled truth,
-        against 1.9e-7 to 2.2e-6 with 8, by BLAS kernel).
+        against 1.9e-7 to 2.2e-6 with 8, by CPU).
     """
     F, Y = _check_records(forces, responses)
     p, n = F[0].shape

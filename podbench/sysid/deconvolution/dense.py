@@ -98,7 +98,7 @@ comes out at ``1e-36…1e-15``; every other one met in the committed studies is 
 
 TLS_CUT_TIE = 1e-10
 """Singular values of ``[A | B]`` within ``TLS_CUT_TIE·σ_1`` below the ``rcond`` cut count as
-at the cut, hence kept: a tie broken one way by every BLAS kernel and by both
+at the cut, hence kept: a tie broken one way by every CPU and by both
 :func:`_tls_gram` and :func:`_tls_svd` (their singular values agree to about ``1e-12 σ_1``;
 an SVD's own round-off is ``~ε σ_1``); the closest singular value to the cut in the
 committed studies' systems lies hundreds of times the band from it (docs/noise.md)."""
@@ -310,7 +310,7 @@ def _nongeneric_rank(V21: np.ndarray, p: int) -> int:
     discards), the truncated TLS solution does not exist (Van Huffel & Vandewalle 1991,
     *The Total Least Squares Problem*, §3.4, the non-generic problem) and the computed
     ``X`` is round-off divided by round-off (on the beam_forced_noise sweep it moved between
-    BLAS kernels and under a 1e-12 perturbation of the records: docs/noise.md). Their
+    CPUs and under a 1e-12 perturbation of the records: docs/noise.md). Their
     remedy, the non-generic TLS solution, discards the next smallest direction as well
     (``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` over the enlarged set, whose zero columns of ``V22`` add
     nothing), which the data determine. ``p' = 0`` (``X = 0``) when no rank

@@ -1,7 +1,7 @@
 """How far an iterative solver's answer is determined: the significant digits it fixes.
 
 An iterative solve stops at the first iteration whose stopping test passes: its answer is
-determined only to the tolerance, and round-off (another BLAS kernel) can move the stopping
+determined only to the tolerance, and round-off (another CPU) can move the stopping
 iteration. A solver with a stopping test declares its :class:`StoppingRule` (class attribute
 ``stopping``: how far a decade of tolerance moves the numbers it gives, and how far the
 round-off of the kernel moves them; the measurements are in ``docs/noise.md``, *Digits of an
@@ -22,7 +22,7 @@ __all__ = ["ITERATIVE_MARGIN", "MOST_DIGITS", "iterative_digits", "StoppingRule"
 
 ITERATIVE_MARGIN = 3
 """Margin, in decimal digits, kept between the last digit written and the round-off that
-moves it between BLAS kernels: a written value then changes only where the unrounded one
+moves it between CPUs: a written value then changes only where the unrounded one
 lies within 1e-3…1e-2 of a last-digit unit of a rounding boundary."""
 
 MOST_DIGITS = 6

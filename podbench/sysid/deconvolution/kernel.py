@@ -122,7 +122,7 @@ def _quadratic(yy: float, d: np.ndarray, z2: np.ndarray, g: float) -> float:
     ``Σ z²/(d + γ)`` over the others — the same number in exact arithmetic. The direct form
     subtracts two nearly equal numbers when the system is square (``r⊥ = 0``, ML with as many
     load cases as modes) and γ is small: its round-off sign then decided, machine by machine
-    (measured: another OpenBLAS kernel with two threads), whether the profile found the
+    (measured: another CPU with two BLAS threads), whether the profile found the
     noise level or fell to ``Q = 0``, a noise floor of 0 on 2 %-noisy records.
     """
     dmax = float(d.max()) if d.size else 0.0

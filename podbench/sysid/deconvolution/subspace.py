@@ -57,7 +57,7 @@ the longer). ``horizon=`` fixes it.
 **Order**: only orders ``N`` whose singular value ``S_N`` exceeds the **rank floor**
 ``rank_tol · S_1`` (default :data:`RANK_TOL` = 1e-8 ≈ √eps) are candidates: an order whose
 subspace direction sits at round-off is not determined by the data, and its poles (and any
-rule that compares them) would depend on the BLAS kernel. Among the candidates (even orders
+rule that compares them) would depend on the CPU. Among the candidates (even orders
 up to ``max_order``) the hold-out rule of :mod:`.realization` chooses, on the first
 ``n_rule`` samples of every record (the whole record unless it is long): poles (steps 1–4)
 and residues (step 5) from the first ``n_fit = n_rule − ⌈holdout·n_rule⌉`` samples, the
@@ -70,7 +70,7 @@ cannot reorder them. The chosen order is then identified from the whole records.
 writes it, a pulse load's future inputs are rank deficient, the LQ factor's rows for the
 dependent ones are round-off, and their directions carry future-output content into
 ``L₃₂``: the chosen order and the kernel then move under a 1e-12 perturbation of the
-records and between BLAS kernels (docs/noise.md). The projected form (:func:`_l32`) reads
+records and between CPUs (docs/noise.md). The projected form (:func:`_l32`) reads
 ``L₃₂`` on the instruments' numerical range only and is determined by the data.
 """
 
@@ -181,7 +181,7 @@ def _l32(R: np.ndarray, i: int, k: int, r: int, rank_tol: float = RANK_TOL) -> n
     rule). Reading the blocks of ``L = Rᵀ`` directly, as the LQ form of MOESP does, needs
     ``U_f`` and ``Z`` of full row rank: a pulse load's future inputs are zero after the
     pulse, the rows of ``R`` for such dependent rows are round-off, and their directions,
-    chosen by the BLAS kernel, carry future-output content in or out of ``L₃₂`` (measured
+    chosen by the CPU's round-off, carry future-output content in or out of ``L₃₂`` (measured
     in docs/noise.md: the projected form agrees between kernels to 3e-12)."""
     a = i * k
     c = i * r
