@@ -33,8 +33,7 @@ from podbench.harness.predict import (
     min_samples_of,
     read_any,
 )
-from podbench.sysid.models import Model
-from podbench.sysid.realize import to_statespace
+from podbench.sysid.models import Model, realization_summary
 
 __all__ = ["FitResult", "fit_files", "modes_table"]
 
@@ -52,14 +51,13 @@ class FitResult:
 
 
 def modes_table(method) -> tuple[pd.DataFrame | None, dict]:
-    """The physical modes of a fitted method and how they were chosen (for model.json), or
-    None and the one-line reason it has no state-space form."""
-    try:
-        ss = to_statespace(method)
-        modes = ss.modes()
-    except InputError as exc:
-        return None, {"modes_table": None, "modes_reason": str(exc)}
-    return modes.table(), {"modes_table": "modes.csv", "modes_count": len(modes)}
+    """The physical modes of a fitted method and, for model.json, its realization summary
+    and how the modes were chosen; None and the one-line reason (``modes_reason``) where
+    it has no state-space form."""
+    summary, table = realization_summary(method)
+    if table is None:
+        return None, {**summary, "modes_table": None, "modes_reason": summary["reason"]}
+    return table, {**summary, "modes_table": "modes.csv", "modes_count": len(table)}
 
 
 def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,

@@ -229,17 +229,23 @@ def _readable(v):
     return {k: _readable(x) for k, x in v.items()}
 
 
-def _realization_summary(method) -> dict:
-    """The state-space realization and modes of ``method`` for ``model.json`` (or why not)."""
+def realization_summary(method):
+    """``(summary, table)``: the state-space realization and modes of ``method`` for
+    ``model.json`` and the modes table; ``table`` None (and the summary's ``reason``) where
+    the method has no state-space form."""
     try:
         ss = to_statespace(method)
         modes = ss.modes()
     except InputError as exc:
-        return {"realization": None, "reason": str(exc)}
+        return {"realization": None, "reason": str(exc)}, None
     table = modes.table()
     return {"realization": ss.realization, "order": ss.order,
             "form": "free (A, C, x0_map)" if ss.is_free else "forced (A, B, C, D)",
-            "modes_rule": list(modes.notes), "modes": table.to_dict(orient="records")}
+            "modes_rule": list(modes.notes), "modes": table.to_dict(orient="records")}, table
+
+
+def _realization_summary(method) -> dict:
+    return realization_summary(method)[0]
 
 
 def save_model(method, path, *, training_files: Sequence = (), include_records: bool = True,
@@ -259,7 +265,8 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
     summary : bool
         Write ``<stem>.json`` beside the archive (default True).
     extra : dict, optional
-        More entries for the summary (JSON values: e.g. what the fit chose).
+        More entries for the summary (JSON values: e.g. what the fit chose); with a
+        ``realization`` entry, the realization summary the caller made (not made again).
 
     Returns
     -------
@@ -288,8 +295,10 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
     if summary:
         readable = _readable(header)
         readable["arrays"] = {k: f"{a.dtype} {list(a.shape)}" for k, a in enc.arrays.items()}
-        readable.update(_realization_summary(method))
-        readable.update(extra or {})
+        extra = dict(extra or {})
+        if "realization" not in extra:  # a caller that realized already passes its summary
+            readable.update(_realization_summary(method))
+        readable.update(extra)
         atomic_write_text(path.with_suffix(".json"),
                           json.dumps(readable, indent=1, ensure_ascii=False, default=str) + "\n")
     return path
