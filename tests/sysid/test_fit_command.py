@@ -172,3 +172,13 @@ def test_python_fit_save_load_modes_and_exports(chain, tmp_path):
     pd.testing.assert_frame_equal(back.modes(), model.modes())
     with pytest.raises(InputError, match="Parameter `out`"):
         pb.fit("ML", recs[:3], tmp_path / "x", inputs="measured")
+
+
+def test_fir_ls_fits_from_the_command_line(chain, tmp_path, capsys):
+    """FIR-LS fixes its inputs, solver and basis: the command line gives it only its own
+    parameters (it was given ML's ``inputs``, an internal error)."""
+    _, paths = chain
+    assert main(["fit", "--method", "FIR-LS", "--train", *paths[:3], "--out",
+                 str(tmp_path / "o")]) == 0
+    summary = json.loads((tmp_path / "o" / "model.json").read_text())
+    assert summary["method"] == "FIR-LS" and summary["chosen"]
