@@ -18,7 +18,7 @@ Quick tour::
 """
 
 from podbench import _compat, errors
-from podbench.api import StudyResult, run
+from podbench.api import StudyResult, fit, load_model, run
 from podbench.core.records import Record
 from podbench.core.response import Response, displacement_norm, norm_percent_error
 from podbench.core.version import __version__ as __version__
@@ -32,6 +32,8 @@ _compat.install()
 __all__ = [
     "run",
     "StudyResult",
+    "fit",
+    "load_model",
     "Record",
     "Response",
     "Structure",

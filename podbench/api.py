@@ -43,6 +43,7 @@ from podbench.core.resources import (
 from podbench.errors import InputError, UnknownNameError
 from podbench.harness.base_excited import run_study as run_base_excited
 from podbench.harness.executor import resolve_jobs
+from podbench.harness.fit import fit_files
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
 from podbench.harness.painter_street import run_study as run_painter_street
@@ -70,10 +71,12 @@ from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.study.substructuring import load_substructuring
 from podbench.sysid.deconvolution import available_solvers
+from podbench.sysid.models import Model
+from podbench.sysid.registry import lookup
 
-__all__ = ["run", "StudyResult", "predict", "regress", "sweep", "experiment", "resolve_study",
-           "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE", "DEFAULT_RESULTS",
-           "DEFAULT_BASELINE", "REGRESS_STUDIES"]
+__all__ = ["run", "StudyResult", "predict", "fit", "load_model", "Model", "regress", "sweep",
+           "experiment", "resolve_study", "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE",
+           "DEFAULT_RESULTS", "DEFAULT_BASELINE", "REGRESS_STUDIES"]
 
 DEFAULT_CACHE = Path(".podbench_cache")
 """The truth cache's folder, in the current folder."""
@@ -450,21 +453,61 @@ def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) ->
 
 
 # ----------------------------------------------------------------------------- predict
-def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=None,
+def predict(method: str | None, train, target, out, *, solver: str = "auto", n_modes=None,
             coverage=None, input_units=None, output_units=None,
-            units=None) -> PredictResult:
+            units=None, model=None) -> PredictResult:
     """Fit ``method`` (a registered name, :mod:`podbench.sysid.registry`) on the ``train``
     record files and predict every ``target`` file, as ``podbench predict``:
     ``out/errors.csv`` (target, method, total_error, per-channel errors), ``out/<target
     stem>.npz`` with ``y_hat`` (and ``W_hat`` for displacements; with ``coverage``:
     ``lower``, ``upper`` in the ``.npz``, ``error_estimate`` and ``coverage`` in errors.csv)
     and ``out/config.json`` (the fitted configuration). Every file is checked before any
-    fitting; ``out`` is written whole or not at all. Returns the
+    fitting; ``out`` is written whole or not at all. With ``model`` (a ``model.npz`` of
+    :func:`fit`), the saved model predicts (``method`` and ``train`` None). Returns the
     :class:`~podbench.harness.predict.PredictResult` (``rows`` of errors.csv, ``config``)."""
     out = output_folder(out, "out", "errors.csv")
-    return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
-                         n_modes=n_modes, coverage=coverage, input_units=input_units,
-                         output_units=output_units, units=units)
+    return predict_files(method, _as_list(train) if train is not None else None,
+                         _as_list(target), out, solver=solver, n_modes=n_modes,
+                         coverage=coverage, input_units=input_units,
+                         output_units=output_units, units=units, model=model)
+
+
+def fit(method: str, records, out=None, *, training_files=(), solver: str | None = None,
+        n_modes=None, input_units=None, output_units=None, units=None, **params):
+    """Fit a registered ``method`` and return the model you keep
+    (:class:`~podbench.sysid.models.Model`: ``predict``, ``modes()``, ``to_statespace()``,
+    ``save``).
+
+    ``records`` are :class:`~podbench.core.records.Record` objects, fitted with the
+    method's ``params`` as given (``pb.fit("ML", records, n_lags="auto")``); or record
+    files, fitted as ``podbench fit`` fits them (``solver``, ``n_modes`` as its options)
+    and, with ``out``, written as ``podbench fit`` writes them (model.npz, model.json,
+    modes.csv).
+    """
+    recs = _as_list(records)
+    if recs and all(isinstance(r, (str, Path)) for r in recs):
+        if params:
+            raise InputError(f"Parameter `{next(iter(params))}`: record files are fitted as "
+                             "podbench fit fits them (solver, n_modes); fit Records to give "
+                             "the method's own parameters")
+        folder = output_folder(out if out is not None else default_out(recs), "out",
+                               "model.npz")
+        return fit_files(method, recs, folder, solver=solver or "auto", n_modes=n_modes,
+                         input_units=input_units, output_units=output_units,
+                         units=units).model
+    if out is not None:
+        raise InputError("Parameter `out`: a folder for fits of record files; save a model "
+                         "of Records with model.save(path)")
+    given = {k: v for k, v in (("solver", solver), ("n_modes", n_modes)) if v is not None}
+    est = lookup(method).build(**{**params, **given}).fit(recs)
+    return Model(est, training_files=training_files)
+
+
+def load_model(path) -> Model:
+    """The model saved in ``path`` (a ``model.npz`` of :func:`fit` or ``podbench fit``):
+    refused in one line naming the file if it is not a podbench model, has an unknown
+    ``format_version`` or holds pickles."""
+    return Model.load(path)
 
 
 # -------------------------------------------------------- studies with their own runner

@@ -97,8 +97,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list,
-                _add_methods):
+    for add in (_add_run, _add_regress, _add_sweep, _add_fit, _add_predict, _add_experiment,
+                _add_list, _add_methods):
         add(sub)
     return p
 
@@ -319,12 +319,15 @@ Examples:
   podbench predict --method MDS --train free0.npz free1.npz free2.npz \\
       --target free3.npz --out pred/ --coverage 0.9   # free responses: W, dt, w0
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
-    pr.add_argument("--method", required=True,
+    pr.add_argument("--method", default=None,
                     help="a registered method (podbench methods; letter case aside): ML, "
                          "FIR-LS, ERA, DMDc, OpInf, mdof on measured inputs; ML, SL (one "
                          "training file), MR on displacement/force files; MDS, POVR (one "
                          "training file) on free responses; configurations such as ML-TC")
-    pr.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    pr.add_argument("--train", nargs="+", default=None, metavar="FILE")
+    pr.add_argument("--model", default=None, metavar="MODEL.npz",
+                    help="predict with a model saved by podbench fit (instead of --method "
+                         "and --train)")
     pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--out", required=True, metavar="DIR",
                     help="output folder (new, empty, or a previous predict output)")
@@ -350,6 +353,58 @@ Examples:
                     help="units of the outputs for files that carry none")
     pr.add_argument("--debug", action="store_true",
                     help="show the Python traceback of an internal error (exit code 3)")
+
+
+def _add_fit(sub) -> None:
+    """``podbench fit``."""
+    ft = sub.add_parser(
+        "fit", help="fit a method on training records and save the model",
+        description=textwrap.fill(
+            "Fit METHOD on the --train record files (read and checked as podbench predict "
+            "reads them) and write OUT/model.npz (the fitted model: arrays plus a JSON "
+            "header with format_version, no pickles), OUT/model.json (its readable summary: "
+            "parameters, training files with SHA-256, dt, channels, units, what the fit "
+            "chose, how its state-space realization and modes were chosen) and "
+            "OUT/modes.csv (mode, frequency_hz, damping_ratio, shape:<channel>: the physical "
+            "modes, sorted by frequency). podbench predict --model OUT/model.npz predicts "
+            "with it.", width=88),
+        epilog="""
+Examples:
+  podbench fit --method ML --train a.npz b.npz c.npz --out chain_ml/
+  podbench fit --method ERA --train a.npz b.npz c.npz --n-modes 5 --out chain_era/
+  podbench predict --model chain_ml/model.npz --target x.npz --out pred/
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    ft.add_argument("--method", required=True,
+                    help="a registered method (podbench methods; letter case aside)")
+    ft.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    ft.add_argument("--out", required=True, metavar="DIR",
+                    help="output folder (new, empty, or a previous fit output)")
+    ft.add_argument("--solver", default="auto", help="as for podbench predict")
+    ft.add_argument("--n-modes", type=_positive_int, default=None, metavar="K",
+                    help="number of modes: the POMs of a POD method, order 2K of ERA; "
+                         "refused for a method without one")
+    ft.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
+                    help="convert every record to this unit system when it is read")
+    ft.add_argument("--input-units", default=None, metavar="UNIT",
+                    help="units of the inputs for files that carry none")
+    ft.add_argument("--output-units", default=None, metavar="UNIT",
+                    help="units of the outputs for files that carry none")
+    ft.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
+
+
+def cmd_fit(args) -> int:
+    import json
+
+    api.fit(args.method, args.train, args.out, solver=args.solver, n_modes=args.n_modes,
+            input_units=args.input_units, output_units=args.output_units, units=args.units)
+    summary = json.loads((Path(args.out) / "model.json").read_text())
+    print(f"{summary['method']}: model -> {args.out}/model.npz (summary model.json)")
+    if summary.get("modes_table"):
+        print(f"{_plural(summary['modes_count'], 'physical mode')} -> {args.out}/modes.csv")
+    else:
+        print(f"no modes.csv: {summary.get('modes_reason', '')}")
+    return 0
 
 
 def _add_list(sub) -> None:
@@ -425,10 +480,13 @@ def _cache(args):
 
 
 def cmd_predict(args) -> int:
+    if args.model is None and (args.method is None or args.train is None):
+        raise InputError("predict: give --method and --train (fit and predict), or --model "
+                         "(a model saved by podbench fit)")
     rows = api.predict(args.method, args.train, args.target, args.out, solver=args.solver,
                        n_modes=args.n_modes, coverage=args.coverage,
                        input_units=args.input_units, output_units=args.output_units,
-                       units=args.units).rows
+                       units=args.units, model=args.model).rows
     for r in rows:
         band = (f", error_estimate {r['error_estimate'] or '(none: ' + r['note'] + ')'}, "
                 f"coverage {r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
@@ -713,7 +771,8 @@ def main(argv=None) -> int:
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list, "experiment": cmd_experiment,
-                "predict": cmd_predict, "methods": cmd_methods}[args.command](args)
+                "predict": cmd_predict, "methods": cmd_methods,
+                "fit": cmd_fit}[args.command](args)
     except PodbenchError as exc:
         print(f"{prog}: error: {_one_line(_as_flags(str(exc), parser))}", file=sys.stderr)
         return 2

@@ -109,6 +109,9 @@ COMMANDS: dict[str, object] = {
     "podbench methods": RUN,
     "podbench methods <name>": SYNOPSIS,
     "podbench predict --method": SYNOPSIS,
+    "podbench fit --method M --train A.npz B.npz ... --out DIR [--solver S] [--n-modes K]":
+        SYNOPSIS,
+    "podbench predict --model DIR/model.npz --target X.npz --out OUT": SYNOPSIS,
     "podbench methods [NAME ...]": SYNOPSIS,
     "podbench predict --method ML --train FILE ... --target FILE ... --out DIR": COVERED(
         "tests/measured_io/test_predict_and_painter_street.py"),
@@ -251,6 +254,7 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("docs/dynamics.md", "from podbench.dynamics import simulate"): "python",
     ("docs/methods.md", "from podbench import Record"): "python",
     ("docs/models.md", "import numpy as np"): "python",
+    ("docs/models.md", "# podbench fit and podbench predict --model, from Python"): "python",
     ("docs/structures.md", "from podbench.fem import load_structure, list_structures"): "python",
     ("docs/structures.md", "from podbench.fem.files import register_kind"): "python",
     # TOML blocks

@@ -354,8 +354,12 @@ class ERA(PeerMethod):
             super()._fit(records, basis)
 
     def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
-        """On measured inputs the Hankel matrix of :data:`ERA_BLOCKS` seconds."""
-        out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        """On measured inputs the Hankel matrix of :data:`ERA_BLOCKS` seconds. ``--n-modes
+        K`` means K modes, as for every method: the realization order ``2K`` (a mode is a
+        complex pole pair), not the size of the basis."""
+        out = super().command_line_params(records, solver=solver, n_modes=None)
+        if n_modes is not None:
+            out["order"] = 2 * int(n_modes)
         if self.excitation == "forced" and not self._modal(records):
             out.update(inputs="measured", blocks=ERA_BLOCKS)
         return out
