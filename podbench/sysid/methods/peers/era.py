@@ -262,10 +262,13 @@ class ERA(PeerMethod):
     abbreviation = "ERA"
     #: a free decay's ``predict(x0_new)`` (:mod:`podbench.sysid.methods.arrays`)
     array_form = ArrayForm(target="x0")
+    #: the observer recursion (Eq. 2) amplifies the records' round-off (:data:`OKID_RCOND`):
+    #: a study may write its errors at the digits a probed refit leaves in place
+    amplifies_round_off = True
     floor_digits = 3
     """Significant digits its estimates are determined to: the observer recursion (Eq. 2)
-    amplifies the records' round-off past the tables' sixth digit (measured between BLAS
-    kernels on the peers study, 3e-6…2.3e-5 relative: docs/noise.md), three digits put the
+    amplifies the records' round-off past the tables' sixth digit (measured between CPUs
+    on the peers study, 3e-6…2.3e-5 relative: docs/noise.md), three digits put the
     written digit at least 40× above that floor."""
     _parameter_constraints = {"n_modes": INT_OR_NONE, "order": INT_OR_NONE,
                               "max_order": [Interval("integer", 1)], "lags": INT_OR_NONE,
