@@ -186,8 +186,8 @@ def _add_regress(sub) -> None:
     g = _command(
         sub, "regress", "re-run the study and compare every error with the baseline",
         "Re-run the scenarios (no figures, nothing written to results/ except "
-        "with --update) and compare every error column with the baseline table. "
-        "An error is worse when it exceeds base·(1 + rtol) + atol. Exit 0 when "
+        "with --update) and compare every error column with the baseline table's rows of "
+        "those scenarios (another study's rows are not judged). An error is worse when it exceeds base·(1 + rtol) + atol. Exit 0 when "
         "nothing got worse, 1 with a readable diff when something did, 2 on "
         "unusable input.",
         _EPILOG)
@@ -203,7 +203,8 @@ def _add_regress(sub) -> None:
     g.add_argument("--update", action="store_true",
                    help="write this run's table as the new baseline (deliberately) and exit 0")
     g.add_argument("--table", default=None, metavar="CSV",
-                   help="compare this existing summary.csv instead of re-running")
+                   help="compare this existing summary.csv instead of re-running (its rows "
+                        "of the study named, else the scenarios it holds)")
 
 
 def _add_sweep(sub) -> None:
