@@ -187,7 +187,8 @@ def _add_regress(sub) -> None:
         sub, "regress", "re-run the study and compare every error with the baseline",
         "Re-run the scenarios (no figures, nothing written to results/ except "
         "with --update) and compare every error column with the baseline table's rows of "
-        "those scenarios (another study's rows are not judged). An error is worse when it exceeds base·(1 + rtol) + atol. Exit 0 when "
+        "those scenarios (another study's rows are not judged). An error is worse when "
+        "it exceeds base·(1 + rtol) + atol. Exit 0 when "
         "nothing got worse, 1 with a readable diff when something did, 2 on "
         "unusable input.",
         _EPILOG)

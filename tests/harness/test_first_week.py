@@ -1,8 +1,6 @@
 """A user's first week: regress judges one study, names are forgiving, hints for unit
 slips, and the command line starts without the heavy imports."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
