@@ -34,6 +34,9 @@ import pandas as pd
 from podbench.core.atomic import atomic_write_text
 from podbench.core.hints import did_you_mean
 from podbench.core.resources import (
+    DEFAULT_BASELINE,
+    DEFAULT_CACHE,
+    DEFAULT_RESULTS,
     DEFAULT_STUDY,
     SWEEPS_STUDY,
     bundled_studies,
@@ -75,12 +78,6 @@ __all__ = ["run", "StudyResult", "predict", "regress", "sweep", "experiment", "r
            "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE", "DEFAULT_RESULTS",
            "DEFAULT_BASELINE", "REGRESS_STUDIES"]
 
-DEFAULT_CACHE = Path(".podbench_cache")
-"""The truth cache's folder, in the current folder."""
-DEFAULT_RESULTS = Path("results")
-"""Where ``run`` writes without ``out``: ``results/<study>``."""
-DEFAULT_BASELINE = DEFAULT_RESULTS / "baseline.csv"
-"""The committed accuracy baseline ``regress`` compares with."""
 REGRESS_STUDIES = ("chapter4", "chapter5")
 """What ``regress`` re-runs without a study: the numerical study and the noisy-measurement
 study (the committed baseline holds their rows)."""

@@ -1,6 +1,8 @@
 """A user's first week: regress judges one study, names are forgiving, hints for unit
 slips, and the command line starts without the heavy imports."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -46,3 +48,33 @@ def test_regress_of_one_study_still_catches_its_own_regression(tmp_path, capsys)
     new = pd.read_csv(b2)
     assert len(new) == len(base)
     assert set(new["scenario"]) == set(base["scenario"])
+
+
+def test_the_command_line_imports_no_heavy_module_until_a_command_needs_it():
+    code = ("import sys, podbench, podbench.cli\n"
+            "print(sorted(m for m in ('scipy', 'pandas', 'matplotlib', 'numpy') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+    # every public name still imports (lazily) and is the object at its home
+    import podbench
+    from podbench.dynamics import simulate
+    from podbench.sysid import methods
+    assert podbench.simulate is simulate and podbench.methods is methods
+    for name in podbench.__all__:
+        assert getattr(podbench, name) is not None
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        podbench.nope  # noqa: B018
+
+
+def test_list_shows_each_structure_once_and_summarises_long_method_lists(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)  # the checkout: ./structures is the bundled folder
+    assert cli.main(["list"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n  lti_beam\n") == 1 and "structures in ./structures" not in out
+    line = next(ln for ln in out.splitlines() if ln.startswith("  linear_beam_noise_1pct:"))
+    assert "14 methods: SL-ls, SL-tls" in line and line.count(",") < 8
+    # a scenario inheriting its fields (scenario.base) shows its base's structures
+    line = next(ln for ln in out.splitlines() if ln.startswith("  beam_forced_noise1pct:"))
+    assert "[lti_beam, ltv_beam, nl_beam; SL, ML6, ML4]" in line
