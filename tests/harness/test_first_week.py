@@ -1,10 +1,12 @@
 """A user's first week: regress judges one study, names are forgiving, hints for unit
 slips, and the command line starts without the heavy imports."""
 
+import re
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -78,3 +80,68 @@ def test_list_shows_each_structure_once_and_summarises_long_method_lists(capsys,
     # a scenario inheriting its fields (scenario.base) shows its base's structures
     line = next(ln for ln in out.splitlines() if ln.startswith("  beam_forced_noise1pct:"))
     assert "[lti_beam, ltv_beam, nl_beam; SL, ML6, ML4]" in line
+
+
+def _documented(field: str) -> list[str]:
+    """The quoted values of a field's row(s) in the scenario reference's tables."""
+    text = (ROOT / "docs" / "reference" / "scenarios.md").read_text(encoding="utf-8")
+    rows = [ln for ln in text.splitlines() if ln.startswith(f"| `{field}` |")]
+    assert rows, field
+    return sorted({v for ln in rows for v in re.findall(r'`"(\w+)"`', ln.split("|")[2])})
+
+
+def test_every_documented_pulse_shape_and_location_reading_is_accepted():
+    import podbench as pb
+    from podbench.dynamics.excitations import excitation_from_dict
+
+    s = pb.load_structure("lti_beam")
+    shapes = _documented("shape")
+    assert shapes == ["half_sine", "rectangular", "triangle"]
+    for shape in shapes:
+        f = excitation_from_dict({"kind": "pulse", "location": 23.0, "amplitude": 500.0,
+                                  "duration": 1e-3, "shape": shape})
+        h = f.history(20, 1e-4)  # t = 0 … 1.9 ms; the pulse lasts 1 ms from t = 0
+        peak = {"rectangular": 500.0, "half_sine": 500.0 * np.sin(np.pi * 0.5),
+                "triangle": 500.0}[shape]
+        assert h.max() == pytest.approx(peak) and h[15] == 0.0
+        assert f.sample(s, 20, 1e-4).shape == (s.n_sensors, 20)
+    for by in _documented("by"):
+        excitation_from_dict({"kind": "pulse", "location": 2 if by == "dof" else 23.0,
+                              "amplitude": 1.0, "duration": 1e-3, "by": by})
+
+
+def test_a_wrong_sensor_label_lists_the_valid_ones():
+    import podbench as pb
+    from podbench.dynamics.excitations import resolve_sensor
+    from podbench.errors import InputError
+
+    s = pb.load_structure("chain_ideal")
+    assert resolve_sensor(s, "mass3") == 3
+    with pytest.raises(InputError, match=r"did you mean 'mass0'\? \(sensors: mass0, mass1, "
+                                         r"mass2, mass3, mass4\)"):
+        resolve_sensor(s, "Mass0")
+
+
+@pytest.mark.parametrize("method", ["ml", "Ml", "era", "ml-tc", "fir-ls"])
+def test_method_names_ignore_letter_case_on_the_command_line(method):
+    from podbench.sysid import registry
+
+    entry = registry.lookup(method)
+    assert entry.name.lower() == method.lower()
+
+
+def test_a_percentage_for_a_fraction_gets_a_hint(tmp_path, capsys):
+    from podbench.errors import InputError
+    from podbench.sysid.methods import ERA
+
+    with pytest.raises(InputError, match=r"got 25; a percentage\? 25 % is 0.25"):
+        ERA(holdout=25).fit([])
+    with pytest.raises(InputError, match=r"got 0.7$"):
+        ERA(holdout=0.7).fit([])
+    data = ROOT / "scenarios" / "examples" / "measured" / "data"
+    argv = ["predict", "--method", "ml", "--train", str(data / "f1.npz"), str(data / "f5.npz"),
+            str(data / "f2.mat"), "--target", str(data / "f6.csv"), "--out",
+            str(tmp_path / "p"), "--coverage", "90"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--coverage" in err and "a percentage? 90 % is 0.9" in err
