@@ -19,11 +19,12 @@ def did_you_mean(name: object, choices: Iterable) -> str:
 
 def percent_hint(value: object) -> str:
     """``"; a percentage? 90 % is 0.9"`` when ``value`` looks like a fraction written as a
-    percentage (``1 < value <= 100``), else ""."""
+    percentage (``5 <= value <= 100``: a value just above 1, such as 1.5, is more likely a
+    fraction out of range than 1.5 %), else ""."""
     try:
         v = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         return ""
-    if not 1.0 < v <= 100.0:
+    if not 5.0 <= v <= 100.0:
         return ""
     return f"; a percentage? {v:g} % is {v / 100:g}"
