@@ -513,8 +513,9 @@ def cmd_run(args) -> int:
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:
         for folder in dict.fromkeys(Path(p).resolve().parent for p in parts):
-            print(f"part of the study in {display_path(folder)}: written to {out}/, "
-                  f"{api.DEFAULT_RESULTS / folder.name}/ left as it was")
+            study_out = api.DEFAULT_RESULTS / folder.name
+            kept = f", {study_out}/ left as it was" if study_out.is_dir() else ""
+            print(f"part of the study in {display_path(folder)}: written to {out}/{kept}")
     if (out / "report.html").is_file():  # the studies with their own runner write none
         print(f"report: {out / 'report.html'}")
     return 0

@@ -145,3 +145,22 @@ def test_a_percentage_for_a_fraction_gets_a_hint(tmp_path, capsys):
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--coverage" in err and "a percentage? 90 % is 0.9" in err
+
+
+def _ignored(path: str) -> bool:
+    r = subprocess.run(["git", "check-ignore", "-q", path], cwd=ROOT)
+    assert r.returncode in (0, 1)
+    return r.returncode == 0
+
+
+@pytest.mark.skipif(not (ROOT / ".git").exists(), reason="not a git checkout")
+def test_example_outputs_are_ignored_and_every_committed_output_is_not():
+    import tomllib
+
+    manifest = tomllib.loads((ROOT / "results" / "MANIFEST.toml").read_text(encoding="utf-8"))
+    paths = [p for table in manifest.values() for p in table.get("paths", [])]
+    assert paths and not [p for p in paths if _ignored(p + ("/summary.csv" if Path(
+        p).suffix == "" else ""))]
+    for example in ("results/beam_forced/summary.csv", "results/measured_chain/summary.md",
+                    "results/my_study/fits.csv"):
+        assert _ignored(example)
