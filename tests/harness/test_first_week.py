@@ -164,3 +164,16 @@ def test_example_outputs_are_ignored_and_every_committed_output_is_not():
     for example in ("results/beam_forced/summary.csv", "results/measured_chain/summary.md",
                     "results/my_study/fits.csv"):
         assert _ignored(example)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".mat"])
+def test_an_empty_record_file_is_one_line_naming_it(suffix, tmp_path, capsys):
+    empty = tmp_path / f"empty{suffix}"
+    empty.write_bytes(b"")
+    data = ROOT / "scenarios" / "examples" / "measured" / "data"
+    argv = ["predict", "--method", "ML", "--train", str(data / "f1.npz"), str(data / "f5.npz"),
+            str(empty), "--target", str(data / "f6.csv"), "--out", str(tmp_path / "p")]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(empty) in err and "empty file (0 bytes)" in err
+    assert not (tmp_path / "p").exists()
