@@ -177,3 +177,17 @@ def test_an_empty_record_file_is_one_line_naming_it(suffix, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(empty) in err and "empty file (0 bytes)" in err
     assert not (tmp_path / "p").exists()
+
+
+def test_more_modes_than_load_cases_is_refused_before_any_fit(tmp_path):
+    from podbench.errors import InputError
+    from podbench.study.scenarios import load_scenario
+
+    text = (ROOT / "scenarios" / "chapter4" / "beam_forced.toml").read_text(encoding="utf-8")
+    assert 'method = "ML"' in text
+    bad = text.replace('method = "ML"', 'method = "ML"\nn_modes = 6', 1)
+    f = tmp_path / "beam_forced.toml"
+    f.write_text(bad, encoding="utf-8")
+    with pytest.raises(InputError, match=r"beam_forced.toml.*n_modes.*6 modes from 4 training "
+                                         r"cases: ML .* k ≤ 4"):
+        load_scenario(f)
