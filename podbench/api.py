@@ -34,6 +34,9 @@ import pandas as pd
 from podbench.core.atomic import atomic_write_text
 from podbench.core.hints import did_you_mean
 from podbench.core.resources import (
+    DEFAULT_BASELINE,
+    DEFAULT_CACHE,
+    DEFAULT_RESULTS,
     DEFAULT_STUDY,
     SWEEPS_STUDY,
     bundled_studies,
@@ -78,12 +81,6 @@ __all__ = ["run", "StudyResult", "predict", "fit", "load_model", "Model", "regre
            "experiment", "resolve_study", "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE",
            "DEFAULT_RESULTS", "DEFAULT_BASELINE", "REGRESS_STUDIES"]
 
-DEFAULT_CACHE = Path(".podbench_cache")
-"""The truth cache's folder, in the current folder."""
-DEFAULT_RESULTS = Path("results")
-"""Where ``run`` writes without ``out``: ``results/<study>``."""
-DEFAULT_BASELINE = DEFAULT_RESULTS / "baseline.csv"
-"""The committed accuracy baseline ``regress`` compares with."""
 REGRESS_STUDIES = ("chapter4", "chapter5")
 """What ``regress`` re-runs without a study: the numerical study and the noisy-measurement
 study (the committed baseline holds their rows)."""
@@ -639,10 +636,12 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
             engine: str | None = None, quiet: bool = True, progress=None) -> RegressResult:
     """Re-run studies (default: Chapter 4 and 5) or read a ``table`` and compare every error
     with the ``baseline`` (relative ``rtol``, absolute ``atol``), as ``podbench regress``;
-    with ``update`` the baseline is (re)written instead. Returns the
-    :class:`RegressResult`."""
-    files = None if table else resolve_study(study, REGRESS_STUDIES)[1]  # missing paths first
-    if files is not None:
+    with ``update`` the baseline is (re)written instead. Only the study's rows are judged
+    (the scenarios of ``study``, or with ``table`` alone those the table names): a baseline
+    row of another study is neither missing nor compared, and ``update`` replaces the
+    study's rows and keeps the others. Returns the :class:`RegressResult`."""
+    files = None if table and not study else resolve_study(study, REGRESS_STUDIES)[1]
+    if files is not None:  # missing paths first, then a study with its own runner
         _refuse_own(files, "regress")
     baseline = Path(baseline)
     if update:  # checked before any work: the new baseline can be written
@@ -655,17 +654,25 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     elif not baseline.is_file():
         raise InputError(f"{baseline}: no such baseline (create it with --update)")
     base = None if update else read_table(baseline)
+    names = None if files is None else set(load_scenarios(files, "regress"))
     if table:
         new = read_table(table)
     else:
-        load_scenarios(files, "regress")
         cache_dir = _check_run_options(jobs, cache)
         new = summary_table(run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                                       progress=_progress(progress, quiet), keep_series=False))
     if update:
+        if baseline.is_file():  # the other studies' rows stay
+            kept = read_table(baseline)
+            new = pd.concat([kept[~kept["scenario"].isin(set(new["scenario"]) | (names or set()))],
+                             new], ignore_index=True)
         atomic_write_text(baseline, table_csv(new), keep=unmoved)
         return RegressResult(comparison=None, rows=len(new), baseline=baseline, updated=True)
     assert base is not None  # read above, before the run, unless update
+    # judge exactly the study's rows: its scenarios, or those the table names
+    names = set(new["scenario"]) if names is None else names
+    new = new[new["scenario"].isin(names)]
+    base = base[base["scenario"].isin(names)]
     return RegressResult(comparison=compare(new, base, rtol=rtol, atol=atol), rows=len(new),
                          baseline=baseline)
 

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.core.hints import percent_hint
 from podbench.core.recordfiles import read_record
 from podbench.core.records import Record, check_compatible, check_records
 from podbench.core.threads import single_blas_thread
@@ -97,7 +98,7 @@ def _check_request(train, targets, coverage) -> tuple[list[str], float | None]:
             coverage = check_coverage(coverage)
         except InputError:
             raise InputError(f"Parameter `coverage`: expected a number in (0, 1), got "
-                             f"{coverage!r}") from None
+                             f"{coverage!r}{percent_hint(coverage)}") from None
     return stems, coverage
 
 

@@ -52,7 +52,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 
 from podbench.core.modeshapes import ModeSet
 from podbench.errors import InputError

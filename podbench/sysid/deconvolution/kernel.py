@@ -36,10 +36,9 @@ products (``O(k² n log n)`` per iteration, ``A`` never formed).
 from __future__ import annotations
 
 import numpy as np
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.fft
 import scipy.linalg
-import scipy.optimize
-import scipy.signal
 
 from podbench.errors import InvalidParameterError
 from podbench.sysid.deconvolution._base import Solver

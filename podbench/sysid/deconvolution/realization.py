@@ -44,8 +44,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.linalg
-import scipy.signal
 
 from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver

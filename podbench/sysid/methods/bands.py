@@ -32,6 +32,7 @@ from statistics import NormalDist
 
 import numpy as np
 
+from podbench.core.hints import percent_hint
 from podbench.core.records import as_record
 from podbench.errors import InputError
 from podbench.sysid.methods import band_target
@@ -197,7 +198,8 @@ def check_coverage(coverage) -> float:
         raise InputError(f"Parameter `coverage`: expected a number in (0, 1), got "
                          f"{coverage!r}") from None
     if not 0.0 < c < 1.0 or not math.isfinite(c):
-        raise InputError(f"Parameter `coverage`: must be in (0, 1), got {coverage!r}")
+        raise InputError(f"Parameter `coverage`: must be in (0, 1), got {coverage!r}"
+                         f"{percent_hint(c)}")
     return c
 
 
