@@ -64,6 +64,14 @@ _INSTALL = NOT_RUN("installs into the current environment (from the network for 
                    "test_the_extras_named_in_the_docs_exist checks the extra's name")
 
 COMMANDS: dict[str, object] = {
+    "podbench --help": COVERED("tests/harness/test_first_week.py::"
+                               "test_the_command_line_imports_no_heavy_module_until_a_command_"
+                               "needs_it"),
+    "podbench regress chapter4": COVERED("tests/harness/test_first_week.py::"
+                                         "test_regress_of_one_study_judges_only_its_rows"),
+    "python benchmarks/cli_startup.py": NOT_RUN(
+        "a timing benchmark (ratios against the numpy+scipy import in the same process); "
+        "its rows are in results/benchmarks.csv"),
     # set-up and the test suite
     'python3 -m venv .venv && .venv/bin/pip install -e ".[test]" && .venv/bin/podbench run':
         NOT_RUN("creates a virtual environment and installs from the network (minutes); "

@@ -330,7 +330,7 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
     for needle in ("chain_free: Coupled chain, free response", "chain_forced",
                    'class="e0"', "chain-mds-exact", "chain-povr-impossible",
                    'badge reproduced', 'badge not-reproduced', "<em>no</em>",
-                   "1 of 2 claims reproduced", 'id="fits"', "condition_number",
+                   "2 claims: 1 reproduced, 1 not reproduced", 'id="fits"', "condition_number",
                    "subspace_error = ‖Ŵ − P W‖ / N", "<dt>commit</dt>", "<dt>NumPy</dt>",
                    "<dt>matplotlib</dt>", "Coupled chain, free response (k = m = 5)",
                    'id="calibration"', "Spearman(estimate, realized)",

@@ -311,7 +311,7 @@ def test_cli_sweep_writes_csv_and_markdown_identically_twice(write_scenario, tmp
     p = sweep_file(write_scenario, "noise = [0.0]")
     out = tmp_path / "res"
     args = ["sweep", str(p), "-o", str(out), "-q", "--no-cache", "--noise", "0,0.01",
-            "--seeds", "0-1", "--solvers", "ls,tls"]
+            "--seeds", "0-1", "--solvers", "ls,tls-dt"]
     assert cli.main(args) == 0
     csv, md = out / "chain_sweep" / "sweep.csv", out / "chain_sweep" / "sweep.md"
     df = pd.read_csv(csv, keep_default_na=False)
@@ -319,7 +319,7 @@ def test_cli_sweep_writes_csv_and_markdown_identically_twice(write_scenario, tmp
     assert len(df) == 2 * 2 * 2 * 2 and set(df.noise) == {0.0, 0.01}
     assert set(df.solver) == {"ls", "tls-dt"} and (df.status == "ok").all()
     text = md.read_text(encoding="utf-8")
-    assert "| chain_coupled | ML | f6 | 5 | tls |" in text and "noise 0.01" in text
+    assert "| chain_coupled | ML | f6 | 5 | tls-dt |" in text and "noise 0.01" in text
     first = csv.read_bytes(), md.read_bytes()
     assert cli.main(args) == 0
     assert (csv.read_bytes(), md.read_bytes()) == first
