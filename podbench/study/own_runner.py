@@ -8,6 +8,7 @@ Street Overpass' leave-one-event-out over measured earthquakes, Chapter 6's subs
     [study]
     runner = "substructuring"        # a name of podbench.api.RUNNERS
     title = "Chapter 6: ..."         # optional, shown by `podbench list`
+    requires = ["mdof"]              # optional: the extras its committed tables need
 
     [substructuring]                 # the runner's own table, read by the runner
     ...
@@ -31,12 +32,14 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+from podbench.core.extras import known_extras, unmet_extras_message
 from podbench.core.hints import did_you_mean
 from podbench.core.resources import display_path
 from podbench.errors import ScenarioFileError, StructureFileError
 from podbench.structures.spec import Table
 
-__all__ = ["OwnStudy", "STUDY_TABLE", "own_study_file", "load_own_study", "read_toml"]
+__all__ = ["OwnStudy", "STUDY_TABLE", "own_study_file", "load_own_study", "read_toml",
+           "read_requires"]
 
 STUDY_TABLE = "study"
 """The top-level table that names a study's own runner."""
@@ -52,6 +55,7 @@ class OwnStudy:
     runner: str
     title: str
     name: str
+    requires: tuple[str, ...] = ()
 
 
 def read_toml(path: Path) -> dict | None:
@@ -61,6 +65,30 @@ def read_toml(path: Path) -> dict | None:
         return tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return None
+
+
+def read_requires(t: Table, default=()) -> tuple[str, ...]:
+    """The ``requires`` field of a study's ``[study]`` or ``[scenario]`` table ``t``: the
+    extras of podbench its committed tables need (default ``default``), each a known extra,
+    each installed.
+
+    Raises
+    ------
+    StructureFileError
+        ``<file>: field `<table>.requires`: ...`` — an unknown extra (with the closest name),
+        or one that is not installed (naming its packages and the install command), before
+        any work.
+    """
+    requires = tuple(t.strings("requires", list(default)))
+    known = known_extras()
+    for i, extra in enumerate(requires):
+        if known and extra not in known:
+            t.fail(f"requires[{i}]", f'unknown extra "{extra}"{did_you_mean(extra, known)} '
+                                     f"(podbench's extras: {', '.join(sorted(known))})")
+    unmet = unmet_extras_message(requires)
+    if unmet is not None:
+        t.fail("requires", unmet)
+    return requires
 
 
 def _declares(path: Path, runners: list[str]) -> bool:
@@ -103,9 +131,9 @@ def own_study_file(files, runners: Iterable[str]) -> Path | None:
 
 
 def load_own_study(path, runners: Iterable[str]) -> OwnStudy:
-    """Read and check the ``[study]`` table of ``path``: ``runner`` (one of ``runners``) and
-    an optional ``title``; other fields of ``[study]`` are refused. The runner's own tables
-    are left to the runner.
+    """Read and check the ``[study]`` table of ``path``: ``runner`` (one of ``runners``), an
+    optional ``title`` and ``requires`` (:func:`read_requires`); other fields of ``[study]``
+    are refused. The runner's own tables are left to the runner.
 
     Raises
     ------
@@ -127,8 +155,10 @@ def load_own_study(path, runners: Iterable[str]) -> OwnStudy:
             study.fail("runner", f'unknown runner "{runner}"{did_you_mean(runner, runners)} '
                                  f"(runners: {', '.join(runners)})")
         title = study.string("title", "")
+        requires = read_requires(study)
         study.close()
         top.accept_all()  # the runner reads its own tables
     except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
         raise ScenarioFileError(str(exc)) from None
-    return OwnStudy(path=path, runner=runner, title=title, name=path.resolve().parent.name)
+    return OwnStudy(path=path, runner=runner, title=title, name=path.resolve().parent.name,
+                    requires=requires)

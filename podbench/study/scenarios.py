@@ -101,6 +101,7 @@ from podbench.study.estimators import (
     solver_hint,
     solver_options_hint,
 )
+from podbench.study.own_runner import read_requires
 from podbench.sysid import registry
 from podbench.sysid.conditioning import DETREND_KINDS, Conditioning
 from podbench.sysid.deconvolution import make_solver
@@ -263,6 +264,9 @@ class Scenario:
     """``scenario.training_noise``: per-channel measurement noise (relative std, 0.01 = 1 %
     of each channel's RMS, seed 0, on W and F; :class:`podbench.noise.NoiseSpec`) added to
     every training record of ``podbench run`` (targets stay noise-free)."""
+    requires: tuple[str, ...] = ()
+    """``scenario.requires``: the extras of podbench its committed tables need (checked
+    installed at load, :func:`podbench.study.own_runner.read_requires`)."""
 
     @property
     def folder(self) -> Path:
@@ -405,10 +409,12 @@ def _parse_header(sc: Table, base: Scenario | None) -> dict[str, Any]:
         sc.fail("targets", "expected at least one target case")
     training_noise = sc.number("training_noise", 0.0 if base is None else base.training_noise,
                                nonnegative=True)
+    requires = read_requires(sc, () if base is None else base.requires)
     sc.close()
     return {"title": title, "source": source, "description": description.strip(),
             "structures": tuple(structures), "n_samples": n_samples, "dt": dt,
-            "engine": engine, "targets": tuple(targets), "training_noise": training_noise}
+            "engine": engine, "targets": tuple(targets), "training_noise": training_noise,
+            "requires": requires}
 
 
 def _parse_cases(top: Table, base: Scenario | None) -> dict[str, Case]:
