@@ -35,6 +35,7 @@ from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
 from podbench.harness.series import prediction_series, truth_series
+from podbench.structures.files import structure_length_unit
 from podbench.study.estimators import all_cases, build_estimator, is_user_method, training_records
 from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
 from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
@@ -365,7 +366,7 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
             res.series[target].update(truth_series(
                 r.W, r.dt, positions=getattr(structure, "sensor_positions", None),
                 labels=getattr(structure, "sensor_labels", ()),
-                unit=getattr(r, "output_units", None) or "in"))
+                unit=_displacement_unit(r, structure)))
 
     for spec in scenario.reported_methods():
         _run_method(res, spec, scenario, truth, sweep=overrides is not None,
@@ -376,6 +377,14 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     res.simulated_keys, res.cached_keys = truth.simulated_keys, truth.cached_keys
     res.seconds = time.perf_counter() - t_start
     return res
+
+
+def _displacement_unit(r, structure) -> str:
+    """The unit of a target's displacements: a measured record's own, else the structure
+    file's system (m for SI, in for inch–lbf)."""
+    if getattr(r, "engine", "") == "measured":
+        return getattr(r, "output_units", None) or "in"
+    return structure_length_unit(structure)
 
 
 def _simulate_needed(scenario: Scenario, structure, truth: _Truth) -> tuple[bool, bool]:

@@ -78,12 +78,16 @@ def _num(x: float) -> str:
     return s.replace("-", "−")
 
 
-def _where(loc, by: str = "position") -> str:
+INCH_LBF = ("lbf", "in")
+"""Force and length units of the excitation words for an inch–lbf structure (SI: N, m)."""
+
+
+def _where(loc, by: str = "position", units=INCH_LBF) -> str:
     if isinstance(loc, str):
         return f"at {loc}"
     if by == "dof":
         return f"at DOF {loc}"
-    return f"at {_num(float(loc))} in"
+    return f"at {_num(float(loc))} {units[1]}"
 
 
 def _dur(seconds: float, unit: tuple[float, str]) -> str:
@@ -91,31 +95,31 @@ def _dur(seconds: float, unit: tuple[float, str]) -> str:
     return f"{_num(seconds * scale)} {name}"
 
 
-def _loads(pairs, by, what: str) -> str:
-    parts = [f"{_num(float(f))} lbf {_where(loc, by)}" for loc, f in pairs]
+def _loads(pairs, by, what: str, units=INCH_LBF) -> str:
+    parts = [f"{_num(float(f))} {units[0]} {_where(loc, by, units)}" for loc, f in pairs]
     return what + ", ".join(parts)
 
 
-def _force_words(d: dict, unit, dt: float) -> str:
+def _force_words(d: dict, unit, dt: float, units=INCH_LBF) -> str:
     kind = d.get("kind")
     if kind == "pulse":
         shape = {"rectangular": "rectangular pulse", "half_sine": "half-sine pulse",
                  "triangle": "triangular pulse"}.get(d.get("shape", "rectangular"), "pulse")
         dur = _dur(float(d["duration"]), unit).replace(" ", "-")
-        s = (f"{_num(float(d['amplitude']))}-lbf {dur} {shape} "
-             f"{_where(d['location'], d.get('by', 'position'))}")
+        s = (f"{_num(float(d['amplitude']))}-{units[0]} {dur} {shape} "
+             f"{_where(d['location'], d.get('by', 'position'), units)}")
         start = d.get("start")
         if start is not None and not math.isclose(float(start), dt):
             s += f" from t = {_dur(float(start), unit)}"
         return s
     if kind == "combined":
-        return " + ".join(_force_words(p, unit, dt) for p in d.get("parts", []))
+        return " + ".join(_force_words(p, unit, dt, units) for p in d.get("parts", []))
     if kind == "force_history":
         return "a force history given as a matrix"
     return f"a {kind} force"
 
 
-def describe_case(case, *, dt: float, t_end: float) -> str:
+def describe_case(case, *, dt: float, t_end: float, units=INCH_LBF) -> str:
     """The excitation of a scenario case in words, e.g. ``"500-lbf 0.5-ms rectangular pulse
     at 23 in"`` or ``"initial displacement from static loads: 2000 lbf at 14 in, −1300 lbf
     at 18 in"`` (times in the unit of the figure's time axis, :func:`time_unit`).
@@ -126,20 +130,23 @@ def describe_case(case, *, dt: float, t_end: float) -> str:
         The case (its excitation tables as written in the scenario file).
     dt, t_end : float
         The record's time step and last sample time (s).
+    units : (str, str)
+        The structure's force and length units: ``("lbf", "in")`` or ``("N", "m")``.
     """
     unit = time_unit(t_end)
     words = []
     d = case.initial_displacement
     if d is not None:
         words.append(_loads(d.get("loads", []), d.get("by", "position"),
-                            "initial displacement from static loads: "))
+                            "initial displacement from static loads: ", units))
     v = case.initial_velocity
     if v is not None:
         dur = _dur(float(v.get("duration", dt)), unit)
         words.append(_loads(v.get("impulses", []), v.get("by", "position"),
-                            f"initial velocity from {dur.replace(' ', '-')} impulses: "))
+                            f"initial velocity from {dur.replace(' ', '-')} impulses: ",
+                            units))
     for f in case.force:
-        words.append(_force_words(f, unit, dt))
+        words.append(_force_words(f, unit, dt, units))
     if not words:
         if getattr(case, "file", None) is not None:
             return case.description or f"measured record {case.file}"

@@ -300,7 +300,9 @@ def figure_tasks(results, scenarios: dict, fdir: Path, fmt: str = "png",
         for target, series in u.series.items():
             t_end = float(series["t"][-1])
             case = sc.cases.get(target)
-            words = "" if case is None else describe_case(case, dt=sc.dt, t_end=t_end)
+            units = ("N", "m") if series.get("unit") == "m" else ("lbf", "in")
+            words = "" if case is None else describe_case(case, dt=sc.dt, t_end=t_end,
+                                                          units=units)
             tasks.append(FigureTask(
                 path=fdir / f"{u.scenario}__{u.structure}__{target}.{fmt}",
                 title=sc.title,

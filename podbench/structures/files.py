@@ -6,7 +6,7 @@ A structure file is a TOML document with four common top-level fields and the ta
     # Units: inch, lbf, second (mass lbf·s²/in, stiffness lbf/in)
     name = "lti_beam"                # must equal the file's stem
     kind = "cantilever_beam"         # which builder (see KINDS)
-    units = "inch, lbf, second"      # the only system podbench works in; checked
+    units = "inch, lbf, second"      # or "m, N, second" (SI); every number in that system
     description = "..."              # the model, its source section, every choice made
 
     [beam]
@@ -81,10 +81,23 @@ __all__ = [
     "load_structure",
     "build_structure",
     "check_structure_matrices",
+    "structure_length_unit",
 ]
 
-#: The unit system every structure file must declare (``units = "inch, lbf, second"``).
+#: The dissertation's unit system, the bundled structures' (``units = "inch, lbf, second"``).
 UNITS = "inch, lbf, second"
+#: SI (``units = "m, N, second"``): lengths m, forces N, masses kg, E Pa, density kg/m³.
+UNITS_SI = "m, N, second"
+
+_UNIT_SYSTEMS = {"inch lbf second": (UNITS, "inch-lbf"), "in lbf s": (UNITS, "inch-lbf"),
+                 "in lbf second": (UNITS, "inch-lbf"), "inch lbf s": (UNITS, "inch-lbf"),
+                 "m n second": (UNITS_SI, "SI"), "m n s": (UNITS_SI, "SI"),
+                 "meter newton second": (UNITS_SI, "SI"), "metre newton second": (UNITS_SI, "SI"),
+                 "si": (UNITS_SI, "SI")}
+"""A structure file's ``units`` (lower case, commas as spaces) → (the canonical string, the
+unit system of :mod:`podbench.core.units`). Every builder is the same physics in any
+coherent system, so the numbers are used as written; the only field tied to inch–lbf,
+``density_lbm_per_ft3``, is refused in an SI file."""
 
 _ENV = "PODBENCH_STRUCTURES"
 
@@ -102,6 +115,8 @@ class SpecContext:
     name: str
     description: str
     source: str
+    unit_system: str = "inch-lbf"
+    """``"inch-lbf"`` or ``"SI"`` (the file's ``units``): the system of every number."""
 
 
 _Parser = Callable[[Table, SpecContext], Structure]
@@ -289,13 +304,10 @@ def build_structure(spec: dict, *, source: str = "") -> Structure:
     kind = top.string("kind")
     if kind not in _KINDS:
         top.fail("kind", f'unknown kind "{kind}"; known kinds: {", ".join(sorted(_KINDS))}')
-    units = top.string("units")
-    if " ".join(units.lower().replace(",", " ").split()) != "inch lbf second":
-        top.fail("units", f'expected "{UNITS}" (podbench works in inch, lbf, second; convert '
-                          f'the model), got "{units}"')
+    units, system = _unit_system(top)
     description = top.string("description")
     ctx = SpecContext(file=shown, base_dir=base_dir, name=name, description=description.strip(),
-                      source=str(source))
+                      source=str(source), unit_system=system)
     try:
         structure = _KINDS[kind](top, ctx)
         if kind not in ("matrices", "python"):  # those check each matrix where it is read
@@ -306,7 +318,7 @@ def build_structure(spec: dict, *, source: str = "") -> Structure:
         raise StructureFileError(f"{shown}: {exc}") from exc
     top.close()
     meta = dict(structure.metadata)
-    meta.setdefault("units", UNITS)
+    meta["units"], meta["unit_system"] = units, system
     meta.setdefault("kind", kind)
     return replace(structure, name=name, description=ctx.description, source=ctx.source,
                    metadata=meta)
@@ -333,12 +345,33 @@ def check_structure_matrices(structure: Structure, label: str) -> None:
         check_definite(structure.C, f"{label} C", semi=True)
 
 
+def structure_length_unit(structure) -> str:
+    """The displacement unit of a structure's responses: ``"m"`` for a structure file in SI,
+    ``"in"`` otherwise (the dissertation's inch–lbf, and structures built in Python)."""
+    meta = getattr(structure, "metadata", None) or {}
+    return "m" if meta.get("unit_system") == "SI" else "in"
+
+
 # ---------------------------------------------------------------------------- shared readers
-def _density(t: Table) -> float:
-    """``density`` (lbf·s²/in⁴) or ``density_lbm_per_ft3`` (converted with g0 = 386.0886)."""
+def _unit_system(top: Table) -> tuple[str, str]:
+    """The file's ``units``: (canonical string, ``"inch-lbf"`` or ``"SI"``)."""
+    units = top.string("units")
+    got = _UNIT_SYSTEMS.get(" ".join(units.lower().replace(",", " ").split()))
+    if got is None:
+        top.fail("units", f'expected "{UNITS}" (the dissertation\'s) or "{UNITS_SI}" (SI: m, '
+                          f'N, kg, Pa), got "{units}"')
+    return got
+
+
+def _density(t: Table, ctx: SpecContext) -> float:
+    """``density`` (lbf·s²/in⁴, or kg/m³ in an SI file) or ``density_lbm_per_ft3`` (inch–lbf
+    files only; converted with g0 = 386.0886)."""
     key = t.exclusive("density", "density_lbm_per_ft3")
     if key == "density":
         return t.number("density", positive=True)
+    if ctx.unit_system == "SI":
+        t.fail("density_lbm_per_ft3", "an inch–lbf field in a file whose units are "
+                                      f'"{UNITS_SI}": give `density` in kg/m³')
     return density_from_lbm_per_ft3(t.number("density_lbm_per_ft3", positive=True))
 
 
@@ -347,7 +380,7 @@ def _density(t: Table) -> float:
 def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
     """``[beam]`` and the optional ``[damping]``, ``[tip_mass]``, ``[tip_spring]``,
     ``[tip_dashpot]``, ``[tip_band]`` → :func:`~podbench.structures.beam.cantilever_beam`."""
-    kw = _beam_fields(top.table("beam", required=True))
+    kw = _beam_fields(top.table("beam", required=True), ctx)
     beam = {k: kw[k] for k in ("length", "width", "depth")}
     dm = top.table("damping")
     if dm is not None:
@@ -368,7 +401,7 @@ def _cantilever_beam(top: Table, ctx: SpecContext) -> Structure:
     return cantilever_beam(name=ctx.name, **kw)
 
 
-def _beam_fields(b: Table) -> dict[str, Any]:
+def _beam_fields(b: Table, ctx: SpecContext) -> dict[str, Any]:
     """``[beam]``: geometry (in), E (psi), density, element count and the sensor positions."""
     length = b.number("length", positive=True)
     kw: dict[str, Any] = dict(
@@ -376,7 +409,7 @@ def _beam_fields(b: Table) -> dict[str, Any]:
         width=b.number("width", positive=True),
         depth=b.number("depth", positive=True),
         E=b.number("E", positive=True),
-        density=_density(b),
+        density=_density(b, ctx),
         n_elements=b.integer("n_elements", positive=True),
     )
     sensors = b.numbers("sensors", None, nonnegative=True)
@@ -478,7 +511,7 @@ def _satellite_truss(top: Table, ctx: SpecContext) -> Structure:
         bay_length=t.number("bay_length", positive=True),
         side=t.number("side", positive=True),
         E=t.number("E", positive=True),
-        density=_density(t),
+        density=_density(t, ctx),
         diagonal_pattern=t.string("diagonal_pattern", "mirrored",
                                   choices=("mirrored", "parallel")),
         supports=t.string("supports", "pinned", choices=("pinned", "free")),

@@ -273,11 +273,14 @@ def _structure(exp: Experiment, test: TestCampaign):
     where = f"{exp.path}: field `tests.{test.name}`"
     try:
         src = exp.folder / entry if entry.endswith(".toml") else entry
-        if test.overrides:
-            return load_structure(src, overrides=test.overrides)
-        return load_structure(src)
+        s = load_structure(src, overrides=test.overrides) if test.overrides else \
+            load_structure(src)
     except (InputError, StructureFileError) as exc:
         raise ScenarioFileError(f"{where}: {exc}") from None
+    if s.metadata.get("unit_system") == "SI":  # the W/F record files carry no units
+        raise ScenarioFileError(f"{where}: structure {s.name!r} is in SI; an experiment "
+                                "writes the dissertation's W/F records, in inch–lbf only")
+    return s
 
 
 def _round(a: np.ndarray, precision: str) -> np.ndarray:

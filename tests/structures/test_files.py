@@ -106,8 +106,9 @@ def test_registry_has_all_kinds():
          r"field `extra`: unknown field"),
         (BEAM.format(name="foo", n=24).replace('"cantilever_beam"', '"cantilever"'),
          r'field `kind`: unknown kind "cantilever"; known kinds: .*cantilever_beam'),
-        (BEAM.format(name="foo", n=24).replace('"inch, lbf, second"', '"m, N, s"'),
-         r'field `units`: expected "inch, lbf, second"'),
+        (BEAM.format(name="foo", n=24).replace('"inch, lbf, second"', '"mm, N, s"'),
+         r'field `units`: expected "inch, lbf, second" \(the dissertation\'s\) or "m, N, second" '
+         r'\(SI: m, N, kg, Pa\), got "mm, N, s"'),
         (BEAM.format(name="bar", n=24),
          r'field `name`: "bar" does not match the file name "foo\.toml"'),
         (BEAM.format(name="foo", n=24).replace("E = 29.0e6", "E = -1.0"),
