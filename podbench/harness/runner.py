@@ -68,6 +68,7 @@ class UnitResult:
     simulated: int = 0
     cached: int = 0
     seconds: float = 0.0
+    timing: list = field(default_factory=list)  # per method: fit and total wall seconds
     simulated_keys: list = field(default_factory=list)  # cache keys of the responses simulated
     cached_keys: list = field(default_factory=list)  # and of those read from the cache
 
@@ -430,13 +431,20 @@ _NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status",
 
 
 def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
-    """Fit one reported method, predict every target and add its rows (and fit) to ``res``."""
-    _fit_and_score(res, spec, scenario, truth, **kw)
+    """Fit one reported method, predict every target and add its rows (and fit) to ``res``;
+    its wall time to ``res.timing`` (``fit_seconds``: the fit and the targets' predictions;
+    ``seconds``: with its twins, refits and bands)."""
+    t0 = time.perf_counter()
+    fit_seconds = _fit_and_score(res, spec, scenario, truth, **kw)
+    res.timing.append({"scenario": scenario.name, "structure": res.structure,
+                       "method": spec.label, "fit_seconds": fit_seconds,
+                       "seconds": time.perf_counter() - t0})
 
 
 def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
-                   nonlinear: bool, measured: bool, keep_series: bool, bands: bool) -> None:
-    """Fit one reported method, predict every target and add its rows (and fit) to ``res``."""
+                   nonlinear: bool, measured: bool, keep_series: bool, bands: bool) -> float:
+    """Fit one reported method, predict every target and add its rows (and fit) to ``res``;
+    returns the seconds of the fit and predictions (NaN when the fit failed)."""
     base = {"scenario": scenario.name, "structure": res.structure, "method": spec.label}
     if sweep:
         base["method"] = spec.base_label or spec.label
@@ -455,7 +463,7 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
                              **({k: float("nan") for k in SWEEP_DIAGNOSTICS} if sweep else {}),
                              **dict.fromkeys(ERROR_COLUMNS + NORM_COLUMNS + BAND_COLUMNS,
                                              float("nan"))})
-        return
+        return float("nan")
     diag = getattr(est, "diagnostics_", None)
     diag = diag if isinstance(diag, dict) else {}
     # every number at the digits the fit determines, as the estimator declares them
@@ -492,6 +500,7 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
             res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
             res.series[t].update(prediction_series(spec.label, Wh, truth.get(t).dt,
                                                    res.series[t]["sensors"]))
+    return t_fit
 
 
 def _add_band(res: UnitResult, row: dict, est, target, plain_seconds: float, *,

@@ -70,3 +70,32 @@ def table_csv(df: pd.DataFrame) -> str:
         df = df.copy()
         df[floats] = df[floats] + 0.0
     return df.to_csv(index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
+
+
+TIMING_FILE = "timing.csv"
+"""Wall-clock seconds per method of a run: written beside the tables, never tracked (the
+seconds differ from run to run, so the tables stay deterministic without them)."""
+
+
+def timing_table(results) -> pd.DataFrame:
+    """One row per (scenario, structure, reported method): ``fit_seconds`` (its fit and the
+    targets' predictions) and ``seconds`` (with its twins, refits and bands), wall clock."""
+    rows = [t for u in results for t in getattr(u, "timing", [])]
+    return pd.DataFrame(rows, columns=["scenario", "structure", "method", "fit_seconds",
+                                       "seconds"])
+
+
+def slowest_method(path) -> tuple[str, float, float] | None:
+    """``(method, its seconds, all methods' seconds)`` of a run's ``timing.csv`` (the
+    ``seconds`` column summed per ``method``; an own runner's table has its own rows), or
+    None when the file is absent or has no such columns."""
+    try:
+        df = pd.read_csv(path)
+    except (OSError, ValueError):
+        return None
+    if not {"method", "seconds"} <= set(df.columns) or df.empty:
+        return None
+    per = pd.to_numeric(df["seconds"], errors="coerce").groupby(df["method"]).sum()
+    if per.empty or not np.isfinite(per.max()):
+        return None
+    return str(per.idxmax()), float(per.max()), float(per.sum())

@@ -26,7 +26,7 @@ from podbench.harness.progress import as_stage
 from podbench.harness.rewrite import unmoved
 from podbench.harness.runner import response_counts
 from podbench.harness.seeds import seed_table
-from podbench.harness.tables import fits_table, summary_table, table_csv
+from podbench.harness.tables import TIMING_FILE, fits_table, summary_table, table_csv, timing_table
 from podbench.report.calibration import (
     calibration_figure,
     calibration_html,
@@ -461,6 +461,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
             (tmp / "seeds.csv").write_text(table_csv(seed_rows), encoding="utf-8",
                                            newline="\n")
         (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
+        (tmp / TIMING_FILE).write_text(timing_table(results).to_csv(
+            index=False, float_format="%.3f", lineterminator="\n"), encoding="utf-8")
         evaluated, remarks = _write_findings(tmp, df, scenarios, claims_path, figures=figures,
                                              figure_format=figure_format,
                                              sensitivity=sensitivity,

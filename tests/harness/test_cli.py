@@ -34,6 +34,14 @@ def test_run_writes_tables_figures_and_is_byte_identical_when_repeated(study, tm
                     "figures/chain_free__chain_coupled__x6.png",
                     "figures/chain_free__decomposition.png"]
     assert "CALIBRATION.md" in files and "calibration.csv" in files
+    timing = pd.read_csv(out / "timing.csv")  # wall clock per method, one row per fit
+    assert list(timing.columns) == ["scenario", "structure", "method", "fit_seconds", "seconds"]
+    assert len(timing) == 4 and (timing.seconds >= timing.fit_seconds).all()
+    assert (timing.fit_seconds > 0).all()
+    out_lines = capsys.readouterr().out.strip().splitlines()
+    slowest = timing.groupby("method").seconds.sum()
+    assert out_lines[-1].startswith("report: ")  # the last line stays the report's path
+    assert out_lines[-2].startswith("slowest method: " + slowest.idxmax() + ", ")
     df = pd.read_csv(out / "summary.csv")
     assert list(df.columns[:15]) == [
         "scenario", "structure", "method", "target", "n_modes", "total_error",

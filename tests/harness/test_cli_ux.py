@@ -62,9 +62,10 @@ def study(write_scenario, tmp_path, monkeypatch):
 
 
 def _tree(folder: Path) -> dict:
-    """The study's files and contents; report.html carries the date and is left out."""
-    return {p.relative_to(folder).as_posix(): p.read_bytes()
-            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != "report.html"}
+    """The study's files and contents; report.html (the date) and timing.csv (wall clock,
+    not tracked) are left out."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name not in ("report.html", "timing.csv")}
 
 
 # ------------------------------------------------------------------------- bundled data
