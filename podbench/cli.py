@@ -359,40 +359,49 @@ Examples:
   podbench predict --method MDS --train free0.npz free1.npz free2.npz \\
       --target free3.npz --out pred/ --coverage 0.9   # free responses: W, dt, w0
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
-    pr.add_argument("--method", default=None,
-                    help="a registered method (podbench methods; letter case aside): ML, "
-                         "FIR-LS, ERA, DMDc, OpInf, mdof on measured inputs; ML, SL (one "
-                         "training file), MR on displacement/force files; MDS, POVR (one "
-                         "training file) on free responses; configurations such as ML-TC")
-    pr.add_argument("--train", nargs="+", default=None, metavar="FILE")
+    _add_fit_arguments(pr, required=False)
     pr.add_argument("--model", default=None, metavar="MODEL.npz",
                     help="predict with a model saved by podbench fit (instead of --method "
                          "and --train)")
     pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--out", required=True, metavar="DIR",
                     help="output folder (new, empty, or a previous predict output)")
-    pr.add_argument("--solver", default="auto",
-                    help="ML's kernel: auto (TC prior with >= 3 training records), ls, tc "
-                         "(truncated kernel, lags by leave-one-record-out), or a "
-                         "deconvolution solver name (block, cgls, ...) for the kernel over "
-                         "the whole record (records of one length); on displacement/force "
-                         "files the deconvolution solver of ML/SL/MR (auto: podbench methods "
-                         "auto); refused for a method without one")
-    pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
     pr.add_argument("--coverage", type=float, default=None, metavar="P",
                     help="prediction band coverage in (0, 1), e.g. 0.9: adds lower and "
                          "upper to every OUT/<target stem>.npz and error_estimate, coverage "
                          "to errors.csv; calibrated by leave-one-record-out over the "
                          "training records (at least 3; on displacement/force files as "
                          "model.predict(target, coverage=P) of ML or SL)")
-    pr.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
-                    help="convert every record to this unit system when it is read")
-    pr.add_argument("--input-units", default=None, metavar="UNIT",
-                    help="units of the inputs for files that carry none (e.g. m/s^2)")
-    pr.add_argument("--output-units", default=None, metavar="UNIT",
-                    help="units of the outputs for files that carry none")
-    pr.add_argument("--debug", action="store_true",
-                    help="show the Python traceback of an internal error (exit code 3)")
+
+
+def _add_fit_arguments(p, *, required: bool) -> None:
+    """The arguments of a fit, shared by ``podbench fit`` (``required``: --method and
+    --train) and ``podbench predict`` (where --model may replace them); both check them
+    with the same code (:func:`podbench.harness.predict.command_line_estimator`)."""
+    p.add_argument("--method", required=required, default=None,
+                   help="a registered method (podbench methods; letter case aside): ML, "
+                        "FIR-LS, ERA, DMDc, OpInf, mdof on measured inputs; ML, SL (one "
+                        "training file), MR on displacement/force files; MDS, POVR (one "
+                        "training file) on free responses; configurations such as ML-TC")
+    p.add_argument("--train", nargs="+", required=required, default=None, metavar="FILE")
+    p.add_argument("--solver", default="auto",
+                   help="ML's kernel: auto (TC prior with >= 3 training records), ls, tc "
+                        "(truncated kernel, lags by leave-one-record-out), or a "
+                        "deconvolution solver name (block, cgls, ...) for the kernel over "
+                        "the whole record (records of one length); on displacement/force "
+                        "files the deconvolution solver of ML/SL/MR (auto: podbench methods "
+                        "auto); refused for a method without one")
+    p.add_argument("--n-modes", type=_positive_int, default=None, metavar="K",
+                   help="number of modes: the POMs of a POD method, order 2K of ERA; "
+                        "refused for a method without one")
+    p.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
+                   help="convert every record to this unit system when it is read")
+    p.add_argument("--input-units", default=None, metavar="UNIT",
+                   help="units of the inputs for files that carry none (e.g. m/s^2)")
+    p.add_argument("--output-units", default=None, metavar="UNIT",
+                   help="units of the outputs for files that carry none")
+    p.add_argument("--debug", action="store_true",
+                   help="show the Python traceback of an internal error (exit code 3)")
 
 
 def _add_fit(sub) -> None:
@@ -414,23 +423,9 @@ Examples:
   podbench fit --method ERA --train a.npz b.npz c.npz --n-modes 5 --out chain_era/
   podbench predict --model chain_ml/model.npz --target x.npz --out pred/
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ft.add_argument("--method", required=True,
-                    help="a registered method (podbench methods; letter case aside)")
-    ft.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    _add_fit_arguments(ft, required=True)
     ft.add_argument("--out", required=True, metavar="DIR",
                     help="output folder (new, empty, or a previous fit output)")
-    ft.add_argument("--solver", default="auto", help="as for podbench predict")
-    ft.add_argument("--n-modes", type=_positive_int, default=None, metavar="K",
-                    help="number of modes: the POMs of a POD method, order 2K of ERA; "
-                         "refused for a method without one")
-    ft.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
-                    help="convert every record to this unit system when it is read")
-    ft.add_argument("--input-units", default=None, metavar="UNIT",
-                    help="units of the inputs for files that carry none")
-    ft.add_argument("--output-units", default=None, metavar="UNIT",
-                    help="units of the outputs for files that carry none")
-    ft.add_argument("--debug", action="store_true",
-                    help="show the Python traceback of an internal error (exit code 3)")
 
 
 def cmd_fit(args) -> int:

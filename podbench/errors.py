@@ -12,6 +12,7 @@ __all__ = [
     "InputError",
     "InvalidParameterError",
     "DimensionError",
+    "RecordTooShortError",
     "IllConditionedError",
     "NotFittedError",
     "StructureFileError",
@@ -47,6 +48,19 @@ class InvalidParameterError(InputError):
 
 class DimensionError(InputError):
     """Arrays whose shapes or sample counts do not match."""
+
+
+class RecordTooShortError(DimensionError):
+    """A record with fewer samples than the model needs (its lags, horizon or order);
+    :attr:`samples` is the record's length, :attr:`needed` the least the model takes. The
+    callers that read files prefix the message with the file's name."""
+
+    def __init__(self, message: str = "", samples: int = 0, needed: int = 0):
+        super().__init__(message)
+        self.samples, self.needed = int(samples), int(needed)
+
+    def __reduce__(self):  # keep the counts across processes
+        return type(self), (str(self), self.samples, self.needed)
 
 
 class IllConditionedError(InputError):

@@ -28,6 +28,7 @@ from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
 from podbench.harness.predict import (
     command_line_estimator,
+    fit_records,
     fitted_config,
     method_entry,
     min_samples_of,
@@ -74,7 +75,7 @@ def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,
     est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes)
     check_records(tr, min_samples=min_samples_of(est, tr[0].dt))
     with single_blas_thread():
-        est.fit(tr)
+        fit_records(est, tr)
         table, summary = modes_table(est)
     model = Model(est, training_files=train)
     config = fitted_config(entry, est, train, [])

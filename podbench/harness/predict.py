@@ -50,7 +50,7 @@ from podbench.core.recordfiles import read_record
 from podbench.core.records import Record, check_compatible, check_records
 from podbench.core.threads import single_blas_thread
 from podbench.core.version import __version__
-from podbench.errors import InputError, PodbenchWarning
+from podbench.errors import InputError, PodbenchWarning, RecordTooShortError
 from podbench.sysid import registry
 from podbench.sysid.methods.bands import check_coverage
 from podbench.sysid.models import load_model
@@ -148,6 +148,16 @@ def min_samples_of(est, dt: float) -> int:
     return 2
 
 
+def fit_records(est, train) -> None:
+    """``est.fit(train)``; a record too short for the model (:class:`RecordTooShortError`)
+    is one line naming the shortest training file and its length."""
+    try:
+        est.fit(train)
+    except RecordTooShortError as exc:
+        short = min(train, key=lambda r: r.n_samples or 0)
+        raise RecordTooShortError(f"{short.name}: {exc}", exc.samples, exc.needed) from None
+
+
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
@@ -235,7 +245,7 @@ def predict_files(method: str | None, train, targets, out, *, solver: str = "aut
     for text in said:
         warnings.warn(text, PodbenchWarning, stacklevel=2)
     with single_blas_thread():
-        est.fit(tr)
+        fit_records(est, tr)
         preds = [est.predict(r, coverage=coverage) for r in tg]
     channels = tr[0].output_channels or ()
     rows = [_row(stem, entry.name, rec, channels, p, coverage)

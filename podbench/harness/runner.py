@@ -27,7 +27,7 @@ from podbench.core.resources import display_path as _display
 from podbench.core.response import Response, displacement_norm, norm_percent_error
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import excitation_from_dict
-from podbench.errors import PodbenchError, ScenarioFileError
+from podbench.errors import PodbenchError, RecordTooShortError, ScenarioFileError
 from podbench.harness.bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from podbench.harness.cache import TruthCache, structure_fingerprint
 from podbench.harness.digits import diagnostic_digits, estimator_writer
@@ -406,6 +406,16 @@ def _simulate_needed(scenario: Scenario, structure, truth: _Truth) -> tuple[bool
     return nonlinear, measured
 
 
+def _too_short(scenario: Scenario, spec, exc: RecordTooShortError) -> str:
+    """One line for a training record too short for a method: the scenario file, the
+    method, the record files it trains on (or ``scenario.n_samples``) and what it needs."""
+    files = [scenario.cases[c].file for c in spec.train
+             if c in scenario.cases and scenario.cases[c].file]
+    what = (f"its training files ({', '.join(files)})" if files
+            else f"scenario.n_samples = {scenario.n_samples}")
+    return f"{_display(scenario.path)}: method `{spec.label}`: {what} too short: {exc}"
+
+
 def _raise_unless_expected(exc: Exception, method: str) -> None:
     """Re-raise ``exc`` unless a method may fail that way (a row then says why): an expected
     error (ill-conditioned data, too few data sets, ...) or anything a user's method raises."""
@@ -455,6 +465,8 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
         preds = {t: np.asarray(est.predict(truth.get(t)), dtype=float)
                  for t in scenario.targets}
         t_fit = time.perf_counter() - t_fit
+    except RecordTooShortError as exc:  # a scenario mistake, not a method's failure
+        raise ScenarioFileError(_too_short(scenario, spec, exc)) from None
     except Exception as exc:  # noqa: BLE001 - a user's method may raise anything
         _raise_unless_expected(exc, spec.method)
         status = _failure(exc)

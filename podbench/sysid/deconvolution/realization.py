@@ -47,7 +47,7 @@ import numpy as np
 import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.linalg
 
-from podbench.errors import InputError
+from podbench.errors import InputError, RecordTooShortError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.block import BlockSubstitution
 from podbench.sysid.deconvolution.dense import LeastSquares, TruncatedTLS
@@ -373,8 +373,11 @@ class Realization(Solver):
         n = system.n
         n_fit = n - max(1, math.ceil(self.holdout * n))
         if n_fit < 5:
-            raise InputError(f"solver 'realization': a record of {n} samples is too short for "
-                             f"the hold-out order rule (holdout = {self.holdout}); give `order`")
+            need = math.ceil(5 / (1 - self.holdout)) + 1
+            raise RecordTooShortError(f"solver 'realization': a record of {n} samples is too "
+                                      f"short for the hold-out order rule (holdout = "
+                                      f"{self.holdout}; need about {need}); give `order`",
+                                      n, need)
         factors, _, _ = self._hankel(system, n_fit)
         Yv = np.asarray(system.Y[n_fit:])
         den = float(np.sum(Yv**2))

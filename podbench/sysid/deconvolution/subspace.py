@@ -82,7 +82,7 @@ import numpy as np
 import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.linalg
 
-from podbench.errors import InputError
+from podbench.errors import InputError, RecordTooShortError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution.realization import (
     conj_pairs,
@@ -353,8 +353,9 @@ class Subspace(Solver):
             shortest = min(longest, max(2, -(-int(self.max_order) // r) + 2))
             hs = sorted({shortest, longest})
         if n < 2 * hs[0]:
-            raise InputError(f"solver 'subspace': a record of {n} samples is too short for "
-                             f"horizon {hs[0]} (need at least {2 * hs[0]})")
+            raise RecordTooShortError(f"solver 'subspace': a record of {n} samples is too "
+                                      f"short for horizon {hs[0]} (need at least "
+                                      f"{2 * hs[0]})", n, 2 * hs[0])
         return [i for i in hs if n >= 2 * i]
 
     def _rule(self, G, Y, Yt, dt, i, nr, k, r):

@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.errors import InputError
+from podbench.errors import InputError, RecordTooShortError
 from podbench.sysid.methods.base import ArrayForm
 from podbench.sysid.methods.free import MDS, first_column_w0
 from podbench.sysid.methods.peers._common import HOLDOUT, INPUTS, INT_OR_NONE, PeerMethod, simulate
@@ -372,6 +372,9 @@ class ERA(PeerMethod):
         the hold-out rule: the realization and what was chosen."""
         k, n = Ys.shape[1], Ys.shape[2]
         lags = self._lags(k)
+        if n < lags + 2:  # OKID's regression: at least two rows past the lags per record
+            raise RecordTooShortError(f"ERA: a record of {n} samples is too short for OKID's "
+                                      f"{lags} lags (need at least {lags + 2})", n, lags + 2)
         blocks = self._blocks(n, dt)
         factors: dict = {}  # the truncated records' factorization, shared by all orders
 
