@@ -6,11 +6,11 @@
     python benchmarks/era_order.py --case painter_street  # as podbench predict --method ERA
 
 ``--case chain6``: a fixed-free chain of six 0.01 lbf·s²/in masses on 100 lbf/in springs
-(Rayleigh damping α = 0.1 /s, β = 3e-4 s, as chain_ideal), three random-force records at masses 2, 4 and 6 (1000 samples at 1 ms,
-seed 0); ``--case painter_street``: the 13 earliest Painter Street events
-(scenarios/painter_street/data), ERA as ``podbench predict --method ERA`` builds it on
-measured inputs (Hankel of ERA_BLOCKS seconds). Best of one for Painter Street (a fit takes
-seconds).
+(Rayleigh damping α = 0.1 /s, β = 3e-4 s, as chain_ideal), three random-force records at
+masses 2, 4 and 6 (1000 samples at 1 ms, seed 0); ``--case painter_street``: the 13
+earliest Painter Street events (scenarios/painter_street/data), ERA as the predict
+command builds it on measured inputs (Hankel of ERA_BLOCKS seconds). Best of one for
+Painter Street (a fit takes seconds).
 
 The training set is the peers study's forced set (scenarios/peers/peers_forced.toml: four
 500-lbf, 0.5-ms pulses at 2, 7, 11, 16 in on the LTI beam, 500 samples at 0.1 ms). The
@@ -111,7 +111,8 @@ def main(argv=None) -> int:
     t_select = min(t_first, best_of(lambda: make().fit(recs), repeats))
     t_single = best_of(lambda: make(order=order).fit(recs), repeats)
     ratio = t_select / t_single
-    print(f"{args.case}: ERA order selection (orders 1..40, chosen {order}): {t_select * 1e3:.1f} ms; "
+    print(f"{args.case}: ERA order selection (orders 1..40, chosen {order}): "
+          f"{t_select * 1e3:.1f} ms; "
           f"single fit at order {order}: {t_single * 1e3:.1f} ms; ratio {ratio:.2f}x "
           "(target <= 5x)")
     if args.write and args.case == "beam":

@@ -569,12 +569,11 @@ def cmd_run(args) -> int:
             study_out = api.DEFAULT_RESULTS / folder.name
             kept = f", {study_out}/ left as it was" if study_out.is_dir() else ""
             print(f"part of the study in {display_path(folder)}: written to {out}/{kept}")
-    from podbench.harness.tables import TIMING_FILE, slowest_method
-
-    slow = slowest_method(out / TIMING_FILE)
+    tables = importlib.import_module("podbench.harness.tables")  # pandas: on first use
+    slow = tables.slowest_method(out / tables.TIMING_FILE)
     if slow is not None:
         print(f"slowest method: {slow[0]}, {slow[1]:.1f} s of the methods' {slow[2]:.1f} s "
-              f"(wall clock per method: {out / TIMING_FILE}, not tracked)")
+              f"(wall clock per method: {out / tables.TIMING_FILE}, not tracked)")
     if (out / "report.html").is_file():  # the studies with their own runner write none
         print(f"report: {out / 'report.html'}")
     return 0

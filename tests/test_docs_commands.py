@@ -69,6 +69,10 @@ COMMANDS: dict[str, object] = {
                                "needs_it"),
     "podbench regress chapter4": COVERED("tests/harness/test_first_week.py::"
                                          "test_regress_of_one_study_judges_only_its_rows"),
+    "python benchmarks/era_order.py [--case beam|chain6|painter_street]": NOT_RUN(
+        "a timing benchmark (ERA's order selection over its single fit, a ratio in one "
+        "process); its measured ratios are in benchmarks/README.md"),
+    'pip install -e ".[mdof]"': _INSTALL,
     "python benchmarks/cli_startup.py": NOT_RUN(
         "a timing benchmark (ratios against the numpy+scipy import in the same process); "
         "its rows are in results/benchmarks.csv"),
