@@ -38,6 +38,7 @@ def test_the_import_contracts_are_kept():
         "lint-imports reports a broken contract (run `lint-imports` to see it)"
 
 
+@pytest.mark.heavy
 def test_no_podbench_import_inside_a_function():
     found = []
     for path in _modules():
@@ -55,6 +56,7 @@ def test_no_podbench_import_inside_a_function():
     assert not found, "imports of podbench inside functions:\n" + "\n".join(found)
 
 
+@pytest.mark.heavy
 def test_no_module_imports_another_modules_private_name():
     found = []
     for path in _modules():
@@ -76,6 +78,7 @@ def _length(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
     return lines
 
 
+@pytest.mark.heavy
 def test_no_function_is_longer_than_80_lines():
     long = [f"{p.relative_to(ROOT)}:{fn.lineno} {fn.name} ({_length(fn)} lines)"
             for p in _modules() for fn in ast.walk(_parse(p))

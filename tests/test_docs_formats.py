@@ -197,6 +197,7 @@ def test_the_record_formats_and_units_are_the_readers():
 
 
 # ------------------------------------------------------------------------------ labels
+@pytest.mark.heavy
 def test_every_label_the_structures_page_names_exists():
     """The labels quoted in docs/structures.md's *Sensor and DOF labels* (templates with
     ``<…>`` aside) are labels of a shipped structure, and every shipped structure kind has a

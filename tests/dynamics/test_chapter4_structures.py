@@ -46,6 +46,7 @@ def _rel(a, b):
 @pytest.mark.parametrize(
     ("name", "tol"), [("lti_beam", 1e-9), ("ltv_beam", 1e-8), ("nl_beam", 1e-5)]
 )
+@pytest.mark.heavy
 def test_exudyn_agrees_on_the_beams(beams, name, tol):
     # tolerances: the brief asks < 1e-6 (LTI) and < 1e-4 (LTV, NL); measured 4e-12 to 6e-11
     # (LTI, LTV) and 1e-11 to 7e-7 (NL: exudyn's Newton stops earlier than podbench's)
@@ -97,6 +98,7 @@ def test_truss_fracture_timing_and_rigid_rotation(truss):
     assert np.ptp(E[j:]) < 1e-9 * E[j]
 
 
+@pytest.mark.heavy
 def test_stiffness_only_variant_leaves_a_drifting_face():
     """The variant (structures/satellite_truss_stiffness_only.toml): element 10's mass and its
     middle face stay; face 19 has no stiffness, so it drifts without bound after 3 s and
@@ -116,6 +118,7 @@ def test_stiffness_only_variant_leaves_a_drifting_face():
     assert r.displacement_norm()[-1] > 3 * main.displacement_norm()[-1]
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("name", ["satellite_truss", "satellite_truss_stiffness_only"])
 def test_exudyn_agrees_on_the_truss_with_fracture(name):
     truss = load_structure(name)

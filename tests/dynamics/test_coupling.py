@@ -64,6 +64,7 @@ def test_exact_kernels_reproduce_the_assembled_system(beam, load, scale, quantit
     assert _err(beam.sensor_matrix() @ res.q, _truth(beam, cs, load)) <= 1e-10
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("scale", [0.01, 1.0])
 @pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_exact_kernels_on_the_truss_parent(scale, quantity):
@@ -107,6 +108,7 @@ def test_time_varying_tip_mass_rebuilds_ltv_beam(beam, load):
     assert _err(beam.sensor_matrix() @ res.q, Yt) <= 1e-10
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("scale", [0.01, 1.0])
 def test_implicit_growth_factor_at_most_one(beam, scale):
     cs = _chain(scale)
@@ -115,12 +117,14 @@ def test_implicit_growth_factor_at_most_one(beam, scale):
     assert growth_factor(beam, [comp], DT, "implicit") <= 1 + 1e-6
 
 
+@pytest.mark.heavy
 def test_implicit_growth_factor_time_varying_tip(beam):
     m = load_structure("ltv_beam").variable_mass(np.arange(N) * DT)
     comp = Component((TIP,), point_mass_kernel(m))
     assert growth_factor(beam, [comp], DT, "implicit") <= 1 + 1e-6
 
 
+@pytest.mark.heavy
 def test_two_step_refused_where_it_diverges(beam, load):
     cs = _chain(1.0)
     comp = Component((TIP,), newmark_kernel(cs.M, cs.C, cs.K, [4], N, DT),

@@ -238,6 +238,7 @@ def test_nonlinear_variable_mass_and_event_together_satisfy_the_equations():
     assert np.max(np.abs(dq)) < 1e-14
 
 
+@pytest.mark.heavy
 def test_sparse_path_equals_dense_solve():
     big = 230
     assert big > DENSE_MAX_DOFS  # factorized with the sparse LU

@@ -78,6 +78,7 @@ def test_force_map_alone_equals_dof_load_array_bit_for_bit(beams):
         np.testing.assert_array_equal(getattr(a, x), getattr(b, x))
 
 
+@pytest.mark.heavy
 def test_truss_with_fracture_on_the_sparse_path():
     s = load_structure("satellite_truss")
     assert s.n_dofs > DENSE_MAX_DOFS and s.events  # sparse LU, one refactorization

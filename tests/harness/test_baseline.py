@@ -19,6 +19,7 @@ QUICK = ["beam_free_displacement", "beam_free_velocity", "truss_free_displacemen
          "truss_free_velocity", "truss_forced"]
 
 
+@pytest.mark.heavy
 def test_quick_scenarios_reproduce_the_committed_baseline(tmp_path):
     base = read_table(ROOT / "results" / "baseline.csv")
     base = base[base.scenario.isin(QUICK)]

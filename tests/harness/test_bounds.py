@@ -115,6 +115,7 @@ def test_a_missing_sensitivity_folder_is_an_error(tmp_path):
         load_claims_file(p)
 
 
+@pytest.mark.heavy
 def test_the_base_findings_link_the_sensitivity_verdicts(tmp_path, monkeypatch):
     """A base study whose claims file names a sensitivity folder: its FINDINGS.md gives each
     varied claim's verdict over the parameter, the same words as the sensitivity study's own

@@ -115,6 +115,7 @@ def test_noise_is_per_measured_channel(tmp_path):
     assert level_folder(0.005) == "noise_0.5pct" and level_folder(0.05) == "noise_5pct"
 
 
+@pytest.mark.heavy
 def test_bundled_records_are_what_the_experiment_generates():
     assert check_experiment(CH5) == []
     exp = load_experiment(CH5)

@@ -10,6 +10,7 @@ import tempfile
 import textwrap
 from pathlib import Path
 
+import pytest
 import tomllib
 from conftest import CHAIN_FREE
 from hypothesis import HealthCheck, given, settings
@@ -93,6 +94,7 @@ def _mutate(doc, kind, path, value):
 
 
 # 30 fixed examples by default; FUZZ_N=1500 FUZZ_RANDOM=1 explores further (run twice: clean)
+@pytest.mark.heavy
 @settings(max_examples=int(os.environ.get("FUZZ_N", "30")), deadline=None,
           derandomize=os.environ.get("FUZZ_RANDOM") is None,
           suppress_health_check=[HealthCheck.too_slow])

@@ -128,6 +128,7 @@ def test_list_shows_bundled_and_local_with_where_each_comes_from(study, tmp_path
 
 
 # --------------------------------------------------------------------------- partial runs
+@pytest.mark.heavy
 def test_a_part_of_a_study_never_replaces_the_study(study, tmp_path, capsys):
     assert cli.main(["run", "my_study", "-q", "--no-figures"]) == 0
     whole = tmp_path / "results" / "my_study"
@@ -162,6 +163,7 @@ def test_a_part_of_a_study_never_replaces_the_study(study, tmp_path, capsys):
 
 
 # ------------------------------------------------------------------------------- progress
+@pytest.mark.heavy
 def test_progress_plain_lines_off_a_terminal_and_nothing_when_quiet(study, capsys):
     assert cli.main(["run", "my_study", "--no-cache"]) == 0
     cap = capsys.readouterr()
@@ -213,6 +215,7 @@ def test_regress_help_does_not_promise_findings(capsys):
     assert "judged into FINDINGS.md" in text and "results/<file name>" in text
 
 
+@pytest.mark.heavy
 def test_responses_reused_within_a_run_are_not_cache_hits(study, tmp_path, capsys):
     # the same chain cases in two scenarios: a cold run simulates each distinct response once
     text = (study / "chain_free.toml").read_text(encoding="utf-8")
@@ -235,6 +238,7 @@ def test_singular_and_plural(study, capsys):
     assert cli._plural(1, "row has", "rows have") == "1 row has"
 
 
+@pytest.mark.heavy
 def test_a_corrupt_cache_entry_is_one_warning_line(study, tmp_path, capsys):
     cache = tmp_path / "cache"
     args = ["run", "my_study/chain_free.toml", "-q", "--no-figures", "--cache", str(cache)]

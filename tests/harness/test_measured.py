@@ -70,6 +70,7 @@ def test_each_format_round_trips_through_the_scenario_path(tmp_path, fmt):
     assert read_record(tmp_path / "data" / f"x.{fmt}").sensors == ("a", "b", "c", "d", "e")
 
 
+@pytest.mark.heavy
 def test_a_scenario_of_measured_cases_runs_and_has_no_linearization(tmp_path):
     """Five simulated chain tests written to files in four formats, noise-free: ML (k = m)
     identifies the chain exactly from the files, as from the simulation (test_forced...)."""
@@ -183,6 +184,7 @@ force = { kind = "pulse", location = 1, amplitude = 1.0, duration = 0.02, by = "
         load_scenario(p)
 
 
+@pytest.mark.heavy
 def test_the_conditioning_table_is_read():
     from podbench.sysid.conditioning import Conditioning
 

@@ -132,6 +132,7 @@ def test_a_user_method_gets_the_columns_of_a_built_in_twins_included(chain, tmp_
         assert mine[c] == sl[c], c
 
 
+@pytest.mark.heavy
 @pytest.mark.usefixtures("pool_at_once")
 def test_a_user_solver_class_works_in_worker_processes(chain, tmp_path):
     p = chain("""

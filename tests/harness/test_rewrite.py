@@ -36,6 +36,7 @@ def _fmt(values, digits):
     return "".join(f"row{i},{v:.{digits}g},x\n" for i, v in enumerate(values)).encode()
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("digits, move", [(3, 1e-4), (6, 1e-7), (2, 1e-3)])
 def test_round_off_below_the_last_digit_never_rewrites(digits, move):
     """Values over six decades, moved by up to ``move`` (relative; below a tenth of the

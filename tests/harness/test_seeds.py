@@ -207,6 +207,7 @@ def test_which_scenarios_the_seeds_change():
         assert (_varied(exp, sc, sorted(sc.cases)) is not None) is varied, name
 
 
+@pytest.mark.heavy
 def test_a_seeded_refit_is_an_independent_fit_on_the_same_records():
     """The seed unit on seed 0's committed records (SL with the dissertation's TLS, ~1 s)
     gives the error of SingleLoad fitted directly on the files."""
@@ -244,6 +245,7 @@ def test_noise_seeds_need_the_experiment_and_its_seed_first(tmp_path):
         run_seeds(load_claims_file(p), [], {})
 
 
+@pytest.mark.heavy
 def test_run_seeds_refits_only_the_checked_rows_of_the_varied_scenarios():
     """§5.3's increase for SL alone at 1 % (four SL-tls fits, a few seconds): the clean
     scenario is not refitted, the noisy one is on seeds 1-4, and the verdict uses both."""

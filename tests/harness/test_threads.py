@@ -54,6 +54,7 @@ def test_threads_of_one_process_keep_the_pin_until_the_last_leaves():
         assert seen == [{1}] and set(_blas_threads()) == {2}
 
 
+@pytest.mark.heavy
 def test_serial_results_do_not_depend_on_the_callers_blas_threads(write_scenario):
     p = write_scenario(TLS_SWEEP, "chain_tls")
     tables = {}

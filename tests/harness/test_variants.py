@@ -65,6 +65,7 @@ def test_a_variant_replaces_the_named_fields_only(tmp_path):
         assert (a != b).nnz == 0
 
 
+@pytest.mark.heavy
 def test_the_variant_runs_and_its_rows_carry_its_name(tmp_path):
     res = run_unit(_derived(tmp_path), "light", cache_dir=tmp_path / "cache")
     assert {r["structure"] for r in res.rows} == {"light"}
@@ -123,6 +124,7 @@ def test_the_sensitivity_studies_load_and_span_the_stated_ranges():
     assert min(anchors) == 0.3 and max(anchors) == 1.0  # in
 
 
+@pytest.mark.heavy
 def test_a_sensitivity_study_judges_the_base_claims_on_every_variant(tmp_path, monkeypatch):
     """A folder of derived scenarios whose base folder has a claims.toml gets a FINDINGS.md
     with each claim's verdict at every value of the varied parameter."""

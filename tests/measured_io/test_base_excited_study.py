@@ -54,6 +54,7 @@ def test_base_motions_start_at_rest_and_peak_at_the_amplitude():
         base_motion("sawtooth", dt, 100, T, A)
 
 
+@pytest.mark.heavy
 def test_records_are_si_and_ml_gives_the_same_prediction_in_either_system():
     """Conversion once where the records are made: m/s² = 0.0254 · in/s²; ML fitted on the
     inch–lbf records predicts the SI prediction converted (the identification does not
@@ -88,6 +89,7 @@ def test_a_bad_study_file_is_one_line(tmp_path, text, words):
     assert words in str(exc.value) and "\n" not in str(exc.value)
 
 
+@pytest.mark.heavy
 def test_a_small_study_runs_and_writes_its_tables(tmp_path):
     p = tmp_path / "study.toml"
     p.write_text(SMALL)

@@ -62,6 +62,7 @@ def test_grams_equal_the_explicit_lagged_design(first):
     np.testing.assert_allclose(lag_response(th, u, 3, first), (X @ th).T, atol=1e-12)
 
 
+@pytest.mark.heavy
 def test_ml_predicts_a_held_out_lti_response_with_feedthrough():
     """Records of different lengths; the true kernel is C A^(p−1) B, D at lag 0: with
     enough lags (the tail below 1e-12) ML reproduces a held-out response to round-off."""
@@ -123,6 +124,7 @@ def test_tc_prior_helps_on_noisy_short_records_and_chooses_on_training_only():
     assert ("tc", tc.info_["tc_tau"], tc.info_["tc_gamma"]) in tc.cv_errors_
 
 
+@pytest.mark.heavy
 def test_si_and_inch_lbf_give_the_same_prediction_converted():
     sys = _lti()
     tr = _records(sys, [300, 340, 360])
@@ -157,6 +159,7 @@ def test_a_training_record_too_short_is_named():
         measured_ml(n_lags=50).fit(tr)
 
 
+@pytest.mark.heavy
 def test_the_peers_take_the_same_records():
 
     sys = _lti(n_in=3, n_out=3, order=6)

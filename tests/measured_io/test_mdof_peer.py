@@ -21,6 +21,7 @@ def _markov(sys, m):
                     axis=2)
 
 
+@pytest.mark.heavy
 def test_okid_recursion_fault_and_fix():
     """On an exact 4-state system mdof's okid is right for h_0, h_1 and wrong from h_2 on
     (its loop drops Ȳ2[k−1]·D); with the term restored every h_k is exact."""
@@ -49,6 +50,7 @@ def test_modal_simulate_equals_the_state_recursion():
     np.testing.assert_allclose(modal_simulate(A, B, C, D, u), y, atol=1e-12)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("method", ["srim", "okid-era"])
 def test_mdof_peer_predicts_an_exact_system(method):
     """Both workarounds in place: the exact system is recovered (order 4)."""

@@ -120,6 +120,7 @@ def test_bundled_records_are_the_shared_samples():
     np.testing.assert_array_equal(g[5].u[2], recs[5].u[0])  # channel 3 in both
 
 
+@pytest.mark.heavy
 def test_the_fir_baseline_reproduces_the_issue_number():
     """Leave-one-event-out, three inputs, 1-s lags: the issue measured 0.399."""
     from podbench.core.threads import single_blas_thread
@@ -183,6 +184,7 @@ def test_predict_on_displacement_force_files_runs_the_dissertations_ml(wf_files,
                                        atol=1e-12 * np.abs(ref).max())
 
 
+@pytest.mark.heavy
 def test_predict_sl_on_a_displacement_force_file_and_its_band(wf_files, tmp_path, capsys):
     paths, recs = wf_files
     out = tmp_path / "sl"

@@ -252,6 +252,7 @@ def test_singular_stiffness_passes_and_the_shipped_structures_are_definite(tmp_p
         load_structure(name)  # the truss's K after the fracture is singular: it passes
 
 
+@pytest.mark.heavy
 def test_sparse_definiteness_check_agrees_with_the_eigenvalues():
     import scipy.sparse as sp
 

@@ -101,6 +101,7 @@ def _period(s, v0, dt=5.0e-4, n=6001):
     return np.mean(np.diff(_upward_crossings(np.arange(n) * dt, res.q[0])))
 
 
+@pytest.mark.heavy
 def test_slack_oscillator_period_matches_closed_form_and_falls_with_amplitude():
     # m = 1, k1 = w1^2, band k2 engaged beyond q = d. From q = 0 at speed v0: soft up to d
     # (time t1 = asin(d w1 / v0) / w1, speed v1 = sqrt(v0^2 - w1^2 d^2)), then an oscillation

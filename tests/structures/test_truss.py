@@ -108,6 +108,7 @@ def test_rigid_translation_kinetic_energy_equals_member_mass(free_truss):
     assert free_truss.metadata["member_mass"] == pytest.approx(total, rel=1e-12)
 
 
+@pytest.mark.heavy
 def test_free_truss_has_exactly_two_rigid_modes(free_truss):
     K = free_truss.K.toarray()
     assert free_truss.n_dofs == 303
@@ -147,6 +148,7 @@ def _assembled_without(truss_structure, skip):
     return K[np.ix_(free, free)], M[np.ix_(free, free)]
 
 
+@pytest.mark.heavy
 def test_fracture_of_element_10_removes_the_element(truss):
     """§4.2: "the 10th truss element breaks off and disappears" and "the remaining truss
     sections ... are free to exhibit rigid-body rotation around each pinned end": after the

@@ -148,6 +148,7 @@ def _predict(method, recs, scale_w, scale_f, train):
     return fitted.predict(pb.Record(W=scale_w * W4, F=scale_f * F4, dt=dt)) / scale_w
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("cls, train", [(SingleLoad, ["load8"]),
                                         (MultipleLoad, ["load8", "load12"])])
 def test_balanced_tls_gives_the_same_prediction_in_si_and_inch_lbf(cls, train):
@@ -160,6 +161,7 @@ def test_balanced_tls_gives_the_same_prediction_in_si_and_inch_lbf(cls, train):
     assert np.linalg.norm(mm - inch) <= 1e-8 * np.linalg.norm(inch)
 
 
+@pytest.mark.heavy
 def test_appendix_tls_cut_depends_on_units():
     """The appendix's form on the same records in millimetres keeps other directions (the
     reason for the balanced form): the 2 %-noise 8-in record."""
@@ -188,6 +190,7 @@ def test_parameters_are_checked_and_clonable():
     assert dc.BalancedTLS().balance is True and dc.AppendixTLS().balance is False
 
 
+@pytest.mark.heavy
 def test_fast_discarded_subspace_equals_full_svd_on_a_chapter5_sized_system():
     """The eigen-path (CᵀC, discarded vectors only) against the full SVD at n = 300."""
     q, y = _noisy_pulse_system(300, 4, noise=0.05)
@@ -233,6 +236,7 @@ def test_a_response_outside_the_forces_range_or_zero_gives_zero():
     assert np.all(res.X == 0)
 
 
+@pytest.mark.heavy
 def test_the_snr_rule_reads_the_records_only():
     """tol = "snr": the amplitude SNR of the forces in X, from their samples alone. On the
     committed Chapter 5 records the load cell's SNR is the level the experiment drew (1/level
@@ -273,6 +277,7 @@ def test_the_snr_rule_reads_the_records_only():
         dc.AppendixTLS(tol="snr").solve_matrix(np.eye(3), np.ones(3))
 
 
+@pytest.mark.heavy
 def test_least_squares_from_the_cached_svd_is_gelsd():
     """"ls" solves from the SVD of the convolution matrix, kept per process: the answer of
     LAPACK's gelsd (its cut, rank and condition) on a numerically singular Chapter 5 system

@@ -273,6 +273,7 @@ def test_single_load_band_carries_the_diagonal_term(monkeypatch):
     assert t.error_estimate >= D * 0.999
 
 
+@pytest.mark.heavy
 def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitude():
     """ML on the coupled chain (exact): a target 10× a training load gets, besides the
     10× prediction, a band widened by how far its RMS lies beyond the training records'
@@ -308,6 +309,7 @@ def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitu
     assert bands.extrapolation(0.25, 1.0, 4.0) == (4.0 if bands.EXTRAPOLATE_BELOW else 1.0)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("excitation", ["forced", "displacement"])
 def test_peers_bands_reuse_the_chosen_order(excitation):
     """ERA chooses its order by hold-out; the band's folds reuse it (frozen_params holds

@@ -66,6 +66,7 @@ def test_force_window_keeps_every_hit_and_zeroes_the_noise_elsewhere():
     assert not out[[0, 1, 3, 4, 5]].any()  # no load cell there: rows stay zero
 
 
+@pytest.mark.heavy
 def test_exponential_window_and_correction_keep_an_exact_ml_fit_exact():
     """ML on the coupled chain (k = m) is exact without noise (3e-15, test_forced_methods);
     windowing W and F by e^{-t/τ} keeps W = C*F with kernel C e^{-t/τ}, so the corrected

@@ -186,6 +186,7 @@ def test_tls_without_noise_recovers_the_exact_solution():
     np.testing.assert_allclose(dc.solve(A, A @ x, "tls-dt"), x, atol=1e-9)
 
 
+@pytest.mark.heavy
 def test_truncation_keeps_tls_bounded_where_pinv_blows_up():
     """Noisy force and response: pinv fits the noise through tiny singular values."""
     rng = np.random.default_rng(8)

@@ -34,6 +34,7 @@ def _records(n=120):
     return out, F
 
 
+@pytest.mark.heavy
 def test_default_ml_on_clean_records_is_the_exact_answer():
     recs, F_new = _records()
     W, F = [r.W for r in recs], [r.F for r in recs]
@@ -46,6 +47,7 @@ def test_default_ml_on_clean_records_is_the_exact_answer():
     assert np.linalg.norm(pred - ref) <= 1e-8 * np.linalg.norm(ref)
 
 
+@pytest.mark.heavy
 def test_auto_kernel_test_reads_the_noise_level():
     """Noise on the responses only (the force channels clean): block solves, and the Hankel
     floor of its kernel against that of reference noise at the threshold reads the level:
@@ -68,6 +70,7 @@ def test_auto_kernel_test_reads_the_noise_level():
         assert max(level / 3, 1e-3) < info["noise_floor"] < 30 * level
 
 
+@pytest.mark.heavy
 def test_hankel_floor_sees_finite_order_and_scales_with_the_kernel():
     from podbench.sysid.deconvolution.auto import hankel_floor
 

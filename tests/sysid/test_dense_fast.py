@@ -62,6 +62,7 @@ def test_tls_gram_equals_svd_reference(case, scale):
         assert ref["rank"] == A.shape[1]  # the cap at M, not the cut, decided the rank
 
 
+@pytest.mark.heavy
 def test_truncated_tls_takes_the_fast_path_only_for_the_rcond_rule():
     A, B = _cases()["lanczos"]
     for kwargs in ({"rank": "gap"}, {"rank": 50}, {"noise_level": 1e-3}, {"rcond": 1e-6}):
@@ -82,6 +83,7 @@ def _system(rng, n=96, k=2, cases=2):
     return q, B
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("solver", [dense.LeastSquares(), dense.TruncatedTLS(scale=True),
                                     dense.AppendixTLS(), dense.BalancedTLS()])
 def test_memo_returns_the_first_answer_bit_for_bit(solver):
@@ -100,6 +102,7 @@ def test_memo_returns_the_first_answer_bit_for_bit(solver):
     assert np.array_equal(X_direct, first.X)
 
 
+@pytest.mark.heavy
 def test_memo_tells_systems_and_options_apart():
     rng = np.random.default_rng(8)
     q, B = _system(rng)

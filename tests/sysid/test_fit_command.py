@@ -156,6 +156,7 @@ def test_fit_refuses_an_option_the_method_lacks(chain, tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.heavy
 def test_python_fit_save_load_modes_and_exports(chain, tmp_path):
     case, paths = chain
     recs = [pb.core.recordfiles.read_record(p) for p in paths]

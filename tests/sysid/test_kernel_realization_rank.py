@@ -4,6 +4,7 @@ coupled errors moved 3.37e-4 / 2.89e-4 between OpenBLAS kernels through two roun
 states of an order-10 realization)."""
 
 import numpy as np
+import pytest
 
 from podbench.dynamics.coupling import newmark_kernel
 from podbench.structures import load_structure
@@ -31,6 +32,7 @@ def _spread(out):
     return float(np.max(np.abs(k1 - k2)) / np.max(np.abs(k1)))
 
 
+@pytest.mark.heavy
 def test_a_1e12_perturbation_does_not_choose_the_realization():
     H, out = _kernels(KERNEL_RANK_TOL)
     assert [n for n, _ in out] == [6, 6]  # singular values above 1e-10: six

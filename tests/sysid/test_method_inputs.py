@@ -261,6 +261,7 @@ def test_mr_loads_must_be_separable(mixed):
         _mr(mixed, F=zero)
 
 
+@pytest.mark.heavy
 def test_mr_predict_needs_an_excitation(mixed):
     model = _mr(mixed)
     with pytest.raises(InputError, match="at least one of"):

@@ -106,6 +106,7 @@ def test_matching_is_by_mac_not_by_index():
         match_modes(ModeSet(poles, Q, tuple("uvwxyz")), ref)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("method", [MultipleLoad(solver="block"), ERA(n_modes=5)])
 def test_forced_realizations_reproduce_the_prediction_and_the_modes(method):
     case = forced_case("coupled")
@@ -119,6 +120,7 @@ def test_forced_realizations_reproduce_the_prediction_and_the_modes(method):
     assert dl.dt == case.dt and dl.A.shape == (10, 10)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("method", [MDS(), ERA(n_modes=5, excitation="displacement")])
 def test_free_realizations_are_autonomous_and_hold_the_modes(method):
     case = free_case("coupled", "displacement")
@@ -131,6 +133,7 @@ def test_free_realizations_are_autonomous_and_hold_the_modes(method):
         ss.to_dlti()
 
 
+@pytest.mark.heavy
 def test_diagonal_methods_realize_their_diagonal():
     """SL, POVR and MR's forced part realize the diagonal they identified. In the ideal
     chain's normal modes (M = I, Rayleigh damping: the diagonal assumption holds exactly)
@@ -157,6 +160,7 @@ def test_diagonal_methods_realize_their_diagonal():
     _assert_modes_exact(to_statespace(mr), mixed)
 
 
+@pytest.mark.heavy
 def test_io_ml_realization_and_the_refusals():
     """ML on input/output records with a kernel over the whole record ('block', exact) is a
     model of order 2k; a truncated kernel would be approximated."""

@@ -58,6 +58,7 @@ CASES = {
 }
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("name", list(CASES))
 def test_a_loaded_model_predicts_exactly_as_the_fitted_one(name, tmp_path):
     make, data = CASES[name]
@@ -74,6 +75,7 @@ def test_a_loaded_model_predicts_exactly_as_the_fitted_one(name, tmp_path):
     assert "realization" in summary  # the realization and modes, or the reason
 
 
+@pytest.mark.heavy
 def test_the_band_and_its_calibration_travel_with_the_model(tmp_path):
     train, target = _io()
     est = MultipleLoad(inputs="measured", n_lags="auto", solver="ls", lag_grid=(0.05, 0.1))
@@ -107,6 +109,7 @@ def test_provenance_names_the_training_files_and_their_hashes(tmp_path):
     load_model(tmp_path / "model.npz")
 
 
+@pytest.mark.heavy
 def test_bad_model_files_are_refused_in_one_line(tmp_path):
     train, _ = _forced()
     good = save_model(MultipleLoad(solver="block").fit(train), tmp_path / "good.npz")

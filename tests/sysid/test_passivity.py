@@ -58,6 +58,7 @@ def test_exact_newmark_kernels_are_passive(quantity, scale):
     assert passivity_margin(real, quantity)[0] >= -1e-9
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_the_frequency_condition_is_the_energy_balance(quantity):
     """An independent check of the criterion: driven at the frequency where the margin is
@@ -75,6 +76,7 @@ def test_the_frequency_condition_is_the_energy_balance(quantity):
         assert s.min() >= -1e-9 * np.abs(s).max()
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_enforcement_makes_the_coupling_stable(quantity):
     beam = load_structure("lti_beam")
@@ -93,6 +95,7 @@ def test_enforcement_makes_the_coupling_stable(quantity):
     assert np.linalg.norm(Hp - Hb) < np.linalg.norm(Hb - H)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("quantity", ["acceleration", "velocity", "displacement"])
 def test_a_passive_kernel_is_left_alone_and_units_do_not_matter(quantity):
     _, real = _exact(quantity)

@@ -60,6 +60,7 @@ def _records(cs, noise, seed, n_rec=4, n=5000):
     return F, Y
 
 
+@pytest.mark.heavy
 def test_the_solver_model_is_the_kernel_and_is_used():
     """``"realization"`` on noisy chain records: the result's model reproduces ``X`` at every
     lag (to round-off), and identify_kernel uses it, at the solver's order; a solver that

@@ -107,6 +107,7 @@ def _dense_objective(Q, B, dt, reg, rho):
     return fun
 
 
+@pytest.mark.heavy
 def test_matches_a_dense_reference_minimizer():
     rng = np.random.default_rng(3)
     n, k, J, r, dt, reg = 25, 2, 3, 2, 1e-2, 0.05
@@ -155,6 +156,7 @@ def _oscillator(seed, eps_f, eps_w, n=200, J=4):
     return Qn, np.concatenate(Bn), dt, X
 
 
+@pytest.mark.heavy
 def test_noisy_force_bias_reduced_on_a_2dof_oscillator():
     """Errors in variables: with 10 % noise on the force samples (1 % on the responses)
     least squares absorbs the force noise into the kernel; the structured correction of the

@@ -28,6 +28,7 @@ def _long_functions(limit: int = 80) -> list[str]:
     return out
 
 
+@pytest.mark.heavy
 def test_no_function_over_80_lines():
     assert _long_functions() == []
 
