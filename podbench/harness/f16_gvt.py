@@ -180,9 +180,36 @@ def _run_entry(entry: MethodEntry, train, targets, plan: F16Plan, keep) -> tuple
         if keep(entry.label, n):
             kept[n] = yh
     fit = {**base, "status": "ok", "seconds": seconds, "n_modes": int(model.n_modes_),
+           **_torsion_peak(model, recs[0], plan),
            **{k: v for k, v in getattr(model, "info_", {}).items()
               if isinstance(v, (int, float, str)) and k != "cv_error"}}
     return rows, fit, kept
+
+
+def _torsion_peak(model, rec: IORecord, plan: F16Plan) -> dict:
+    """The torsion peak of a fitted model's frequency response at the wing accelerometer
+    ((m/s²)/N on the period's lines in the torsion band, :data:`TORSION`): for the periodic
+    methods their response on the excited lines, for a truncated kernel (``theta_``) its
+    DTFT; ``{}`` for the others."""
+    channel, lo, hi = TORSION
+    names = rec.output_channels or ()
+    if channel not in names:
+        return {}
+    f = np.arange(plan.period // 2 + 1) / (plan.period * rec.dt)
+    band = np.flatnonzero((f >= lo) & (f <= hi))
+    if callable(getattr(model, "frequency_response", None)):
+        lines = list(model.lines_)
+        keep = [i for i, k in enumerate(lines) if lo <= f[k] <= hi]
+        G = model.frequency_response()[names.index(channel), 0, keep]
+    elif hasattr(model, "theta_") and hasattr(model, "first_lag_"):
+        n_in = rec.n_inputs
+        th = model.theta_.reshape(-1, n_in, model.theta_.shape[1])[:, 0, :]  # (L, k)
+        lags = model.first_lag_ + np.arange(th.shape[0])
+        E = np.exp(-2j * np.pi * np.outer(f[band], lags) * rec.dt)  # (F, L)
+        G = (E @ th) @ model.modes_[names.index(channel)]
+    else:
+        return {}
+    return {"torsion_peak": float(np.max(np.abs(G)))} if np.size(G) else {}
 
 
 def _levels_text(train) -> str:
