@@ -124,6 +124,15 @@ COMMANDS: dict[str, object] = {
     "podbench sweep sweeps/beam_forced_noise": SLOW,
     "podbench sweep sweeps/peers_noise": SLOW,
     "podbench run base_excited": SLOW,
+    "podbench run f16_gvt": SLOW,
+    ("podbench predict --method ML --train scenarios/f16_gvt/data/f16_fullmsine_level1_12N.npz "
+     "scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz scenarios/f16_gvt/data/"
+     "f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
+     "f16_fullmsine_level2_25N_validation.npz scenarios/f16_gvt/data/"
+     "f16_fullmsine_level4_61N_validation.npz --coverage 0.9 --out f16_ml"): SLOW,
+    "python benchmarks/study_time.py --study f16_gvt --jobs 2 --no-write": NOT_RUN(
+        "times a cold `podbench run f16_gvt` between two reference workloads (minutes on the "
+        "shared machine); the study command itself is run (slow)"),
     "python benchmarks/study_time.py --jobs 1,2": NOT_RUN(
         "times two cold runs of the whole Chapter 5 study (tens of minutes on the shared "
         "machine); the study command itself is run (slow)"),
@@ -186,6 +195,11 @@ BLOCKS: dict[tuple[str, str], object] = {
      "run chapter5, --jobs auto, no figures"): "shell",
     ("benchmarks/README.md", "python benchmarks/defaults.py                        # n = 1000, "
      "k = 4, dt = 1e-3 s"): "shell",
+    ("docs/f16_gvt.md", "podbench predict --method ML --train scenarios/f16_gvt/data/"
+     "f16_fullmsine_level1_12N.npz scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz "
+     "scenarios/f16_gvt/data/f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
+     "f16_fullmsine_level2_25N_validation.npz scenarios/f16_gvt/data/"
+     "f16_fullmsine_level4_61N_validation.npz --coverage 0.9 --out f16_ml"): "shell",
     # Python blocks
     ("README.md", "p = model.predict(target, coverage=0.9)     # model.predict(target) still "
      "returns the array"): "python",

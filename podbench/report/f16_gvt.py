@@ -201,7 +201,8 @@ def _band_lines(res) -> list[str]:
         if a and b and "error_estimate" in a and "error_estimate" in b:
             lines.append(
                 f"  {label}, levels 1, 3 → 2 (inside the training force range) and → 4 "
-                f"(outside, 1.7× the highest training force): estimate "
+                f"(outside, {res['levels_by'][4] / res['levels_by'][3]:.1f}× the highest "
+                f"training force): estimate "
                 f"{a['error_estimate']:.3g} → {b['error_estimate']:.3g} against realized "
                 f"{a['rel_whole']:.3f} → {b['rel_whole']:.3f}; the estimate grows "
                 f"{b['error_estimate'] / a['error_estimate']:.2f}×, the error "

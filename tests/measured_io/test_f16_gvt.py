@@ -297,3 +297,20 @@ def test_the_issue_bla_table_on_the_full_records():
         assert round(periodic_error(model, n), 3) == value, (train, n)
     interp = LevelInterpolatedML(period=N).fit([levels[1], levels[3]])
     assert round(periodic_error(interp, 2), 3) == 0.223
+
+
+def test_a_missing_extra_refuses_the_run_before_any_work(monkeypatch):
+    """The committed tables hold mdof's rows: without mdof the study refuses to run (and
+    overwrite them with refusals), naming the entry and the extra."""
+    import importlib.util
+
+    from podbench.harness import f16_gvt as harness
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "mdof" else real(name, *a))
+    monkeypatch.setattr(harness, "load_levels", lambda plan: pytest.fail("data were read"))
+    with pytest.raises(InputError, match=r"f16_gvt.toml: field `f16_gvt.methods\[11\]` "
+                                         r"\(mdof-SRIM\): needs the mdof package \(pip install "
+                                         r"'podbench\[mdof\]'\)"):
+        harness.run_study(load_f16_gvt(STUDY))
