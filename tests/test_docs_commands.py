@@ -70,6 +70,7 @@ COMMANDS: dict[str, object] = {
     'python -m pytest -m "not slow and not heavy"': _SUITE,
     "pip install .": _INSTALL,
     "pip install 'podbench[peers]'": _INSTALL,
+    "pip install 'podbench[mdof]'": _INSTALL,
     "mkdocs build --strict": COVERED("tests/test_docs_site.py"),
     # usage lines
     "podbench run [PATH ...] [--jobs N] [--out DIR] [--cache DIR | --no-cache] [--engine "
@@ -125,6 +126,8 @@ COMMANDS: dict[str, object] = {
     "podbench sweep sweeps/peers_noise": SLOW,
     "podbench run base_excited": SLOW,
     "podbench run f16_gvt": SLOW,
+    "podbench predict": SYNOPSIS,
+    "podbench predict --method ML": SYNOPSIS,
     ("podbench predict --method ML --train scenarios/f16_gvt/data/f16_fullmsine_level1_12N.npz "
      "scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz scenarios/f16_gvt/data/"
      "f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
