@@ -122,6 +122,11 @@ def pooled_response(U_means, Y_means, lines) -> np.ndarray:
               for Um, Ym in zip(U_means, Y_means, strict=True))
     Suu = sum(np.einsum("ik,jk->kij", Um[:, lines], np.conj(Um[:, lines])) for Um in U_means)
     if Suu.shape[1] == 1:
+        power = Suu[:, 0, 0].real
+        dead = np.flatnonzero(power <= 1e-12 * np.max(power))  # round-off, not excitation
+        if dead.size:
+            raise InputError(f"Parameter `lines`: line {int(lines[dead[0]])} carries no "
+                             "input power in the training records (nothing identifies it)")
         G = Syu / Suu  # (L, 1, n_out) / (L, 1, 1)
     else:
         G = np.linalg.pinv(Suu, hermitian=True) @ Syu  # (L, n_in, n_out)

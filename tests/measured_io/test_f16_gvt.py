@@ -314,3 +314,26 @@ def test_a_missing_extra_refuses_the_run_before_any_work(monkeypatch):
                                          r"\(mdof-SRIM\): needs the mdof package \(pip install "
                                          r"'podbench\[mdof\]'\)"):
         harness.run_study(load_f16_gvt(STUDY))
+
+
+def test_the_periodic_methods_keep_the_estimator_contract():
+    from sklearn.base import clone
+
+    from podbench.errors import NotFittedError
+
+    recs = [_short(1), _short(3)]
+    for cls in (MultipleLoadPeriodic, BestLinearApproximation, LevelInterpolatedML):
+        est = cls(period=N)
+        with pytest.raises(NotFittedError):
+            est.predict(recs[0])
+        twin = clone(est)
+        assert twin.get_params() == est.get_params() and twin.fit(recs) is twin
+    with pytest.raises(InputError, match="Parameter `period`: required"):
+        MultipleLoadPeriodic().fit(recs)
+    u = _multisine(np.random.default_rng(3), np.arange(20, 200), 3)
+    synthetic = IORecord(u=u, y=np.vstack([u[0]] * 3), dt=0.01, input_units="N",
+                         output_units="m/s^2", name="synthetic")
+    with pytest.raises(InputError, match="Parameter `lines`: line 5 carries no input power"):
+        BestLinearApproximation(period=N, lines=(5, 41)).fit([synthetic])
+    with pytest.raises(InputError, match="Parameter `scale`: expected 'linear' or 'log'"):
+        LevelInterpolatedML(period=N, scale="cubic").fit(recs)

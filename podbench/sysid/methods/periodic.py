@@ -233,6 +233,14 @@ class MultipleLoadPeriodic(MultipleLoadIO):
         Hf = np.fft.rfft(H * self.dt_, nfft, axis=2)
         return np.fft.irfft(np.einsum("kif,if->kf", Hf, Uf), nfft, axis=1)[:, :n]
 
+    def predict(self, record, coverage=None) -> np.ndarray:
+        """Predicted outputs ``ŷ = U v̂`` (n_out × n, the training output unit) of the
+        target's whole record from rest; ``coverage=c`` returns a
+        :class:`~podbench.sysid.methods.bands.Prediction` (handled by
+        :class:`~podbench.sysid.methods.base.PODMethod`)."""
+        self._check_is_fitted()
+        return self.modes_ @ self.predict_coordinates(record)
+
     def frequency_response(self, record=None) -> np.ndarray:
         """The frequency response in the output channels (n_out, n_in, L) on ``lines_``:
         ``U·response_`` (for :class:`LevelInterpolatedML`, at ``record``'s level)."""
