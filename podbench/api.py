@@ -32,6 +32,7 @@ from pathlib import Path
 import pandas as pd
 
 from podbench.core.atomic import atomic_write_text
+from podbench.core.hints import did_you_mean
 from podbench.core.resources import (
     DEFAULT_STUDY,
     SWEEPS_STUDY,
@@ -46,7 +47,7 @@ from podbench.harness.f16_gvt import run_study as run_f16_gvt
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
 from podbench.harness.painter_street import run_study as run_painter_street
-from podbench.harness.predict import predict_files
+from podbench.harness.predict import PredictResult, predict_files
 from podbench.harness.progress import Progress
 from podbench.harness.regress import Comparison, compare, read_table
 from podbench.harness.rewrite import unmoved
@@ -62,10 +63,10 @@ from podbench.report.painter_street import write_study as write_painter_street
 from podbench.report.study import figure_tasks, write_study
 from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
+from podbench.study.base_excited import load_study as load_base_excited
 from podbench.study.claims import load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.f16_gvt import load_f16_gvt
-from podbench.study.hints import did_you_mean
 from podbench.study.nonlinearity import NonlinearitySpec
 from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
 from podbench.study.painter_street import load_painter_street
@@ -135,19 +136,26 @@ def resolve_study(study, default=(DEFAULT_STUDY,)) -> tuple[list[Path], list[Pat
     return resolved, find_scenarios(resolved)
 
 
+def _param(name: str) -> str:
+    """How an error names the Python parameter ``name`` (the command line shows its flag)."""
+    return f"Parameter `{name}`"
+
+
 def writable_folder(path, option: str) -> Path:
     """``path`` after checking, before any work, that it is a folder or can be created as one:
-    not a file, not under a file, its nearest existing ancestor writable."""
+    not a file, not under a file, its nearest existing ancestor writable. ``option``: the
+    Python parameter that gave it (named in the error)."""
     p = Path(path).expanduser()
+    where = f"{_param(option)}: {path}"
     if p.exists() and not p.is_dir():
-        raise InputError(f"{option} {path}: exists and is not a folder")
+        raise InputError(f"{where}: exists and is not a folder")
     a = p.absolute()
     while not a.exists() and a != a.parent:
         a = a.parent
     if not a.is_dir():
-        raise InputError(f"{option} {path}: {a} is a file, so no folder can be made under it")
+        raise InputError(f"{where}: {a} is a file, so no folder can be made under it")
     if not os.access(a, os.W_OK | os.X_OK):
-        raise InputError(f"{option} {path}: {a} is not writable")
+        raise InputError(f"{where}: {a} is not writable")
     return p
 
 
@@ -156,12 +164,13 @@ def output_folder(path, option: str, marker: str, *, also=()) -> Path:
     or be a previous podbench output (holding ``marker``), so that a mistyped ``--out ~``
     cannot replace a home folder; ``marker`` and ``also`` must not be folders."""
     p = writable_folder(path, option)
+    where = f"{_param(option)}: {path}"
     if p.is_dir():
         for name in (marker, *also):
             if (p / name).exists() and not (p / name).is_file():
-                raise InputError(f"{option} {path}: {p / name} is a folder, not a file")
+                raise InputError(f"{where}: {p / name} is a folder, not a file")
         if not (p / marker).is_file() and any(p.iterdir()):
-            raise InputError(f"{option} {path}: a non-empty folder that is not a podbench "
+            raise InputError(f"{where}: a non-empty folder that is not a podbench "
                              f"output (no {marker} in it); give a new or empty folder")
     return p
 
@@ -230,8 +239,8 @@ def _whole_study(claims_path, scenarios) -> bool:
 
 
 def _check_run_options(jobs, cache) -> Path | None:
-    resolve_jobs(jobs, "--jobs")
-    return None if cache is None else writable_folder(cache, "--cache")
+    resolve_jobs(jobs, _param("jobs"))
+    return None if cache is None else writable_folder(cache, "cache")
 
 
 def _progress(progress, quiet: bool):
@@ -250,7 +259,7 @@ class StudyResult:
         ``figures/``, ``report.html``).
     summary : DataFrame
         ``summary.csv``: one row per scenario × structure × method × target, errors as
-        fractions of ‖W‖_F (README, *Error decomposition*).
+        fractions of ‖W‖_F (docs/error-decomposition.md).
     fits : DataFrame
         ``fits.csv``: what each fit measured about itself.
     claims : list of dict or None
@@ -341,13 +350,13 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
     """
     paths, files = resolve_study(study)
     out = Path(out) if out is not None else default_out(paths)
-    output_folder(out, "--out", "summary.csv")
+    output_folder(out, "out", "summary.csv")
     own = own_study(files)
     if own is not None:  # a study file naming its own runner ([study] runner = "...")
         return _run_own(own, out, study, jobs=jobs, cache=cache, engine=engine, figures=figures,
                         figure_format=figure_format, say=_say(progress, quiet, own.name))
     scenarios = load_scenarios(files)
-    _refuse_partial_over(out, scenarios, "--out")
+    _refuse_partial_over(out, scenarios, "out")
     claims = _claims_path(paths)
     claims_file = load_claims_file(claims) if claims is not None else None  # before any work
     cache_dir = _check_run_options(jobs, cache)
@@ -445,13 +454,17 @@ def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) ->
 
 # ----------------------------------------------------------------------------- predict
 def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=None,
-            coverage=None, input_units=None, output_units=None, units=None) -> list[dict]:
-    """Fit ``method`` on the ``train`` record files and predict every ``target`` file, as
-    ``podbench predict``: ``out/errors.csv`` (target, method, total_error) and
-    ``out/<target stem>.npz`` with ``W_hat`` (with ``coverage``: ``lower``, ``upper`` in the
-    ``.npz``, ``error_estimate`` and ``coverage`` in errors.csv). Every file is checked before
-    any fitting; ``out`` is written whole or not at all. Returns the rows of errors.csv."""
-    out = output_folder(out, "--out", "errors.csv")
+            coverage=None, input_units=None, output_units=None,
+            units=None) -> PredictResult:
+    """Fit ``method`` (a registered name, :mod:`podbench.sysid.registry`) on the ``train``
+    record files and predict every ``target`` file, as ``podbench predict``:
+    ``out/errors.csv`` (target, method, total_error, per-channel errors), ``out/<target
+    stem>.npz`` with ``y_hat`` (and ``W_hat`` for displacements; with ``coverage``:
+    ``lower``, ``upper`` in the ``.npz``, ``error_estimate`` and ``coverage`` in errors.csv)
+    and ``out/config.json`` (the fitted configuration). Every file is checked before any
+    fitting; ``out`` is written whole or not at all. Returns the
+    :class:`~podbench.harness.predict.PredictResult` (``rows`` of errors.csv, ``config``)."""
+    out = output_folder(out, "out", "errors.csv")
     return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
                          n_modes=n_modes, coverage=coverage, input_units=input_units,
                          output_units=output_units, units=units)
@@ -509,7 +522,8 @@ def _run_f16_gvt(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyRes
 def _run_base_excited(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyResult:
     """The base-excited study (:mod:`podbench.harness.base_excited`): beams and truss shaken
     at the base, acceleration and strain outputs in SI."""
-    res = run_base_excited(study.path, progress=options.say, keep_series=options.figures)
+    plan = load_base_excited(study.path)
+    res = run_base_excited(plan, progress=options.say, keep_series=options.figures)
     write_base_excited(res, out, figures=options.figures)
     drawn = sorted((out / "figures").glob("*.png")) if options.figures else []
     return StudyResult(out=out, summary=pd.read_csv(out / "summary.csv"),
@@ -549,7 +563,7 @@ def _run_own(own: OwnStudy, out: Path, study, *, jobs, cache, engine, figures: b
     """:func:`run` of a study with its own runner: the options checked as for any study
     (``engine`` refused: the runner chooses its own), then the runner, timed."""
     if engine is not None:
-        raise InputError(f"--engine: {display_path(own.path)} is run by its own runner "
+        raise InputError(f"{_param('engine')}: {display_path(own.path)} is run by its own runner "
                          f"({own.runner}), which takes no engine")
     _check_run_options(jobs, cache)
     options = RunnerOptions(figures=figures, figure_format=figure_format, say=say,
@@ -579,24 +593,41 @@ def _say(progress, quiet: bool, name: str) -> Callable[[str], None] | None:
 
 
 # ---------------------------------------------------------------------------- regress
+@dataclass
+class RegressResult:
+    """What :func:`regress` did: the ``comparison`` of every error with the baseline (None
+    when ``update`` rewrote it instead), the number of ``rows`` compared or written, and the
+    ``baseline`` file."""
+
+    comparison: Comparison | None
+    rows: int
+    baseline: Path
+    updated: bool = False
+
+    @property
+    def failed(self) -> bool:
+        """Whether an error moved beyond the tolerances."""
+        return self.comparison is not None and bool(self.comparison.failed)
+
+
 def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: float = 1e-6,
             update: bool = False, table=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
-            engine: str | None = None, quiet: bool = True, progress=None) -> Comparison | int:
+            engine: str | None = None, quiet: bool = True, progress=None) -> RegressResult:
     """Re-run studies (default: Chapter 4 and 5) or read a ``table`` and compare every error
-    with the ``baseline`` (relative ``rtol``, absolute ``atol``), as ``podbench regress``.
-
-    With ``update`` the baseline is (re)written instead, and the number of rows is
-    returned; otherwise the :class:`~podbench.harness.regress.Comparison`."""
+    with the ``baseline`` (relative ``rtol``, absolute ``atol``), as ``podbench regress``;
+    with ``update`` the baseline is (re)written instead. Returns the
+    :class:`RegressResult`."""
     files = None if table else resolve_study(study, REGRESS_STUDIES)[1]  # missing paths first
     if files is not None:
         _refuse_own(files, "regress")
     baseline = Path(baseline)
     if update:  # checked before any work: the new baseline can be written
         if baseline.is_dir():
-            raise InputError(f"--baseline {baseline}: is a folder, not a CSV file")
+            raise InputError(f"{_param('baseline')}: {baseline}: is a folder, not a CSV file")
         if baseline.parent.exists() and not baseline.parent.is_dir():
-            raise InputError(f"--baseline {baseline}: {baseline.parent} is a file, not a folder")
-        writable_folder(baseline.parent, "--baseline")
+            raise InputError(f"{_param('baseline')}: {baseline}: {baseline.parent} is a file, "
+                             "not a folder")
+        writable_folder(baseline.parent, "baseline")
     elif not baseline.is_file():
         raise InputError(f"{baseline}: no such baseline (create it with --update)")
     base = None if update else read_table(baseline)
@@ -609,9 +640,10 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
                                       progress=_progress(progress, quiet), keep_series=False))
     if update:
         atomic_write_text(baseline, table_csv(new), keep=unmoved)
-        return len(new)
+        return RegressResult(comparison=None, rows=len(new), baseline=baseline, updated=True)
     assert base is not None  # read above, before the run, unless update
-    return compare(new, base, rtol=rtol, atol=atol)
+    return RegressResult(comparison=compare(new, base, rtol=rtol, atol=atol), rows=len(new),
+                         baseline=baseline)
 
 
 # ------------------------------------------------------------------------------ sweep
@@ -640,23 +672,24 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
     ``"auto"``, or the Dask cluster at ``scheduler``, which refuses a ``jobs`` given with
     it. The table does not depend on either."""
     if scheduler is not None and jobs is not None:
-        raise InputError(f"--jobs {jobs} and --scheduler {scheduler}: give one (the Dask "
+        raise InputError(f"{_param('jobs')} = {jobs} and {_param('scheduler')} = {scheduler}: "
+                         "give one (the Dask "
                          "cluster sets the parallelism)")
     jobs = 0 if scheduler is not None else resolve_jobs("auto" if jobs is None else jobs,
-                                                        "--jobs")
+                                                        _param("jobs"))
     axes = {"noise": noise, "n_modes": n_modes, "seeds": seeds}
     if solvers is not None:
         for name in solvers:
             if name not in available_solvers():
-                raise UnknownNameError(f"--solvers: unknown solver {name!r}"
+                raise UnknownNameError(f"{_param('solvers')}: unknown solver {name!r}"
                                        f"{did_you_mean(name, available_solvers())} "
                                        f"(solvers: {', '.join(available_solvers())})")
         axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
-    cache_dir = None if cache is None else writable_folder(cache, "--cache")
-    writable_folder(out, "--out")
+    cache_dir = None if cache is None else writable_folder(cache, "cache")
+    writable_folder(out, "out")
     for name in load_scenarios(files, "sweep"):  # each writes OUT/<name>/sweep.csv, sweep.md
-        output_folder(Path(out) / name, "--out", "sweep.csv", also=("sweep.md",))
+        output_folder(Path(out) / name, "out", "sweep.csv", also=("sweep.md",))
     t0 = time.perf_counter()
     scenarios, df = run_sweep(files, jobs=jobs or 1, scheduler=scheduler, cache_dir=cache_dir,
                               engine=engine, progress=_progress(progress, quiet), **axes)
@@ -669,10 +702,20 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
 
 
 # ------------------------------------------------------------------------- experiment
-def experiment(study, *, check: bool = False) -> list[Path] | list[str]:
+@dataclass
+class ExperimentResult:
+    """What :func:`experiment` did: the record files ``written``, or with ``check``
+    (``checked``) the files that ``differ`` from a fresh generation."""
+
+    written: list[Path]
+    differ: list[str]
+    checked: bool = False
+
+
+def experiment(study, *, check: bool = False) -> ExperimentResult:
     """Write (or with ``check``, compare with a fresh generation) the record files of a
     virtual experiment (``experiment.toml`` in a study folder, e.g. the bundled
-    ``chapter5``). Returns the files written, or those that differ."""
+    ``chapter5``). Returns the :class:`ExperimentResult`."""
     path = Path(study)
     if not path.exists():
         b = resolve_bundled(str(study))
@@ -680,7 +723,9 @@ def experiment(study, *, check: bool = False) -> list[Path] | list[str]:
             raise UnknownNameError(f"{study}: no such file or folder, nor a bundled study"
                                    f"{did_you_mean(str(study), bundled_studies())}")
         path = b
-    return check_experiment(path) if check else write_experiment(path)
+    if check:
+        return ExperimentResult(written=[], differ=list(check_experiment(path)), checked=True)
+    return ExperimentResult(written=list(write_experiment(path)), differ=[])
 
 
 def command_line(argv) -> str:

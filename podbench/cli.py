@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import sys
 import textwrap
 import traceback
@@ -18,6 +19,7 @@ from pathlib import Path
 
 from podbench import api
 from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
+from podbench.core.hints import did_you_mean
 from podbench.core.resources import SWEEPS_STUDY, bundled_structures, bundled_studies, display_path
 from podbench.core.version import __version__
 from podbench.core.warnfmt import one_line_warnings
@@ -25,18 +27,17 @@ from podbench.errors import InputError, PodbenchError, UnknownNameError
 from podbench.harness.progress import Progress
 from podbench.structures.files import structure_dirs
 from podbench.study.claims import NOT_CHECKABLE, TIE, text_claims
-from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
+from podbench.sysid import registry
 from podbench.sysid.deconvolution import available_solvers
-from podbench.sysid.methods import BUILTIN_METHODS
 from podbench.sysid.paramdocs import entries, parameter_help
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
-target) and the norm percent errors follow Eq. 4.2 of Allison (2007); README.md defines
-every column. Exit codes: 0 ok, 1 regression found (regress), 2 unusable input (one line
-naming the file and field, or the option), 3 internal error (a bug; --debug shows the
-traceback), 130 interrupted.
+target) and the norm percent errors follow Eq. 4.2 of Allison (2007);
+docs/error-decomposition.md defines every column. Exit codes: 0 ok, 1 regression found
+(regress), 2 unusable input (one line naming the file and field, or the option), 3 internal
+error (a bug; --debug shows the traceback), 130 interrupted.
 """
 
 
@@ -292,19 +293,21 @@ def _add_predict(sub) -> None:
     pr = sub.add_parser(
         "predict", help="fit a method on training records, predict target records",
         description=textwrap.fill(
-            "Fit METHOD on the --train record files and predict every --target file: "
+            "Fit METHOD (any name podbench methods lists, e.g. ML, MDS, POVR, SL, FIR-LS, "
+            "ERA, ML-TC) on the --train record files and predict every --target file: "
             "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
-            "holds outputs, units) and OUT/<target stem>.npz with the prediction W_hat "
-            "(n_out × n). Records: input/output files (.npz/.mat with inputs, outputs, dt, "
-            "input_channels, output_channels, input_units, output_units; CSV with columns "
-            "t [s], u:<channel> [unit], y:<channel> [unit]; UFF 58 with one dataset per "
-            "channel, ID line 1 u:<channel> or y:<channel>) or displacement/force files "
-            "(W in in, F in lbf, dt: there ML and SL are the dissertation's methods, the "
-            "POMs of W and the modal forces U^T F, Eqs. 3.43-3.49, solved by --solver, "
-            "default auto; the other methods take every force channel as an input). "
-            "With --coverage, each prediction gets a band (lower, upper) and an error "
-            "estimate. Every file is checked before any fitting; OUT is written whole or not "
-            "at all.",
+            "holds outputs, units, error:<channel> per output channel), OUT/<target "
+            "stem>.npz with the prediction y_hat (n_out × n; W_hat too for displacements), "
+            "dt, units, quantity, output_channels, and OUT/config.json (the fitted "
+            "configuration). Records: input/output files (.npz/.mat with inputs, outputs, "
+            "dt, input_channels, output_channels, input_units, output_units; CSV with "
+            "columns t [s], u:<channel> [unit], y:<channel> [unit]; UFF 58 with one dataset "
+            "per channel, ID line 1 u:<channel> or y:<channel>) or displacement/force files "
+            "(W in in, F in lbf, dt; a free response W, dt, w0 without F for MDS and POVR: "
+            "there the methods are the dissertation's, the POMs of W and the modal forces "
+            "U^T F, Eqs. 3.43-3.49, solved by --solver, default auto). With --coverage, "
+            "each prediction gets a band (lower, upper) and an error estimate. Every file is "
+            "checked before any fitting; OUT is written whole or not at all.",
             width=88),
         epilog="""
 Examples:
@@ -313,10 +316,14 @@ Examples:
       --input-units m/s^2 --output-units m/s^2     # files without unit variables
   podbench predict --method ML --train a.csv b.csv c.csv --target x.csv --out pred/ \\
       --coverage 0.9                               # 90 % bands: lower, upper in x.npz
+  podbench predict --method MDS --train free0.npz free1.npz free2.npz \\
+      --target free3.npz --out pred/ --coverage 0.9   # free responses: W, dt, w0
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
     pr.add_argument("--method", required=True,
-                    help="ML, FIR-LS, ERA, DMDc, OpInf, SL (one displacement/force training "
-                         "file), MR (refused: no free responses in records driven from rest)")
+                    help="a registered method (podbench methods; letter case aside): ML, "
+                         "FIR-LS, ERA, DMDc, OpInf, mdof on measured inputs; ML, SL (one "
+                         "training file), MR on displacement/force files; MDS, POVR (one "
+                         "training file) on free responses; configurations such as ML-TC")
     pr.add_argument("--train", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--out", required=True, metavar="DIR",
@@ -326,8 +333,8 @@ Examples:
                          "(truncated kernel, lags by leave-one-record-out), or a "
                          "deconvolution solver name (block, cgls, ...) for the kernel over "
                          "the whole record (records of one length); on displacement/force "
-                         "files the deconvolution solver of ML/SL (auto: podbench methods "
-                         "auto)")
+                         "files the deconvolution solver of ML/SL/MR (auto: podbench methods "
+                         "auto); refused for a method without one")
     pr.add_argument("--n-modes", type=_positive_int, default=None, metavar="K")
     pr.add_argument("--coverage", type=float, default=None, metavar="P",
                     help="prediction band coverage in (0, 1), e.g. 0.9: adds lower and "
@@ -387,7 +394,9 @@ def _entry_name(name: str) -> str:
     known = entries()
     if name in known:
         return name
-    found = [k for k, cls in known.items() if name.lower() in (cls.__name__.lower(), k.lower())]
+    found = [k for k in known if name.lower() == k.lower()] or [
+        k for k, cls in known.items() if name.lower() == cls.__name__.lower()
+        and not (k in registry.REGISTRY and registry.REGISTRY[k].configuration)]
     if len(found) == 1:
         return found[0]
     raise UnknownNameError(f"{name}: not a built-in method or solver"
@@ -418,10 +427,10 @@ def cmd_predict(args) -> int:
     rows = api.predict(args.method, args.train, args.target, args.out, solver=args.solver,
                        n_modes=args.n_modes, coverage=args.coverage,
                        input_units=args.input_units, output_units=args.output_units,
-                       units=args.units)
+                       units=args.units).rows
     for r in rows:
-        band = (f", error_estimate {r['error_estimate']}, coverage "
-                f"{r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
+        band = (f", error_estimate {r['error_estimate'] or '(none: ' + r['note'] + ')'}, "
+                f"coverage {r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
         print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
               f"{band}")
     print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")
@@ -431,7 +440,7 @@ def cmd_predict(args) -> int:
 def _claims_line(claims) -> str:
     """The run's last word on the claims, counted as FINDINGS.md's headline counts them: the
     text's claims once each (an entry with its ``part_of`` parts), then how many variants
-    were judged besides them (issue 24: the text's claims apart from podbench's variants)."""
+    were judged besides them (the text's claims apart from podbench's variants)."""
     verdicts = [v for _, _, v in text_claims(claims)]
     n_variants = sum(bool(e["claim"].variant) for e in claims)
     whose = "the text's " if n_variants else ""
@@ -472,7 +481,8 @@ def cmd_run(args) -> int:
 
 
 def cmd_experiment(args) -> int:
-    files = api.experiment(args.path, check=args.check)
+    got = api.experiment(args.path, check=args.check)
+    files = got.differ if got.checked else got.written
     if args.check:
         for f in files:
             print(f"differs: {f}")
@@ -489,10 +499,11 @@ def cmd_regress(args) -> int:
                       update=args.update, table=args.table, jobs=args.jobs,
                       cache=_cache(args), engine=args.engine,
                       progress=Progress(quiet=args.quiet))
-    if isinstance(got, int):  # --update: the number of rows written
-        print(f"baseline updated: {args.baseline} ({got} rows)")
+    if got.updated:
+        print(f"baseline updated: {args.baseline} ({got.rows} rows)")
         return 0
-    print(got.report(args.rtol, args.atol))
+    assert got.comparison is not None
+    print(got.comparison.report(args.rtol, args.atol))
     return 1 if got.failed else 0
 
 
@@ -563,13 +574,10 @@ def cmd_list(args) -> int:
             print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
                   f"podbench {cmd} {name}, or {name}/<scenario> for one):")
         _list_scenarios(d, "  ")
-    print("methods:")
-    for name, cls in BUILTIN_METHODS.items():
-        est = cls()
-        twin = est.coupled_twin()
-        what = "coupled" if est.coupled else f"diagonal; coupled twin {_twin_name(twin)}"
-        print(f"  {name}: {cls.__name__} ({est.excitation_kind}; {what})")
-    print("  superposition (sum of other methods; MR's coupled twin)")
+    print("methods (podbench methods NAME: the parameters):")
+    for e in registry.ENTRIES:
+        fixed = ", ".join(f"{k}={v!r}" for k, v in e.params.items())
+        print(f"  {e.name}: {e.cls.__name__}{f'({fixed})' if fixed else ''} — {e.summary}")
     print("  module:Class or file.py:Class (your own; see podbench.methods.PODMethod)")
     print("deconvolution solvers: " + ", ".join(available_solvers()))
     print("study runners (a study file's [study] runner = \"<name>\"):")
@@ -585,15 +593,6 @@ def _own_runner(folder: Path) -> bool:
         return len(files) == 1 and api.own_study(files) is not None
     except PodbenchError:
         return False
-
-
-def _twin_name(est) -> str:
-    parts = getattr(est, "parts", None)
-    if parts:
-        return " + ".join(_twin_name(p) for p in parts)
-    if getattr(est, "excitation", None):
-        return f"{est.abbreviation} ({est.excitation})"
-    return est.abbreviation
 
 
 def _list_arg(text, name: str, kind):
@@ -669,6 +668,32 @@ def _one_line(text: object, limit: int = 1000) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
+_PARAMETER = re.compile(r"[Pp]arameter `(\w+)`( = )?")
+
+
+def _as_flags(message: str, parser) -> str:
+    """An API error as the command line says it: a Python parameter the command has as an
+    option (``Parameter `n_modes```) named by its flag (``--n-modes``)."""
+    flags = {a.dest: a.option_strings[-1] for sub in _subparsers(parser)
+             for a in sub._actions if a.option_strings}
+    if not message.startswith(("Parameter", "parameter")):
+        return message
+
+    def flag(m):
+        f = flags.get(m.group(1))
+        return m.group(0) if f is None else f + (" " if m.group(2) else "")
+
+    return _PARAMETER.sub(flag, message)
+
+
+def _subparsers(parser) -> list:
+    out = [parser]
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            out += list(a.choices.values())
+    return out
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code (see the module docstring)."""
     parser = _parser()
@@ -690,7 +715,7 @@ def main(argv=None) -> int:
                 "list": cmd_list, "experiment": cmd_experiment,
                 "predict": cmd_predict, "methods": cmd_methods}[args.command](args)
     except PodbenchError as exc:
-        print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"{prog}: error: {_one_line(_as_flags(str(exc), parser))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)

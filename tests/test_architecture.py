@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -103,3 +104,43 @@ def test_the_old_module_names_are_the_new_modules():
     assert podbench.deconvolution is podbench.sysid.deconvolution
     assert callable(podbench.simulate) and callable(podbench.load_structure)
     assert podbench.Record.__module__ == "podbench.core.records"
+
+
+ARCHITECTURE = ROOT / "docs" / "ARCHITECTURE.md"
+
+
+def _contract_layers() -> list[str]:
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    contract = next(c for c in config["tool"]["importlinter"]["contracts"]
+                    if c["type"] == "layers")
+    return [name.removeprefix("podbench.") for name in contract["layers"]]
+
+
+def test_the_documented_layers_are_the_import_contracts():
+    """docs/ARCHITECTURE.md draws the layers, top to bottom, as the import-linter contract of
+    pyproject.toml lists them, each at the folder or file it names, and counts them."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    drawn = [(m.group(1), m.group(2)) for m in re.finditer(
+        r"^  (\w+) +(podbench/[\w/.]+)", text, flags=re.MULTILINE)]
+    layers = _contract_layers()
+    assert [name for name, _ in drawn] == layers
+    for name, where in drawn:
+        assert where in (f"podbench/{name}/", f"podbench/{name}.py"), (name, where)
+        assert (ROOT / where).exists(), where
+    words = {8: "eight", 9: "nine", 10: "ten"}
+    assert f"podbench is {words[len(layers)]} layers" in text
+
+
+def test_the_worked_example_adds_a_method_with_one_class_and_one_registry_line():
+    """The python block of docs/ARCHITECTURE.md's "Worked example: adding a method" runs:
+    one class, one registry entry, and the base class's contract (records, band) works."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    section = text.split("### Worked example: adding a method", 1)[1]
+    block = section.split("```python\n", 1)[1].split("```", 1)[0]
+    assert block.count("class ") == 1 and block.count("Entry(") == 1
+    namespace: dict = {}
+    exec(compile(block, str(ARCHITECTURE), "exec"), namespace)  # noqa: S102 - our own docs
+    model = namespace["model"]
+    assert model.abbreviation == "SCALED" and namespace["entry"].build().get_params() == {}

@@ -1,10 +1,11 @@
 """Every command and code block of the README and the docs is run by a test.
 
-What counts: each fenced or indented code block of ``README.md``, ``docs/*.md`` and
-``benchmarks/README.md``, and each inline code span that is a command (it starts with
-``podbench `` or ``python `` followed by ``-m`` or a script). Every one of them must be listed
-below, in :data:`BLOCKS` (code blocks, by document and first line) or :data:`COMMANDS` (each
-shell command, its trailing comment dropped), with how it is tested:
+What counts: each fenced or indented code block of ``README.md``, ``docs/**/*.md`` (except
+the generated CLI reference) and ``benchmarks/README.md``, and each inline code span that is
+a command (it starts with ``podbench `` or ``python `` followed by ``-m`` or a script).
+Every one of them must be listed below, in :data:`BLOCKS` (code blocks, by document and
+first line) or :data:`COMMANDS` (each shell command, its trailing comment dropped), with how
+it is tested:
 
 * ``RUN`` / ``SLOW``: run as written, in a scratch folder holding copies of ``scenarios/``,
   ``structures/``, ``benchmarks/`` and ``docs/`` (so the checkout stays clean; ``results/``
@@ -37,7 +38,11 @@ import pytest
 import tomllib
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")),
+GENERATED = {ROOT / "docs" / "reference" / "cli.md"}
+"""Pages generated from the code (the CLI reference is the parser's ``--help``, checked by
+tests/test_docs_site.py): not written by hand, so not listed here."""
+DOCS = [ROOT / "README.md",
+        *sorted(p for p in (ROOT / "docs").rglob("*.md") if p not in GENERATED),
         ROOT / "benchmarks" / "README.md"]
 
 RUN, SLOW, SYNOPSIS = "run", "slow", "synopsis"
@@ -71,6 +76,10 @@ COMMANDS: dict[str, object] = {
     "pip install .": _INSTALL,
     "pip install 'podbench[peers]'": _INSTALL,
     "pip install 'podbench[mdof]'": _INSTALL,
+    "pip install 'podbench[measured]'": _INSTALL,
+    '.venv/bin/pip install -e ".[mdof]"': _INSTALL,
+    "mkdocs serve": NOT_RUN("serves the site until stopped; the same site is built by "
+                            "tests/test_docs_site.py"),
     "mkdocs build --strict": COVERED("tests/test_docs_site.py"),
     # usage lines
     "podbench run [PATH ...] [--jobs N] [--out DIR] [--cache DIR | --no-cache] [--engine "
@@ -84,6 +93,11 @@ COMMANDS: dict[str, object] = {
     "podbench experiment PATH [--check]": SYNOPSIS,
     "podbench <command>": SYNOPSIS,
     "podbench run <study>": SYNOPSIS,
+    "podbench run FOLDER": SYNOPSIS,
+    "podbench regress PATH": SYNOPSIS,
+    "podbench sweep --scheduler": SYNOPSIS,
+    "podbench predict": SYNOPSIS,
+    "podbench methods NAME": SYNOPSIS,
     "python -m podbench.report.nonlinearity [--zeta 0] [--zeta 0.005] [--figures DIR]":
         SYNOPSIS,
     "python benchmarks/run.py --only deconv pod newmark --out PATH --readme PATH | --no-readme "
@@ -95,6 +109,7 @@ COMMANDS: dict[str, object] = {
     "podbench list": RUN,
     "podbench methods": RUN,
     "podbench methods <name>": SYNOPSIS,
+    "podbench predict --method": SYNOPSIS,
     "podbench methods [NAME ...]": SYNOPSIS,
     "podbench predict --method ML --train FILE ... --target FILE ... --out DIR": COVERED(
         "tests/measured_io/test_predict_and_painter_street.py"),
@@ -126,7 +141,6 @@ COMMANDS: dict[str, object] = {
     "podbench sweep sweeps/peers_noise": SLOW,
     "podbench run base_excited": SLOW,
     "podbench run f16_gvt": SLOW,
-    "podbench predict": SYNOPSIS,
     "podbench predict --method ML": SYNOPSIS,
     ("podbench predict --method ML --train scenarios/f16_gvt/data/f16_fullmsine_level1_12N.npz "
      "scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz scenarios/f16_gvt/data/"
@@ -169,6 +183,12 @@ COMMANDS: dict[str, object] = {
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
     "python benchmarks/dense_tls.py": SLOW,
+    "python benchmarks/modal.py": NOT_RUN(
+        "fits ML and ERA on two structures at two noise levels (minutes; accuracy is measured, "
+        "never asserted) and rewrites its rows of results/benchmarks.csv; its one-structure "
+        "clean form below is run (slow), the realizations and modes are tested in "
+        "tests/sysid/test_modal.py"),
+    "python benchmarks/modal.py --structures chain_coupled --levels 0 --no-write": SLOW,
     "python benchmarks/study_time.py": NOT_RUN(
         "times a cold `podbench run chapter5` (35 min on the shared 2-core machine) and "
         "appends to results/benchmarks.csv; `podbench run chapter5` itself is run (slow)"),
@@ -180,12 +200,28 @@ BLOCKS: dict[tuple[str, str], object] = {
     # shell blocks: their lines are COMMANDS
     ("README.md", "python3 -m venv .venv && .venv/bin/pip install -e \".[test]\" && "
      ".venv/bin/podbench run"): "shell",
-    ("README.md", "podbench run [PATH ...] [--jobs N] [--out DIR] [--cache DIR | --no-cache] "
-     "[--engine exudyn]"): "shell",
-    ("README.md", "podbench sweep [PATH ...] [--jobs N | --scheduler tcp://host:8786] "
-     "[--noise 0,0.01,0.05]"): "shell",
+    ("docs/running.md", "podbench run [PATH ...] [--jobs N] [--out DIR] [--cache DIR | "
+     "--no-cache] [--engine exudyn]"): "shell",
+    ("docs/studies/sweeps.md", "podbench sweep [PATH ...] [--jobs N | --scheduler "
+     "tcp://host:8786] [--noise 0,0.01,0.05]"): "shell",
     ("docs/index.md", "python3 -m venv .venv && .venv/bin/pip install -e \".[test]\" && "
      ".venv/bin/podbench run"): "shell",
+    ("docs/getting-started.md", "python3 -m venv .venv && .venv/bin/pip install -e \".[test]\" "
+     "&& .venv/bin/podbench run"): "shell",
+    ("docs/studies/chapter4.md", "podbench run chapter4                 # = podbench run; "
+     "writes results/chapter4/"): "shell",
+    ("docs/studies/calibration.md", "podbench run calibration              # writes "
+     "results/calibration/"): "shell",
+    ("docs/studies/base_excited.md", "podbench run base_excited             # writes "
+     "results/base_excited/ (SI units)"): "shell",
+    ("docs/studies/substructuring.md", "podbench run substructuring           # writes "
+     "results/substructuring/"): "shell",
+    ("docs/studies/painter_street.md", ".venv/bin/pip install -e \".[mdof]\"    # the "
+     "committed tables include the mdof peer's rows"): "shell",
+    ("docs/studies/regression.md", "podbench regress                      # Chapter 4 and 5 "
+     "against results/baseline.csv"): "shell",
+    ("docs/reference/records.md", "podbench predict --method ML --train FILE ... --target FILE "
+     "... --out DIR"): "shell",
     ("docs/chapter5.md", "podbench experiment chapter5          # scenarios/chapter5/"
      "experiment.toml -> data/ (atomic)"): "shell",
     ("docs/peers.md", "pip install 'podbench[peers]'      # pydmd, opinf, and python-control "
@@ -198,25 +234,35 @@ BLOCKS: dict[tuple[str, str], object] = {
      "run chapter5, --jobs auto, no figures"): "shell",
     ("benchmarks/README.md", "python benchmarks/defaults.py                        # n = 1000, "
      "k = 4, dt = 1e-3 s"): "shell",
-    ("docs/f16_gvt.md", "podbench predict --method ML --train scenarios/f16_gvt/data/"
+    ("docs/studies/f16_gvt.md", "podbench predict --method ML --train scenarios/f16_gvt/data/"
      "f16_fullmsine_level1_12N.npz scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz "
      "scenarios/f16_gvt/data/f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
      "f16_fullmsine_level2_25N_validation.npz scenarios/f16_gvt/data/"
      "f16_fullmsine_level4_61N_validation.npz --coverage 0.9 --out f16_ml"): "shell",
+    ("benchmarks/README.md", "python benchmarks/modal.py                 # chain_coupled and "
+     "aluminium_beam, clean and 1 % noise"): "shell",
     # Python blocks
-    ("README.md", "p = model.predict(target, coverage=0.9)     # model.predict(target) still "
-     "returns the array"): "python",
-    ("README.md", "# my_method.py, beside the scenario file           # scenario: method = "
-     "\"my_method.py:Shrunk\""): COVERED("tests/harness/test_readme_examples.py"),
-    ("README.md", "# my_solver.py"): COVERED("tests/harness/test_readme_examples.py"),
-    ("README.md", "import numpy as np"): COVERED("tests/harness/test_readme_api.py"),
+    ("docs/studies/calibration.md", "p = model.predict(target, coverage=0.9)     # "
+     "model.predict(target) still returns the array"): "python",
+    ("docs/extending.md", "# my_method.py, beside the scenario file           # scenario: "
+     "method = \"my_method.py:Shrunk\""): COVERED("tests/harness/test_readme_examples.py"),
+    ("docs/extending.md", "# my_solver.py"): COVERED("tests/harness/test_readme_examples.py"),
+    ("README.md", "import podbench as pb"): COVERED("tests/harness/test_readme_api.py"),
+    ("docs/python-api.md", "import numpy as np"): COVERED("tests/harness/test_readme_api.py"),
     ("docs/dynamics.md", "from podbench.dynamics import simulate"): "python",
     ("docs/methods.md", "from podbench import Record"): "python",
+    ("docs/models.md", "import numpy as np"): "python",
     ("docs/structures.md", "from podbench.fem import load_structure, list_structures"): "python",
     ("docs/structures.md", "from podbench.fem.files import register_kind"): "python",
     # TOML blocks
-    ("README.md", "[scenario]"): COVERED("tests/test_docs_commands.py::"
-                                         "test_the_readme_scenario_runs"),
+    ("docs/reference/scenarios.md", "[scenario]"): COVERED(
+        "tests/test_docs_commands.py::test_the_readme_scenario_runs"),
+    ("docs/reference/scenarios.md", "# a variant of the NL beam (scenarios/sensitivity/"
+     "nl_mixed.toml)"): COVERED("tests/test_docs_formats.py"),
+    ("docs/reference/scenarios.md", "# scenarios/chapter5/linear_beam_noise_5pct.toml: the 0 % "
+     "scenario with other record files"): COVERED("tests/test_docs_formats.py"),
+    ("docs/reference/claims.md", "# one claim of scenarios/chapter4/claims.toml (quote "
+     "shortened)"): COVERED("tests/test_docs_formats.py"),
     ("docs/structures.md", "# Units: inch, lbf, second (...)        <- first line, required by "
      "the tests for shipped files"): "toml",
     ("docs/structures.md", "[matrices]"): NOT_RUN(
@@ -230,6 +276,9 @@ BLOCKS: dict[tuple[str, str], object] = {
      "Structure: M, C, K(t)"): NOT_CODE,
     ("docs/ARCHITECTURE.md", "record files (.npz, .mat; CSV, UFF 58 via podbench.core.iofiles)"):
         NOT_CODE,
+    ("docs/ARCHITECTURE.md", "# podbench/sysid/methods/scaled.py: the one class"): COVERED(
+        "tests/test_architecture.py::"
+        "test_the_worked_example_adds_a_method_with_one_class_and_one_registry_line"),
     ("docs/ARCHITECTURE.md", "[study]"): NOT_RUN(
         "a template (`...` stands for the runner's own table): the complete files are "
         "scenarios/substructuring/substructuring.toml and scenarios/painter_street/"
@@ -239,6 +288,8 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("docs/structures.md", "K_e = Σ_members (EA/L) gᵀ g,   g = eᵀ (B_j − B_i)"): NOT_CODE,
     ("docs/structures.md", "structures/foo.toml: field `beam.n_elements`: expected a positive "
      "integer, got -3"): NOT_CODE,
+    ("docs/reference/scenarios.md", "my_study/my_study.toml: field `methods[1].train[2]`: "
+     "unknown case \"load9\"; the file defines: load1, load2, ..."): NOT_CODE,
     ("docs/dynamics.md", "M(t) q'' + C q' + K(t) q + g(q, q') = Sᵀ f(t)"): NOT_CODE,
     ("docs/dynamics.md", "q_{j+1} = q_j + dt v_j + dt²/4 (a_j + a_{j+1})"): NOT_CODE,
     ("docs/methods.md", "Y[s] = Δt Σ_{p≤s} G[s−p] X[p],   s = 0 … n−1."): NOT_CODE,
@@ -459,7 +510,7 @@ def test_a_usage_line_names_real_options(usage, capsys):
 
 # ------------------------------------------------------------------------------ code blocks
 PRELUDES = {
-    ("README.md", "p = model.predict"): """
+    ("docs/studies/calibration.md", "p = model.predict"): """
         from podbench import load_structure, simulate
         from podbench.sysid.methods import MultipleLoad
         from podbench.excitations import Pulse
@@ -572,12 +623,14 @@ def test_a_documented_toml_block_parses(doc, first, body):
 
 @pytest.mark.heavy
 def test_the_readme_scenario_runs(scratch, tmp_path):
-    """The README's scenario format block, saved as ``my_study/my_study.toml`` with the
-    structure it names (``my_structure.toml``: the LTI beam under another name), runs as
-    ``podbench run my_study/`` and as ``podbench run path/to/my_study/``: the structure
-    file in ``my_study/structures/`` as the block's comment says."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    (body,) = [b for d, f, _, b in documented_blocks() if (d, f) == ("README.md", "[scenario]")]
+    """The scenario reference's complete example (docs/reference/scenarios.md), saved as
+    ``my_study/my_study.toml`` with the structure it names (``my_structure.toml``: the LTI
+    beam under another name), runs as ``podbench run my_study/`` and as ``podbench run
+    path/to/my_study/``: the structure file in ``my_study/structures/`` as the block's
+    comment says."""
+    page = "docs/reference/scenarios.md"
+    text = (ROOT / page).read_text(encoding="utf-8")
+    (body,) = [b for d, f, _, b in documented_blocks() if (d, f) == (page, "[scenario]")]
     assert "podbench run path/to/my_study/" in text
     for folder in (tmp_path / "my_study", tmp_path / "path" / "to" / "my_study"):
         folder.mkdir(parents=True)
@@ -595,17 +648,50 @@ def test_the_readme_scenario_runs(scratch, tmp_path):
 
 
 # ------------------------------------------------------------------------------ wall times
-WALL_TIMES = "### The studies and how long each takes"
+WALL_TIMES = "## The studies and how long each takes"
+STUDIES_PAGE = ROOT / "docs" / "studies" / "index.md"
+
+
+def _manifest() -> dict:
+    """``command -> entry`` of results/MANIFEST.toml, the one source of the wall times."""
+    with (ROOT / "results" / "MANIFEST.toml").open("rb") as fh:
+        return {e["command"]: e for e in tomllib.load(fh).values()}
+
+
+def _time_rows(text: str):
+    """``(line, command, minutes)`` of every table row ``| `podbench ...` | ... | 16 s |``."""
+    for ln in text.splitlines():
+        if not ln.startswith("| `podbench "):
+            continue
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        m = re.search(r"(\d+(?:\.\d+)?) (s|min)\b", cells[-1])
+        if m:
+            minutes = float(m.group(1)) / (60.0 if m.group(2) == "s" else 1.0)
+            yield ln, re.match(r"`([^`]+)`", cells[0]).group(1), minutes
+
+
+def test_every_documented_wall_time_is_the_manifests():
+    """A wall time in a table of any page (a row naming a command of results/MANIFEST.toml)
+    is the manifest's, so the docs never give two times for one command."""
+    manifest = _manifest()
+    n = 0
+    for doc in DOCS:
+        for ln, command, minutes in _time_rows(doc.read_text(encoding="utf-8")):
+            if command in manifest:
+                assert minutes == pytest.approx(manifest[command]["minutes"], abs=0.051), \
+                    (_rel(doc), ln)
+                n += 1
+    assert n >= 15  # the studies' table (13) and getting started's (2)
 
 
 def test_the_readme_states_every_studys_wall_time():
-    """The README's table of studies names every bundled study (the folders of
-    ``scenarios/`` that ``podbench run <name>`` finds; the sweeps by ``podbench sweep``) with
-    a measured wall time, and says on which machine it was measured."""
+    """The studies' page's table names every bundled study (the folders of ``scenarios/``
+    that ``podbench run <name>`` finds; the sweeps by ``podbench sweep``) with a measured
+    wall time, and says on which machine it was measured."""
     from podbench.core.resources import bundled_studies
 
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    assert WALL_TIMES in text, f"README.md has no section {WALL_TIMES!r}"
+    text = STUDIES_PAGE.read_text(encoding="utf-8")
+    assert WALL_TIMES in text, f"{_rel(STUDIES_PAGE)} has no section {WALL_TIMES!r}"
     section = text[text.index(WALL_TIMES):]
     section = section[:section.index("\n## ")]
     rows = [ln for ln in section.splitlines() if ln.startswith("| `podbench ")]
@@ -615,8 +701,7 @@ def test_the_readme_states_every_studys_wall_time():
     assert named == studies, (sorted(studies - named), sorted(named - studies))
     assert any(ln.startswith("| `podbench sweep") for ln in rows)
     # every row's time is the one results/MANIFEST.toml holds for the same command
-    with (ROOT / "results" / "MANIFEST.toml").open("rb") as fh:
-        manifest = {e["command"]: e for e in tomllib.load(fh).values()}
+    manifest = _manifest()
     for ln in rows:
         cells = [c.strip() for c in ln.strip("|").split("|")]
         m = re.search(r"(\d+(?:\.\d+)?) (s|min)\b", cells[-1])

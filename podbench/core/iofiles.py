@@ -1,10 +1,10 @@
-"""CSV and UFF 58 layouts of input/output records (:mod:`podbench.core.iorecords`).
+"""CSV and UFF 58 input/output layouts of record files (:mod:`podbench.core.recordfiles`).
 
-Both layouts carry what an :class:`~podbench.core.iorecords.IORecord` holds: the inputs and
-outputs, ``dt``, the channel names and the unit of each side. The readers return the same
-variables a ``.npz`` holds (``inputs``, ``outputs``, ``dt``, ``input_channels``,
-``output_channels``, ``input_units``, ``output_units``); the record is built and checked by
-:func:`~podbench.core.iorecords.read_io_record`.
+Both layouts carry what a :class:`~podbench.core.records.Record` of measured inputs and
+outputs holds: the inputs and outputs, ``dt``, the channel names and the unit of each side.
+The readers return the same variables a ``.npz`` holds (``inputs``, ``outputs``, ``dt``,
+``input_channels``, ``output_channels``, ``input_units``, ``output_units``); the record is
+built and checked by :func:`~podbench.core.recordfiles.read_record`.
 
 CSV
     One header line, then one row per sample. The first column is time, ``t`` (or
@@ -44,7 +44,8 @@ from podbench.core.atomic import atomic_write_bytes, atomic_write_text
 from podbench.errors import InputError
 
 __all__ = ["IO_SUFFIXES", "read_csv_vars", "write_csv", "read_uff_vars", "write_uff",
-           "is_io_layout", "UFF_TYPES", "read_uff58", "pyuff_module", "uniform_dt"]
+           "is_io_layout", "io_layout_of_header", "io_layout_of_sets", "UFF_TYPES",
+           "read_uff58", "pyuff_module", "uniform_dt", "write_uff_sets"]
 
 IO_SUFFIXES = (".npz", ".mat", ".csv", ".uff", ".unv")
 """File suffixes of input/output records."""
@@ -300,6 +301,14 @@ def write_uff(path, *, u, y, dt: float, input_channels, output_channels, input_u
         sets += [_uff_dataset(pyuff, f"y:{c}", np.asarray(r, dtype=float), dt, output_units,
                               output_quantity, 1001 + k) for k, (c, r) in enumerate(zip(
                                   output_channels, np.atleast_2d(y), strict=True))]
+    write_uff_sets(path, sets)
+
+
+def write_uff_sets(path, sets: list) -> None:
+    """Write pyuff datasets to ``path`` atomically (pyuff writes to a file name: a temporary
+    one beside ``path``, then its bytes in one replace)."""
+    path = Path(path)
+    pyuff = pyuff_module()
     tmp = path.with_name(f".{path.name}.writing")
     if tmp.exists():
         tmp.unlink()
@@ -311,28 +320,38 @@ def write_uff(path, *, u, y, dt: float, input_channels, output_channels, input_u
             tmp.unlink()
 
 
+def io_layout_of_header(head) -> bool:
+    """Whether a CSV header names input/output columns (``u:``/``y:``) rather than the
+    displacement/force layout's (``w:``/``f:``)."""
+    return any(_HEAD.match(str(h).strip()) for h in list(head)[1:])
+
+
+def io_layout_of_sets(sets) -> bool:
+    """Whether UFF datasets 58 are in the input/output layout (``u:``/``y:`` channels, or
+    unnamed channels of other quantities than displacement and force) rather than the
+    displacement/force layout (``w:``/``f:``, or unnamed displacement (8) and force (13))."""
+    ids = [str(s.get("id1", "")).strip()[:2] for s in sets]
+    if any(i in ("u:", "y:") for i in ids):
+        return True
+    if any(i in ("w:", "f:") for i in ids):
+        return False
+    return not all(int(s.get("ordinate_spec_data_type", 0) or 0) in (8, 13) for s in sets)
+
+
 def is_io_layout(path) -> bool:
-    """Whether a CSV/UFF file is in the input/output layout (``u:``/``y:`` channels) rather
-    than the displacement/force layout (``w:``/``f:``) of :mod:`podbench.sysid.measured`."""
+    """Whether a CSV/UFF file is in the input/output layout (:func:`io_layout_of_header`,
+    :func:`io_layout_of_sets`); False for any other file or one that cannot be read."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".csv":
         try:
             with path.open(encoding="utf-8") as fh:
-                head = next(csv.reader(fh), [])
+                return io_layout_of_header(next(csv.reader(fh), []))
         except (OSError, UnicodeDecodeError):
             return False
-        return any(_HEAD.match(h.strip()) for h in head[1:])
     if suffix in (".uff", ".unv"):
         try:
-            sets = _uff_sets(path.name, path)
+            return io_layout_of_sets(_uff_sets(path.name, path))
         except InputError:
             return False
-        ids = [str(s.get("id1", "")).strip()[:2] for s in sets]
-        if any(i in ("u:", "y:") for i in ids):
-            return True
-        if any(i in ("w:", "f:") for i in ids):
-            return False
-        # unnamed datasets: displacement (8) and force (13) only is the W/F layout
-        return not all(int(s.get("ordinate_spec_data_type", 0) or 0) in (8, 13) for s in sets)
     return False

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from podbench.core.records import Record, SensorSamples, as_record, is_record
+from podbench.core.records import Record, as_record, is_record
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.errors import DimensionError, InputError
 
@@ -56,9 +56,11 @@ def _check_sampling(t: np.ndarray, dt: float) -> None:
         )
 
 
-@dataclass(frozen=True, eq=False)
-class Response(SensorSamples):
-    """A simulated (or measured) response.
+@dataclass(frozen=True, eq=False, init=False)
+class Response(Record):
+    """A simulated (or measured) response: a :class:`~podbench.core.records.Record` in the
+    dissertation's form (displacements ``W`` in in, forces ``F`` in lbf at the same sensors)
+    with its sample times and provenance.
 
     Attributes
     ----------
@@ -75,42 +77,45 @@ class Response(SensorSamples):
     q, qd : (n_dofs, n) ndarray or None
         Full DOF displacement and velocity histories when the engine provides them.
     structure, engine, label : str
-        Provenance.
+        Provenance (``label`` is also the record's ``name``).
     """
 
-    t: np.ndarray
-    W: np.ndarray
-    F: np.ndarray
-    w0: np.ndarray
-    v0: np.ndarray
-    dt: float
-    q: np.ndarray | None = None
-    qd: np.ndarray | None = None
-    structure: str = ""
-    engine: str = ""
-    label: str = ""
+    t: np.ndarray = None  # type: ignore[assignment]  # a field here, Record's property there
+    q: np.ndarray | None
+    qd: np.ndarray | None
+    structure: str
+    engine: str
+    label: str
 
-    def __post_init__(self):
-        W = as_finite_array(self.W, "W", ndim=2)
-        F = as_finite_array(self.F, "F", ndim=2)
-        if F.shape != W.shape:
-            raise DimensionError(f"Response: F has shape {F.shape}, W has shape {W.shape}")
-        t = as_finite_array(self.t, "t", ndim=1)
-        if t.shape[0] != W.shape[1]:
-            raise DimensionError(f"Response: {t.shape[0]} times but W has {W.shape[1]} columns")
-        dt = check_positive(self.dt, "dt")
-        _check_sampling(t, dt)
-        for name in ("w0", "v0"):
-            a = as_finite_array(getattr(self, name), name, ndim=1)
-            if a.shape[0] != W.shape[0]:
-                raise DimensionError(
-                    f"Response: `{name}` has {a.shape[0]} entries, W has {W.shape[0]} rows"
-                )
-            object.__setattr__(self, name, a)
-        object.__setattr__(self, "W", W)
-        object.__setattr__(self, "F", F)
-        object.__setattr__(self, "t", t)
-        object.__setattr__(self, "dt", dt)
+    def __init__(self, t=None, W=None, F=None, w0=None, v0=None, dt=None, q=None, qd=None,
+                 structure: str = "", engine: str = "", label: str = "", **fields):
+        if fields:  # dataclasses.replace passes the record's own fields (u, y, ...)
+            fields.setdefault("name", label or "response")
+            for key, value in (("y", W), ("u", F)):  # replace(response, W=...) renames
+                if value is not None:
+                    fields[key] = value
+            Record.__init__(self, dt=dt, w0=w0, v0=v0, **fields)
+        else:
+            W = as_finite_array(W, "W", ndim=2)
+            F = as_finite_array(F, "F", ndim=2)
+            if F.shape != W.shape:
+                raise DimensionError(f"Response: F has shape {F.shape}, W has shape {W.shape}")
+            for name, a in (("w0", w0), ("v0", v0)):
+                a = as_finite_array(a, name, ndim=1)
+                if a.shape[0] != W.shape[0]:
+                    raise DimensionError(
+                        f"Response: `{name}` has {a.shape[0]} entries, W has {W.shape[0]} rows"
+                    )
+            dt = check_positive(dt, "dt")
+            Record.__init__(self, W=W, F=F, w0=w0, v0=v0, dt=dt, name=label or "response")
+        t = as_finite_array(t, "t", ndim=1)
+        if t.shape[0] != self.W.shape[1]:
+            raise DimensionError(f"Response: {t.shape[0]} times but W has {self.W.shape[1]} "
+                                 "columns")
+        _check_sampling(t, float(self.dt))
+        for key, value in (("t", t), ("q", q), ("qd", qd), ("structure", structure),
+                           ("engine", engine), ("label", label)):
+            object.__setattr__(self, key, value)
 
     def displacement_norm(self) -> np.ndarray:
         """Eq. 4.1 at every sample (in)."""

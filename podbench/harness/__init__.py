@@ -1,5 +1,5 @@
 """The harness: run scenarios, decompose the errors, write tables, figures and findings, and
-compare with the committed baseline. See README.md (*Running the study*)."""
+compare with the committed baseline. See docs/running.md."""
 
 from podbench.harness.metrics import decompose, norm_summaries
 from podbench.harness.regress import compare, read_table

@@ -21,18 +21,25 @@ first when the caller gives their expected ``costs`` (so that no long task start
 the other cores idle); results always come back in task order.
 
 Local processes are spawned (not forked: no inherited locks or BLAS thread pools); ``func``
-and the tasks must be picklable, ``func`` a module-level function. A Dask worker imports
-``func``'s module itself, so it needs podbench (and the data the tasks name) at the same
-paths as the client.
+and the tasks must be picklable, ``func`` a module-level function. A spawned process first
+runs the main script again; when the call comes from that script's top-level code outside an
+``if __name__ == "__main__":`` block, a worker would repeat the call while it starts, which
+multiprocessing refuses, so the tasks then run in the calling process alone, with a
+:class:`~podbench.errors.PodbenchWarning` saying why (:func:`unguarded_main_script`). A Dask
+worker imports ``func``'s module itself, so it needs podbench (and the data the tasks name)
+at the same paths as the client.
 """
 
 from __future__ import annotations
 
+import ast
 import os
 import socket
+import sys
 import threading
 import time
 import traceback
+import warnings
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -41,9 +48,9 @@ from multiprocessing import get_context
 
 from podbench.core.threads import single_blas_thread
 from podbench.core.warnfmt import one_line_warnings
-from podbench.errors import InputError, PodbenchError
+from podbench.errors import InputError, PodbenchError, PodbenchWarning
 
-__all__ = ["MAX_AUTO_JOBS", "POOL_AFTER", "execute", "resolve_jobs"]
+__all__ = ["MAX_AUTO_JOBS", "POOL_AFTER", "execute", "resolve_jobs", "unguarded_main_script"]
 
 POOL_AFTER = 2.0
 """Seconds the calling process computes alone before it starts worker processes (``jobs`` >
@@ -67,6 +74,63 @@ def resolve_jobs(jobs, what: str = "jobs") -> int:
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"{what}: expected a positive integer or 'auto', got {jobs!r}")
     return jobs
+
+
+def _is_main_guard(node: ast.stmt) -> bool:
+    """``node`` is ``if __name__ == "__main__":`` (either operand order)."""
+    if not (isinstance(node, ast.If) and isinstance(node.test, ast.Compare)
+            and len(node.test.ops) == 1 and isinstance(node.test.ops[0], ast.Eq)):
+        return False
+    sides = [node.test.left, *node.test.comparators]
+    return ({type(s) for s in sides} == {ast.Name, ast.Constant}
+            and any(isinstance(s, ast.Name) and s.id == "__name__" for s in sides)
+            and any(isinstance(s, ast.Constant) and s.value == "__main__" for s in sides))
+
+
+def guarded_line(source: str, lineno: int) -> bool:
+    """Line ``lineno`` of the module ``source`` lies in the body of a top-level ``if __name__
+    == "__main__":`` block (code a spawned process does not run again). False when the source
+    does not parse."""
+    try:
+        tree = ast.parse(source)
+    except (SyntaxError, ValueError):
+        return False
+    return any(_is_main_guard(node) and node.body[0].lineno <= lineno <= node.body[-1].end_lineno
+               for node in tree.body)
+
+
+def unguarded_main_script() -> str | None:
+    """The main script's path when this call runs in its top-level code outside an ``if
+    __name__ == "__main__":`` block, else None.
+
+    A spawned process runs the main script again (as ``__mp_main__``) before it takes a
+    task; code outside the guard would call podbench again there and try to start processes
+    of its own during that start-up, which multiprocessing refuses (``RuntimeError: An
+    attempt has been made to start a new process before the current process has finished
+    its bootstrapping phase``, the pool broken). An interactive session, ``python -c`` and a
+    notebook have no main script to run again; ``podbench`` itself and pytest call under the
+    guard."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or not path:
+        return None
+    frame, line = sys._getframe(1), None
+    while frame is not None:  # the outermost frame of the main module's top-level code
+        if frame.f_globals is vars(main) and frame.f_code.co_name == "<module>":
+            line = frame.f_lineno
+        frame = frame.f_back
+    if line is None:
+        return None
+    try:
+        with open(path, "rb") as fh:
+            source = fh.read().decode("utf-8", errors="replace")
+    except OSError:
+        return None
+    return None if guarded_line(source, line) else path
+
+
+_WARNED: set[str] = set()
+"""The unguarded main scripts already warned about (one warning per script and process)."""
 
 
 @dataclass
@@ -97,7 +161,8 @@ def _dask_client(address: str, timeout: float):
     try:
         from distributed import Client
     except ImportError:
-        raise InputError("--scheduler needs Dask distributed: pip install 'podbench[dask]' "
+        raise InputError("Parameter `scheduler`: needs Dask distributed: pip install "
+                         "'podbench[dask]' "
                          "(or pip install 'dask[distributed]')") from None
     from distributed.comm import parse_address, parse_host_port
     from distributed.comm.registry import backends
@@ -185,7 +250,7 @@ def execute(func: Callable, tasks: Sequence, *, jobs: int | str = 1,
         _serially(func, tasks, finished)
     else:
         order = range(total) if costs is None else sorted(range(total), key=lambda i: -costs[i])
-        _in_processes(func, tasks, finished, jobs, order)
+        _in_processes(func, tasks, finished, jobs, order, unguarded_main_script())
     return results
 
 
@@ -262,14 +327,26 @@ def _feed(queue: _Queue, func: Callable, tasks: list) -> None:
         queue.report(i, out)
 
 
-def _start_workers(queue: _Queue, func: Callable, tasks: list, workers: int) -> None:
+def _start_workers(queue: _Queue, func: Callable, tasks: list, workers: int,
+                   script: str | None) -> None:
     """After :data:`POOL_AFTER` seconds, unless the caller is done: up to ``workers``
-    spawned processes (no more than tasks wait), each fed by its own thread."""
+    spawned processes (no more than tasks wait), each fed by its own thread; none, with a
+    warning, when they would run the unguarded main ``script`` again."""
     if queue.caller_done.wait(POOL_AFTER):
         return
     with queue.lock:
         n = min(workers, len(queue.waiting))
         if queue.stopped or n < 1:
+            return
+        if script is not None:
+            if script in _WARNED:
+                return
+            _WARNED.add(script)
+            warnings.warn(
+                f"computing in this process alone, not {workers + 1} processes: a worker "
+                f"process starts by running {os.path.basename(script)} again, which calls "
+                f"podbench outside an `if __name__ == \"__main__\":` block; put the call "
+                f"under one to use more processes", PodbenchWarning, stacklevel=1)
             return
         queue.pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"),
                                          initializer=one_line_warnings)
@@ -282,14 +359,16 @@ def _start_workers(queue: _Queue, func: Callable, tasks: list, workers: int) -> 
         t.join()
 
 
-def _in_processes(func: Callable, tasks: list, finished: Callable, jobs: int, order) -> None:
+def _in_processes(func: Callable, tasks: list, finished: Callable, jobs: int, order,
+                  script: str | None = None) -> None:
     """Every task, in ``order``, by the calling process and up to ``jobs - 1`` spawned ones
-    (started after :data:`POOL_AFTER` seconds if tasks still wait); ``finished(i, out)`` as
-    each ends. Every task goes through :func:`_call` wherever it runs, so an error reads the
-    same whichever process met it."""
+    (started after :data:`POOL_AFTER` seconds if tasks still wait, never when ``script``,
+    the unguarded main script, would run again in them); ``finished(i, out)`` as each ends.
+    Every task goes through :func:`_call` wherever it runs, so an error reads the same
+    whichever process met it."""
     queue = _Queue(order, finished)
-    starter = threading.Thread(target=_start_workers, args=(queue, func, tasks, jobs - 1),
-                               daemon=True)
+    starter = threading.Thread(target=_start_workers,
+                               args=(queue, func, tasks, jobs - 1, script), daemon=True)
     starter.start()
     try:
         while (i := queue.take()) is not None:

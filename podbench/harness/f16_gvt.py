@@ -25,23 +25,25 @@ from __future__ import annotations
 
 import re
 import time
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord, check_records, read_io_record
+from podbench.core.modeshapes import ModeSet
+from podbench.core.recordfiles import read_record
+from podbench.core.records import Record, check_records
 from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
 from podbench.harness.executor import execute
 from podbench.study.f16_gvt import F16Plan, MethodEntry, build_estimator, missing_extra
 from podbench.sysid.methods.bands import band_coverage
 from podbench.sysid.methods.periodic import BestLinearApproximation, input_rms
+from podbench.sysid.modal import STABILITY_ORDERS, physical_mask, stability_mask
 from podbench.sysid.periodic import (
     distortion_fractions,
     period_spectra,
     periodic_prediction,
+    rational_poles,
     steady_periods,
 )
 
@@ -78,7 +80,7 @@ def level_files(folder) -> dict[int, Path]:
     return out
 
 
-def _read_level(path: Path, plan: F16Plan) -> IORecord:
+def _read_level(path: Path, plan: F16Plan) -> Record:
     """One level's record, checked: its ``period_samples`` (when the file has it) equal to
     the study's period, at least ``transient_periods + 1`` whole periods, the input the
     study asks for (``voltage`` is read only when asked)."""
@@ -90,12 +92,12 @@ def _read_level(path: Path, plan: F16Plan) -> IORecord:
                 raise InputError(f"{path.name}: field `period_samples`: {ps.tolist()} differs "
                                  f"from the study's period of {plan.period} samples")
         voltage = z["voltage"] if plan.input == "voltage" and "voltage" in names else None
-    rec = read_io_record(path)
+    rec = read_record(path)
     if plan.input == "voltage":
         if voltage is None:
             raise InputError(f"{path.name}: field `voltage`: missing (the study asks for "
                              "input = \"voltage\")")
-        rec = IORecord(u=voltage, y=rec.y, dt=rec.dt, input_units="V",
+        rec = Record(u=voltage, y=rec.y, dt=rec.dt, input_units="V",
                        output_units=rec.output_units, input_channels=("voltage",),
                        output_channels=rec.output_channels, name=rec.name)
     need = (plan.transient_periods + 1) * plan.period
@@ -106,7 +108,7 @@ def _read_level(path: Path, plan: F16Plan) -> IORecord:
     return rec
 
 
-def load_levels(plan: F16Plan) -> dict[int, IORecord]:
+def load_levels(plan: F16Plan) -> dict[int, Record]:
     """Every level record of the study's data folder, checked against each other (``dt``,
     channels, units: one line naming the file and the field)."""
     files = level_files(plan.data)
@@ -122,7 +124,7 @@ def _steady(x: np.ndarray, plan: F16Plan) -> np.ndarray:
     return s.transpose(1, 0, 2).reshape(x.shape[0], -1)
 
 
-def errors(yh: np.ndarray, rec: IORecord, plan: F16Plan) -> dict:
+def errors(yh: np.ndarray, rec: Record, plan: F16Plan) -> dict:
     """Relative errors and e_RMS (m/s², per output and over the three) of a whole-record
     prediction, over the steady-state periods (``_ss``) and the whole record."""
     y = np.asarray(rec.y, dtype=float)
@@ -136,13 +138,13 @@ def errors(yh: np.ndarray, rec: IORecord, plan: F16Plan) -> dict:
     return out
 
 
-def periodic_error(yp: np.ndarray, rec: IORecord, plan: F16Plan) -> float:
+def periodic_error(yp: np.ndarray, rec: Record, plan: F16Plan) -> float:
     """Relative error of one predicted steady-state period against every measured one."""
     y = steady_periods(rec.y, plan.period, plan.transient_periods, rec.name)
     return float(np.linalg.norm(y - yp[None]) / np.linalg.norm(y))
 
 
-def _band(model, rec: IORecord, yh_err: float, plan: F16Plan) -> dict:
+def _band(model, rec: Record, yh_err: float, plan: F16Plan) -> dict:
     """The band's coverage of the measured outputs over the whole record and its error
     estimate against the realized whole-record error."""
     p = model.predict(rec, coverage=plan.coverage)
@@ -172,7 +174,7 @@ def _run_entry(entry: MethodEntry, train, targets, plan: F16Plan, keep) -> tuple
     rows, kept = [], {}
     for n, rec, role, yh in preds:
         row = {**base, "target": n, "role": role, "status": "ok", **errors(yh, rec, plan)}
-        if callable(getattr(model, "predict_periodic", None)):
+        if _periodic(model):
             row["rel_periodic"] = periodic_error(model.predict_periodic(rec), rec, plan)
         if entry.bands and len(recs) >= 2:
             row.update(_band(model, rec, row["rel_whole"], plan))
@@ -186,7 +188,13 @@ def _run_entry(entry: MethodEntry, train, targets, plan: F16Plan, keep) -> tuple
     return rows, fit, kept
 
 
-def _torsion_peak(model, rec: IORecord, plan: F16Plan) -> dict:
+def _periodic(model) -> bool:
+    """Whether a fitted model identified the kernel over one period (it then has the
+    frequency response on the lines and the steady-state period's prediction)."""
+    return getattr(model, "inputs_", None) == "periodic"
+
+
+def _torsion_peak(model, rec: Record, plan: F16Plan) -> dict:
     """The torsion peak of a fitted model's frequency response at the wing accelerometer
     ((m/s²)/N on the period's lines in the torsion band, :data:`TORSION`): for the periodic
     methods their response on the excited lines, for a truncated kernel (``theta_``) its
@@ -197,7 +205,7 @@ def _torsion_peak(model, rec: IORecord, plan: F16Plan) -> dict:
         return {}
     f = np.arange(plan.period // 2 + 1) / (plan.period * rec.dt)
     band = np.flatnonzero((f >= lo) & (f <= hi))
-    if callable(getattr(model, "frequency_response", None)):
+    if _periodic(model):
         lines = list(model.lines_)
         keep = [i for i, k in enumerate(lines) if lo <= f[k] <= hi]
         G = model.frequency_response()[names.index(channel), 0, keep]
@@ -228,7 +236,7 @@ def _own_models(levels, plan: F16Plan) -> dict[int, BestLinearApproximation]:
             for n in sorted(levels)}
 
 
-def _decomposition(train, n: int, rec: IORecord, own, plan: F16Plan) -> dict:
+def _decomposition(train, n: int, rec: Record, own, plan: F16Plan) -> dict:
     """Per validation level: the training levels' pooled BLA (total), the level's own BLA
     (floor), the linearization error ‖(G_train − G_own)·Ū‖ over the steady-state periods
     relative to the measured outputs, and the projection error of the training outputs'
@@ -258,13 +266,13 @@ def _decomposition(train, n: int, rec: IORecord, own, plan: F16Plan) -> dict:
     return out
 
 
-def _oracle(train, rec: IORecord, own, plan: F16Plan) -> dict:
+def _oracle(train, rec: Record, own, plan: F16Plan) -> dict:
     """For a validation level strictly between two training levels (in force RMS): the
     weight force-RMS interpolation gives the upper neighbour's model, and the best weight
     and error of any mixture of the two neighbours' own models, the weight chosen on the
     validation record itself (an oracle: the bound of interpolating between the two)."""
-    levels = sorted((input_rms(r, plan.period, plan.transient_periods), n) for n, r in train)
-    x = input_rms(rec, plan.period, plan.transient_periods)
+    levels = sorted((input_rms(r.u, plan.period, plan.transient_periods), n) for n, r in train)
+    x = input_rms(rec.u, plan.period, plan.transient_periods)
     below = [lv for lv in levels if lv[0] < x]
     above = [lv for lv in levels if lv[0] > x]
     if not below or not above:
@@ -297,7 +305,7 @@ def _half_power(f: np.ndarray, a: np.ndarray, j: int) -> float:
     return float((f2 - f1) / (2.0 * f[j]))
 
 
-def _level_row(n: int, rec: IORecord, own, plan: F16Plan) -> dict:
+def _level_row(n: int, rec: Record, own, plan: F16Plan) -> dict:
     """What one level's record shows: force RMS, output RMS, the distortion on the
     non-excited lines (and the noise share there), the own BLA's floor and noise, the
     torsion peak of the wing accelerometer's BLA."""
@@ -306,7 +314,7 @@ def _level_row(n: int, rec: IORecord, own, plan: F16Plan) -> dict:
     dist, noise = distortion_fractions(spec, model.lines_)
     ys = _steady(rec.y, plan)
     G = model.frequency_response()
-    row = {"level": n, "file": rec.name, "input_rms": input_rms(rec, plan.period,
+    row = {"level": n, "file": rec.name, "input_rms": input_rms(rec.u, plan.period,
                                                               plan.transient_periods),
            "own_floor": periodic_error(model.predict_periodic(rec), rec, plan),
            "n_lines": int(model.lines_.size)}
@@ -342,19 +350,57 @@ def _check_extras(plan: F16Plan) -> None:
         if extra is not None:
             raise InputError(f"{plan.path.name}: field `f16_gvt.methods[{i}]` "
                              f"({entry.label}): needs the {extra} package (pip install "
-                             f"'podbench[{'mdof' if extra == 'mdof' else 'peers'}]'); the "
+                             f"'podbench[{INSTALL_EXTRA.get(extra, 'peers')}]'); the "
                              "study's tables include it; remove the entry to run without")
 
 
-MODAL: Callable[[Any], list[dict]] | None = None
-"""The hook of "modes against force level": a callable taking a fitted periodic model
-(each level's own BLA, ``res["own"]``) and returning one dict per mode (``frequency_Hz``,
-``damping_ratio``, …). When set, :func:`run_study` returns ``modes`` (one row per level
-and mode) and :mod:`podbench.report.f16_gvt` writes ``modes.csv``. None: the modal
-extraction from identified models is not merged yet (the study then reports the torsion
-peak of the nonparametric BLA only)."""
+INSTALL_EXTRA = {"mdof": "mdof"}
+"""The podbench extra that installs a package (default: ``peers``)."""
 
-COSTS = {"ERA": 10.0, "mdof": 4.0, "ML-FIR": 2.0, "FIR-LS": 1.5}
+
+MODES_POLES = 24
+"""Poles of the rational fit of a level's own BLA over the excited band (2–15 Hz): twelve
+modes; the poles that are physical (:func:`podbench.sysid.modal.physical_mask`) and stable
+against the fits with 26 and 28 poles (:func:`podbench.sysid.modal.stability_mask`, its
+criteria :data:`~podbench.sysid.modal.STABILITY`) are the level's modes."""
+
+
+def _mode_set(G, f, n_poles: int, channels) -> tuple[ModeSet, float]:
+    poles, residues, misfit = rational_poles(G, f, n_poles=n_poles)
+    up = poles.imag > 0
+    return ModeSet(poles[up], residues[:, up], channels, "rational fit of the BLA"), misfit
+
+
+def level_modes(model, rec: Record, plan: F16Plan) -> list[dict]:
+    """Modes of one level's own BLA (``model``, fitted on ``rec``) against force level: the
+    stable physical modes of a rational fit over the excited band (:data:`MODES_POLES`), and
+    the torsion mode of a one-mode fit (two poles, a real numerator of degree two for the
+    modes outside) on the torsion band (:data:`TORSION`). Frequencies in Hz, damping
+    ratios, misfits ``‖N/D − G‖/‖G‖``; the input RMS in the input unit (N)."""
+    G = model.frequency_response()[:, 0]
+    f = model.frequencies_
+    channels = rec.output_channels or tuple(str(i) for i in range(G.shape[0]))
+    rms = input_rms(rec.u, plan.period, plan.transient_periods)
+    base = {"input_rms": rms}
+    modes, misfit = _mode_set(G, f, MODES_POLES, channels)
+    keep = physical_mask(modes, rec.dt)
+    modes = modes.subset(keep)
+    others = [_mode_set(G, f, MODES_POLES + step, channels)[0] for step in STABILITY_ORDERS]
+    stable = stability_mask(modes, others)
+    rows = [{**base, "fit": f"2-15 Hz, {MODES_POLES} poles", "frequency_Hz": float(fr),
+             "damping_ratio": float(z), "misfit": misfit}
+            for fr, z, ok in zip(modes.frequency_hz, modes.damping_ratio, stable, strict=True)
+            if ok]
+    _, lo, hi = TORSION
+    band = (f >= lo) & (f <= hi)
+    torsion, tmis = _mode_set(G[:, band], f[band], 2, channels)
+    rows += [{**base, "fit": f"torsion {lo:g}-{hi:g} Hz, 2 poles", "frequency_Hz": float(fr),
+              "damping_ratio": float(z), "misfit": tmis}
+             for fr, z in zip(torsion.frequency_hz, torsion.damping_ratio, strict=True)]
+    return rows
+
+
+COSTS = {"ERA-measured": 10.0, "mdof-SRIM": 4.0, "ML-TC": 2.0, "FIR-LS": 1.5}
 """Expected cost of a method per training record (relative; the periodic methods: 0.1),
 so that the executor starts the long tasks first. Only the schedule depends on it."""
 
@@ -431,8 +477,8 @@ def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
                          for (train, n), role in pairs.items()]
         level_rows = [_level_row(n, levels[n], own, plan) for n in sorted(levels)]
         bla = _bla_table(levels, own, plan)
-        modes = [] if MODAL is None else [
-            {"level": n, **m} for n, model in own.items() for m in MODAL(model)]
+        modes = [{**m, "level": n} for n in sorted(own)
+                 for m in level_modes(own[n], levels[n], plan)]
     return {"rows": rows, "fits": fits, "skipped": skipped, "decomposition": decomposition,
             "levels": level_rows, "bla": bla, "figure": figure, "records": levels,
             "own": own, "plan": plan, "modes": modes}

@@ -1,4 +1,4 @@
-"""The error decomposition the harness tabulates (definitions also in README.md).
+"""The error decomposition the harness tabulates (definitions also in docs/error-decomposition.md).
 
 For a target truth ``W`` (m × n), a method's prediction ``Ŵ`` and the basis ``U`` (m × k,
 orthonormal) the method used, with ``P = U Uᵀ`` and ``N = ‖W‖_F`` (Frobenius norms over the

@@ -11,8 +11,9 @@ between machines are far below that. A baseline row missing from the new table, 
 method whose status changes from ``ok`` to a failure, is also a regression. Improvements and
 new rows are reported but do not fail.
 
-Calibration (issue 21) is regressed too, through two derived columns of :data:`CALIBRATION`
-(compared by the same rule, with an absolute floor of :data:`CALIBRATION_ATOL`):
+Calibration (the prediction bands) is regressed too, through two derived columns of
+:data:`CALIBRATION` (compared by the same rule, with an absolute floor of
+:data:`CALIBRATION_ATOL`):
 ``coverage_gap = |coverage − 0.9|`` (the 90 % band's distance from its nominal coverage) and
 ``estimate_log_ratio = |ln(error_estimate / total_error)|`` (how far the error estimate is
 from the realized error, in log terms). A baseline written before the band columns existed

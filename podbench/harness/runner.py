@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from podbench.core.recordfiles import read_record
 from podbench.core.resources import display_path as _display
 from podbench.core.response import Response, displacement_norm, norm_percent_error
 from podbench.dynamics import simulate
@@ -41,7 +42,6 @@ from podbench.study.estimators import all_cases, build_estimator, is_user_method
 from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
 from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from podbench.sysid.conditioning import Conditioning, WindowCorrected, condition
-from podbench.sysid.measured import read_record
 from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
 __all__ = ["run_study", "run_unit", "UnitResult", "SideTasks", "COLUMNS", "response_counts",
@@ -188,7 +188,8 @@ def read_case(scenario: Scenario, case_name: str, structure) -> Response:
                                  f"{structure.name!r}'s {list(np.asarray(pos))}")
     w0 = rec.W[:, 0].copy() if rec.w0 is None else rec.w0
     v0 = np.zeros(m) if rec.v0 is None else rec.v0
-    return Response(t=np.arange(n) * scenario.dt, W=rec.W, F=rec.F, w0=w0, v0=v0,
+    F = np.zeros((m, n)) if rec.F is None else rec.F  # a free response: no load
+    return Response(t=np.arange(n) * scenario.dt, W=rec.W, F=F, w0=w0, v0=v0,
                     dt=scenario.dt, structure=structure.name, engine="measured",
                     label=case_name)
 
@@ -418,7 +419,7 @@ def is_floored(spec, scenario: Scenario) -> bool:
     :data:`~podbench.harness.digits.FLOOR_METHODS`, or a superposition of one)."""
     if spec.method in FLOOR_METHODS:
         return True
-    parts = [scenario.method(p) for p in spec.parts] if spec.method == "superposition" else []
+    parts = [scenario.method(p) for p in spec.parts] if spec.composite else []
     return any(p.method in FLOOR_METHODS for p in parts)
 
 
@@ -428,8 +429,8 @@ _NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status",
 
 
 def _row_digits(spec, scenario: Scenario):
-    """How the rows of ``spec`` are written (issue 23: the same bytes on every OpenBLAS
-    kernel; :func:`~podbench.harness.digits.row_writer`): for a method of :func:`is_floored`,
+    """How the rows of ``spec`` are written (the same bytes whatever the CPU's round-off;
+    :func:`~podbench.harness.digits.row_writer`): for a method of :func:`is_floored`,
     every estimate at :data:`podbench.harness.digits.FLOOR_DIGITS` significant digits (the
     digits its round-off floor leaves in place); for an iterative deconvolution solver, every
     number at the digits its stopping tolerance determines, its residuals at those the

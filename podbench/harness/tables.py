@@ -16,8 +16,8 @@ FLOAT_FORMAT = "%.6g"
 
 #: ``error_estimate`` (a prediction's own estimate of its total error, the band's scale) is
 #: written to three significant digits: it is an estimate (scored within a factor of 2), and
-#: its sixth digit differs between OpenBLAS kernels (measured on Chapter 4: up to 1.2e-5
-#: relative, Haswell against SkylakeX kernels), which would make the table depend on the CPU.
+#: its sixth digit is round-off that depends on the BLAS build (up to 1.2e-5 relative on
+#: Chapter 4), which would make the table depend on the CPU.
 ESTIMATE_DIGITS = 3
 
 
@@ -52,7 +52,7 @@ def fits_table(results) -> pd.DataFrame:
     condition number, the solver's amplification, regularization, iterations, …)."""
     rows = [f for u in results for f in getattr(u, "fits", [])]
     df = pd.DataFrame(rows)
-    for c in df.columns:  # round-off residuals: their digits depend on the CPU's BLAS kernel
+    for c in df.columns:  # round-off residuals: their digits depend on the CPU's round-off
         if c.endswith("residual") and pd.api.types.is_numeric_dtype(df[c]):
             df[c] = df[c].mask(df[c].abs() < ROUNDOFF_RESIDUAL, 0.0)
     for c in ESTIMATE_COLUMNS + DIAGNOSTIC_COLUMNS:
@@ -65,7 +65,7 @@ def fits_table(results) -> pd.DataFrame:
 def table_csv(df: pd.DataFrame) -> str:
     """``df`` as the CSV every table of podbench is written in: six significant digits
     (:data:`FLOAT_FORMAT`), ``\\n`` line ends, no index, and a negative zero written as 0
-    (``-0.0 + 0.0 == +0.0``: which zero a computation ends on depends on the BLAS kernel)."""
+    (``-0.0 + 0.0 == +0.0``: which zero a computation ends on depends on summation order)."""
     floats = df.select_dtypes(include="float").columns
     if len(floats):
         df = df.copy()

@@ -4,7 +4,7 @@ The page holds the summary tables (error cells coloured by size), every figure (
 ``data:`` URIs, so the page needs no other file and loads nothing from the network), the
 claims and their verdicts (from the same evaluation as ``FINDINGS.md``), the fit diagnostics
 (``fits.csv``), the definitions of the error decomposition (the docstring of
-:mod:`podbench.harness.metrics`, the single source of the README's table) and the
+:mod:`podbench.harness.metrics`, the single source of docs/error-decomposition.md) and the
 provenance: commit, date, command and the versions of podbench, NumPy, SciPy, pandas and
 matplotlib. It carries the commit and the date, so unlike the tables it is not meant to be
 committed.

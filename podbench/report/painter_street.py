@@ -28,7 +28,7 @@ def _csv(rows, columns) -> str:
     w.writeheader()
     for r in rows:
         # error estimates to three significant digits (the project's rule for band numbers:
-        # their sixth digit moves between BLAS kernels); everything else to four decimals
+        # their sixth digit is round-off); everything else to four decimals
         w.writerow({k: (f"{v:.3g}" if k == "error_estimate" and isinstance(v, float) else
                         f"{v:.4f}" if isinstance(v, float) else v) for k, v in r.items()})
     return buf.getvalue()
@@ -95,14 +95,25 @@ def _strong_events(peaks: dict, strong: list, top: str) -> list[str]:
         "the largest shipped event's error is in errors.csv."]
 
 
+PEERS = ("ERA", "DMDc", "OpInf", "mdof-SRIM", "mdof-OKID-ERA")
+"""The configurations of the study that are peers (their labels in the tables)."""
+FEATURED = ("three", "ML-TC")
+"""The configuration whose worst event FINDINGS.md names and whose predictions the figures
+draw: (inputs, label)."""
+
+
+def _rows(res, key: tuple) -> list[dict]:
+    """The per-event rows of the configuration ``key`` = (inputs, label)."""
+    return [r for r in res["rows"] if (r["inputs"], r["method"]) == key]
+
+
 def _findings(res) -> str:
     S = res["summary"]
     ev = res["events"]
     fir3 = _mean(S, "three", "FIR-LS")
     ml = _mean(S, "three", "ML")
     mltc = _mean(S, "three", "ML-TC")
-    peers = {m: _mean(S, "three", m) for m in ("ERA", "DMDc", "OpInf", "mdof-SRIM",
-                                                "mdof-OKID-ERA")}
+    peers = {m: _mean(S, "three", m) for m in PEERS}
     peers = {k: v for k, v in peers.items() if np.isfinite(v)}
     firg = _mean(S, "ground", "FIR-LS")
     mlg = _mean(S, "ground", "ML-TC")
@@ -159,8 +170,7 @@ def _findings(res) -> str:
         "",
     ]
     lines += _strong_events(peaks, strong, top)
-    worst = max((r for r in res["rows"] if r["method"] == "ML-TC" and r["inputs"] == "three"),
-                key=lambda r: r["total_error"])
+    worst = max(_rows(res, FEATURED), key=lambda r: r["total_error"])
     lines += [
         "",
         f"The worst-predicted event (ML-TC, three inputs) is {worst['event']} "
@@ -186,8 +196,7 @@ def _figure(res, path: Path, which: str = "median") -> str:
 
     ev = res["events"]
     recs = res["records"]["three"]
-    errs = {r["event"]: r["total_error"] for r in res["rows"]
-            if r["method"] == "ML-TC" and r["inputs"] == "three"}
+    errs = {r["event"]: r["total_error"] for r in _rows(res, FEATURED)}
     if which == "median":
         order = sorted(range(len(recs)), key=lambda i: (errs[recs[i].name], recs[i].name))
         j = order[(len(order) - 1) // 2]

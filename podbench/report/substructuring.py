@@ -57,13 +57,13 @@ def medians(df: pd.DataFrame) -> pd.DataFrame:
 
 ROUNDOFF_ERROR = 1e-10
 """Errors below this (the exact kernels' round-off, 1e-12…1e-11) are written as 0: their
-digits differ between OpenBLAS kernels (measured: 8.97e-12 against 8.10e-12 for the same
-run, Haswell against the default kernel). tests/dynamics/test_coupling.py bounds them."""
+digits depend on the BLAS build (about 9e-12 in the substructuring study).
+tests/dynamics/test_coupling.py bounds them."""
 
 
 def _three_digits(v: float) -> float:
-    """Errors to three significant digits (the project's table rule: their sixth digit moves
-    between BLAS kernels)."""
+    """Errors to three significant digits (the project's table rule: their sixth digit is
+    round-off, which differs between CPUs)."""
     return float(f"{v:.3g}") if np.isfinite(v) else v
 
 
@@ -78,9 +78,9 @@ def _growth(g: float) -> float:
 
 def _step(k: float) -> float:
     """A divergence step to one significant digit: a run that diverges from round-off (the
-    two-step's growth factor just above 1) crosses the threshold some tens of steps apart on
-    two BLAS kernels (measured: 1192 against 1181, 1249 against 1251), so only its order
-    regenerates; the growth factor beside it says how fast."""
+    two-step's growth factor just above 1) crosses the threshold some tens of steps apart
+    from one CPU's round-off to another's, so only its order regenerates; the growth factor
+    beside it says how fast."""
     return float(f"{k:.1g}") if np.isfinite(k) else k
 
 
@@ -168,7 +168,7 @@ RECORD_DESIGN = (
     "record, the smallest whose error on the held-out last 25 % is within one standard "
     "error of the best). The order of the smallest held-out error (`rule = \"min\"`) "
     "keeps 12–40 poles and is decided by round-off (heavy chain, 1 %, seed 2: 0.49 % on "
-    "one OpenBLAS kernel, 9.8 % on another); the default keeps 2 poles on a chain not in "
+    "one CPU's round-off, 9.8 % on another's); the default keeps 2 poles on a chain not in "
     "the study (tests/harness/test_substructuring.py), 3.6 %, where 10 poles give 1.2 %. "
     "With 0.1 s records (1000 samples) the "
     "heavy chain's 1 % median was 4.07 % (6 poles; 4.0–4.9 % on two seeds with "
@@ -192,7 +192,7 @@ def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
         "(NaN/— where any seed diverged: never a number from a diverged run).", "",
         "## What Chapter 6 proposes", ""]
     lines += [f"> {q}" for q in QUOTES]
-    lines += ["", "## Targets (issue 25) against what was reached", "", _targets(med),
+    lines += ["", "## Targets against what was reached", "", _targets(med),
               "## Remarks", "",
               "- The implicit interface solve (the component's lag-0 kernel inside the "
               "parent's Newmark step) reproduces Newmark on the assembled system to round-off "
@@ -206,7 +206,7 @@ def _findings(df: pd.DataFrame, med: pd.DataFrame, command: str) -> str:
               "  The table's `first divergence` column is where the unchecked run leaves "
               "10× the truth's peak (runs continue unloaded to 20 × 500 steps), to one "
               "significant digit (a divergence grown from round-off crosses it some tens of "
-              "steps apart on two BLAS kernels).",
+              "steps apart from one CPU's round-off to another's).",
               "- Interface mass is not the whole limit: the light chain (interface mass "
               "8.4e-5, 7× below the parent's) still makes the two-step grow (factor 1.037, "
               "through its stiffness and the one-step lag), slowly enough that a 500-sample "

@@ -6,8 +6,9 @@ basis=None)`` receives the training cases' responses in the entry's order (a
 :class:`~podbench.data.Response` is a record: ``W, F, w0, v0, dt``) and ``predict(target)``
 the target's response; ``modes_`` is the basis it predicts in. What each method reads from
 a record it declares itself (``required_fields()``), so this module has no per-method
-branch. A ``superposition`` entry becomes a :class:`~podbench.methods.Superposition` of its
-parts' estimators, each fitted on its own training cases.
+branch. A composite entry (``superposition``) becomes a :class:`~podbench.methods.Superposition` of
+its parts' estimators, each fitted on its own training cases. Names are the registry's
+(:mod:`podbench.sysid.registry`).
 
 A method of your own is named ``"module:Class"`` (an importable module) or
 ``"file.py:Class"`` (relative to the scenario file); a deconvolution solver of your own,
@@ -26,46 +27,33 @@ from __future__ import annotations
 import inspect
 import re
 
-from podbench.core.userimport import UserImportError, import_object
+from podbench.core.hints import did_you_mean
+from podbench.core.userimport import UserImportError
 from podbench.errors import InputError, PodbenchError
-from podbench.study.hints import did_you_mean
+from podbench.sysid import registry
 from podbench.sysid.deconvolution import available_solvers, get_solver, make_solver
-from podbench.sysid.methods import BUILTIN_METHODS, Superposition
+from podbench.sysid.registry import is_user_method
 
-__all__ = ["method_class", "build_estimator", "check_method_entry", "training_records",
-           "all_cases", "is_user_method", "option_names"]
-
-
-def is_user_method(method: str) -> bool:
-    """True for a ``module:Class`` / ``file.py:Class`` entry."""
-    return ":" in method
+__all__ = ["method_entry", "method_class", "build_estimator", "check_method_entry",
+           "training_records", "all_cases", "is_user_method", "option_names"]
 
 
-def method_class(method: str, base_dir=None) -> type:
-    """The class of a ``method`` entry: a built-in name or a user's ``module:Class``.
+def method_entry(method: str, base_dir=None) -> registry.Entry:
+    """The registry entry of a ``method`` entry: a registered name (a class or a
+    configuration) or a user's ``module:Class`` (:func:`podbench.sysid.registry.resolve`).
 
     Raises
     ------
     InputError
-        Unknown name, a module or file that does not import, no such class, or an object
-        that is not a class with ``fit`` and ``predict``.
+        Unknown name, a module or file that does not import, no such class, or a class that
+        lacks ``fit`` or ``predict``.
     """
-    if method in BUILTIN_METHODS:
-        return BUILTIN_METHODS[method]
-    if not is_user_method(method):
-        raise InputError(
-            f'unknown method "{method}"{did_you_mean(method, [*BUILTIN_METHODS, "superposition"])} '
-            f'(built-in methods: {", ".join(BUILTIN_METHODS)}, '
-            'superposition, or "module:Class" / "file.py:Class" for a method of your own)'
-        )
-    cls = import_object(method, base_dir)
-    if not inspect.isclass(cls) or not all(callable(getattr(cls, a, None))
-                                           for a in ("fit", "predict")):
-        raise InputError(
-            f'"{method}" is not a class with `fit(records, *, basis=None)` and '
-            "`predict(record)` methods (see podbench.methods.PODMethod for the contract)"
-        )
-    return cls
+    return registry.resolve(method, base_dir)
+
+
+def method_class(method: str, base_dir=None) -> type:
+    """The class of a ``method`` entry (:func:`method_entry`)."""
+    return method_entry(method, base_dir).cls
 
 
 def option_names(cls) -> tuple[list[str], bool]:
@@ -117,10 +105,11 @@ def build_estimator(spec, method_of, base_dir=None):
     base_dir : path, optional
         Folder of the scenario file (relative ``file.py:Class`` names).
     """
-    if spec.method == "superposition":
-        return Superposition(parts=tuple(build_estimator(method_of(p), method_of, base_dir)
-                                         for p in spec.parts))
-    cls = method_class(spec.method, base_dir)
+    entry = method_entry(spec.method, base_dir)
+    if spec.composite:
+        return entry.build(parts=tuple(build_estimator(method_of(p), method_of, base_dir)
+                                       for p in spec.parts))
+    cls = entry.cls
     options = dict(spec.options)
     if spec.n_modes is not None:
         options["n_modes"] = spec.n_modes
@@ -135,7 +124,7 @@ def build_estimator(spec, method_of, base_dir=None):
                 )
     options = _resolve_user_solver(options, base_dir)
     try:
-        return cls(**options)
+        return entry.build(**options)
     except PodbenchError:
         raise
     except Exception as exc:  # a user's constructor may raise anything
@@ -161,7 +150,7 @@ def check_method_entry(spec, method_of, base_dir=None) -> tuple[str, str] | None
         return "method", str(exc)
     except InputError as exc:
         msg = " ".join(str(exc).split())
-        if msg.startswith("unknown method") or "is not a class" in msg:
+        if msg.startswith("unknown method") or "a method needs fit" in msg:
             return "method", msg
         m = _PARAM.match(msg)
         name = m.group(1) if m else None
@@ -183,13 +172,13 @@ def check_method_entry(spec, method_of, base_dir=None) -> tuple[str, str] | None
 def training_records(spec, method_of, get):
     """The training records of an entry: ``[get(case) …]`` in the entry's order, or for a
     superposition one such list per part."""
-    if spec.method == "superposition":
+    if spec.composite:
         return [training_records(method_of(p), method_of, get) for p in spec.parts]
     return [get(c) for c in spec.train]
 
 
 def all_cases(spec, method_of) -> set[str]:
     """Every case an entry (or a superposition's parts) trains on."""
-    if spec.method == "superposition":
+    if spec.composite:
         return set().union(*(all_cases(method_of(p), method_of) for p in spec.parts))
     return set(spec.train)

@@ -86,7 +86,7 @@ Regenerating over committed records keeps each record that the check below calls
 Command line: ``podbench experiment <folder or experiment.toml>`` (``--check`` compares the
 files with a fresh generation instead of writing: byte for byte, or, for a record written on
 another CPU, ``W`` and ``F`` to :data:`CHECK_ULPS` single-precision steps of each channel's
-peak — another BLAS kernel moves the last bits).
+peak — another CPU's round-off moves the last bits).
 """
 
 from __future__ import annotations
@@ -98,6 +98,8 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.core.recordfiles import record_bytes
+from podbench.core.records import Record
 from podbench.core.response import Response
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import MISSING, Table
@@ -433,27 +435,10 @@ def _sensor_info(exp: Experiment, test: TestCampaign):
 
 
 def _npz_bytes(rec: Response, labels, positions) -> bytes:
-    buf = io.BytesIO()
-    arrays = {"W": np.asarray(rec.W, dtype=np.float64), "F": np.asarray(rec.F, dtype=np.float64),
-              "dt": np.float64(rec.dt), "sensors": np.asarray(labels, dtype=str)}
-    if positions is not None:
-        arrays["sensor_positions"] = np.asarray(positions, dtype=np.float64)
-    np.savez_compressed(buf, **arrays)
-    return _deterministic_zip(buf.getvalue())
-
-
-def _deterministic_zip(data: bytes) -> bytes:
-    """The same zip with fixed member timestamps (numpy stamps the current time)."""
-    import zipfile
-
-    src = zipfile.ZipFile(io.BytesIO(data))
-    out = io.BytesIO()
-    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        for info in src.infolist():
-            zi = zipfile.ZipInfo(info.filename, date_time=(1980, 1, 1, 0, 0, 0))
-            zi.compress_type = zipfile.ZIP_DEFLATED
-            z.writestr(zi, src.read(info.filename))
-    return out.getvalue()
+    """The record file's bytes (:func:`podbench.core.recordfiles.record_bytes`): ``W``,
+    ``F``, ``dt``, the sensor labels and positions, zip members stamped with a fixed time."""
+    return record_bytes(Record(W=rec.W, F=rec.F, dt=rec.dt), "npz", sensors=labels,
+                        sensor_positions=positions, deterministic=True)
 
 
 def _files(exp: Experiment) -> dict:
@@ -473,7 +458,7 @@ def _files(exp: Experiment) -> dict:
 def write_experiment(path) -> list[Path]:
     """Generate and write every record of the experiment file ``path`` (a file or its folder);
     each ``data/<test>`` folder is replaced atomically. A record already there that
-    :func:`check_experiment` calls the same (:data:`CHECK_ULPS`: another CPU's BLAS kernel
+    :func:`check_experiment` calls the same (:data:`CHECK_ULPS`: another CPU's round-off
     moved its last bits) is kept byte for byte, so regenerating the committed records leaves
     them unchanged on any CPU. Returns the files written."""
     exp = load_experiment(path)
@@ -495,10 +480,9 @@ def write_experiment(path) -> list[Path]:
 
 #: How far a fresh generation may differ from a committed record and still be "the same":
 #: in units of the single-precision spacing (2⁻²³) of each channel's peak. The records are
-#: byte-identical on one machine; another CPU's BLAS kernel (OpenBLAS picks one per CPU
-#: type) changes the last bits of the simulation, and the single-precision rounding of a
-#: value next to a rounding boundary then moves by one float32 step (measured between two
-#: OpenBLAS kernels on the Chapter 5 records: 17 values differ, by at most 0.44 step).
+#: byte-identical on one machine; another CPU's round-off changes the last bits of the
+#: simulation, and the single-precision rounding of a value next to a rounding boundary
+#: then moves by one float32 step (docs/noise.md gives the measured differences).
 CHECK_ULPS = 8
 
 

@@ -15,7 +15,6 @@ that names the method classes); :mod:`podbench.harness.f16_gvt` runs it and
 from __future__ import annotations
 
 import importlib.util
-import inspect
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,17 +22,12 @@ from podbench.core.resources import display_path
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import Table
 from podbench.study.own_runner import read_toml
-from podbench.sysid.methods.inputs import LAG_GRID, FIRLeastSquares, MultipleLoadIO
-from podbench.sysid.methods.mdof_peer import MdofIO
-from podbench.sysid.methods.peers_io import ERAIO, DMDcIO, OpInfIO
-from podbench.sysid.methods.periodic import (
-    BestLinearApproximation,
-    LevelInterpolatedML,
-    MultipleLoadPeriodic,
-)
+from podbench.sysid import registry
+from podbench.sysid.methods import DMDc, Mdof, OpInf
+from podbench.sysid.methods.inputs import LAG_GRID
 
 __all__ = ["F16Plan", "TrainingSet", "MethodEntry", "load_f16_gvt", "build_estimator",
-           "METHODS", "TABLE", "INPUTS", "ROLES"]
+           "EXTRAS", "TABLE", "INPUTS", "ROLES"]
 
 TABLE = "f16_gvt"
 
@@ -43,34 +37,8 @@ only when asked, the signal generator's reference ``voltage`` (V; not the force 
 structure)."""
 
 
-@dataclass(frozen=True)
-class MethodSpec:
-    """A method name of the study file: its class, whether it is a periodic method (it
-    takes the table's ``period`` and ``transient_periods``), the Python package it needs
-    (None: podbench alone) and a one-line description."""
-
-    cls: type
-    periodic: bool
-    extra: str | None
-    doc: str
-
-
-METHODS: dict[str, MethodSpec] = {
-    "BLA": MethodSpec(BestLinearApproximation, True, None,
-                      "best linear approximation, pooled over the training levels"),
-    "ML": MethodSpec(MultipleLoadPeriodic, True, None,
-                     "ML with the kernel over one period (the FRF on the excited lines)"),
-    "ML-interp": MethodSpec(LevelInterpolatedML, True, None,
-                            "ML per level, interpolated in the target's force RMS"),
-    "ML-FIR": MethodSpec(MultipleLoadIO, False, None,
-                         "ML with a truncated kernel (lags and TC prior by the rules)"),
-    "FIR-LS": MethodSpec(FIRLeastSquares, False, None, "FIR least squares per output"),
-    "ERA": MethodSpec(ERAIO, False, None, "ERA/OKID (peer)"),
-    "DMDc": MethodSpec(DMDcIO, False, "pydmd", "DMD with control (peer, PyDMD)"),
-    "OpInf": MethodSpec(OpInfIO, False, "opinf", "operator inference (peer, opinf)"),
-    "mdof": MethodSpec(MdofIO, False, "mdof", "mdof's SRIM or OKID-ERA (peer)"),
-}
-"""The ``method`` names a ``[[f16_gvt.methods]]`` entry may give."""
+EXTRAS: dict[type, str] = {DMDc: "pydmd", OpInf: "opinf", Mdof: "mdof"}
+"""The Python package a method class needs beyond podbench (the peers' extras)."""
 
 
 ROLES = ("benchmark", "extension")
@@ -92,8 +60,9 @@ class TrainingSet:
 
 @dataclass(frozen=True)
 class MethodEntry:
-    """One row label of the tables: the ``method`` name, its ``options`` (constructor
-    keywords), whether its predictions get ``bands`` and a ``note``."""
+    """One row label of the tables: the ``method`` (a name of the method registry,
+    :mod:`podbench.sysid.registry`), its ``options`` (constructor keywords), whether its
+    predictions get ``bands`` and a ``note``."""
 
     label: str
     method: str
@@ -145,7 +114,11 @@ def _methods(t: Table, period: int, transient: int) -> tuple[MethodEntry, ...]:
     out = []
     for m in t.tables("methods"):
         label = m.string("label")
-        name = m.string("method", choices=tuple(METHODS))
+        name = m.string("method")
+        try:
+            registry.lookup(name)
+        except InputError as exc:
+            m.fail("method", str(exc).splitlines()[0])
         options = m.raw("options", {})
         if not isinstance(options, dict):
             m.fail("options", f"expected a table of keyword arguments, got {options!r}")
@@ -218,7 +191,7 @@ def load_f16_gvt(path) -> F16Plan:
 
 def missing_extra(entry: MethodEntry) -> str | None:
     """The Python package a method entry needs and that is not installed, or None."""
-    extra = METHODS[entry.method].extra
+    extra = EXTRAS.get(registry.lookup(entry.method).cls)
     if extra is not None and importlib.util.find_spec(extra) is None:
         return extra
     return None
@@ -227,22 +200,25 @@ def missing_extra(entry: MethodEntry) -> str | None:
 def build_estimator(entry: MethodEntry, *, period: int, transient_periods: int,
                     n_train: int, dt: float):
     """The unfitted estimator of a method entry for a training set of ``n_train`` records
-    sampled at ``dt`` (s).
+    sampled at ``dt`` (s): the registry's entry built with the entry's options.
 
-    Periodic methods get the table's ``period`` and ``transient_periods``. A truncated
-    kernel whose length is chosen by leave-one-record-out (``n_lags="auto"``) cannot
-    choose from one training record: it then takes the longest of its ``lag_grid``
-    (:data:`~podbench.sysid.methods.inputs.LAG_GRID`, 2 s), fixed in advance — a long
-    memory is what a lightly damped structure needs. Raises TypeError (an unknown
-    option) or InputError (a bad value) before any data are read.
+    Periodic methods (``inputs="periodic"``) get the table's ``period`` and
+    ``transient_periods``. A truncated kernel whose length is chosen by leave-one-record-out
+    (``n_lags="auto"``) cannot choose from one training record: it then takes the longest
+    of its ``lag_grid`` (:data:`~podbench.sysid.methods.inputs.LAG_GRID`, 2 s), fixed in
+    advance — a long memory is what a lightly damped structure needs. Raises TypeError (an
+    unknown option) or InputError (a bad value) before any data are read.
     """
-    spec = METHODS[entry.method]
+    reg = registry.lookup(entry.method)
     options = dict(entry.options)
-    if spec.periodic:
-        options.update(period=period, transient_periods=transient_periods)
-    est = spec.cls(**options)
-    params = inspect.signature(spec.cls).parameters
-    if n_train < 2 and "n_lags" in params and options.get("n_lags", "auto") == "auto":
-        grid = options.get("lag_grid", LAG_GRID)
+    if "period" in reg.supplied:
+        options.setdefault("period", period)
+    est = reg.build(**options)
+    params = est.get_params(deep=False)
+    if getattr(est, "inputs", None) == "periodic":
+        est.set_params(period=period, transient_periods=transient_periods)
+    est._validate_params()
+    if n_train < 2 and params.get("n_lags", None) == "auto":
+        grid = params.get("lag_grid", LAG_GRID)
         est.set_params(n_lags=max(1, int(round(max(grid) / dt))))
     return est

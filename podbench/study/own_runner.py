@@ -31,10 +31,10 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+from podbench.core.hints import did_you_mean
 from podbench.core.resources import display_path
 from podbench.errors import ScenarioFileError, StructureFileError
 from podbench.structures.spec import Table
-from podbench.study.hints import did_you_mean
 
 __all__ = ["OwnStudy", "STUDY_TABLE", "own_study_file", "load_own_study", "read_toml"]
 

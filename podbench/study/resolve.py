@@ -7,10 +7,10 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from podbench.core.hints import did_you_mean
 from podbench.core.resources import display_path
 from podbench.errors import ScenarioFileError, StructureFileError, UnknownNameError
 from podbench.structures import list_structures, load_structure
-from podbench.study.hints import did_you_mean
 from podbench.study.scenarios import Scenario
 
 MEASURED = "measured"

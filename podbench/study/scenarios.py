@@ -40,7 +40,7 @@ Either way a unit with a measured case has no linear twin: its linearization col
     n_modes = 4                          # optional (method default otherwise)
     train = ["load1"]                    # training cases, in order (the first gives the POMs)
     options = { solver = "ls" }          # optional constructor keywords of the method
-    twin = "ML"                          # optional: label of the coupled twin (see README)
+    twin = "ML"                          # optional: label of the coupled twin
     report = true                        # optional: false = used only as another's twin
 
     [sweep]                              # optional: axes of `podbench sweep` (ignored by run)
@@ -94,16 +94,16 @@ from podbench.core.tomlfile import load_toml
 from podbench.errors import InputError, ScenarioFileError, StructureFileError
 from podbench.structures.spec import MISSING, Table
 from podbench.study.estimators import (
+    build_estimator,
     check_method_entry,
-    method_class,
+    method_entry,
     option_names,
     solver_hint,
     solver_options_hint,
 )
-from podbench.study.hints import did_you_mean
+from podbench.sysid import registry
 from podbench.sysid.conditioning import DETREND_KINDS, Conditioning
 from podbench.sysid.deconvolution import make_solver
-from podbench.sysid.methods import BUILTIN_METHODS as _METHOD_CLASSES
 from podbench.sysid.noise import NOISE_MODELS, level_from_snr_db
 
 __all__ = [
@@ -121,9 +121,9 @@ __all__ = [
     "CLAIMS_FILE",
 ]
 
-BUILTIN_METHODS = (*_METHOD_CLASSES, "superposition")
-"""Method names a scenario may use without a ``module:Class`` path (the classes are
-:data:`podbench.methods.BUILTIN_METHODS`)."""
+BUILTIN_METHODS = tuple(registry.names())
+"""Method names a scenario may use without a ``module:Class`` path
+(:mod:`podbench.sysid.registry`)."""
 
 CLAIMS_FILE = "claims.toml"
 EXPERIMENT_FILE = "experiment.toml"
@@ -188,6 +188,8 @@ class MethodSpec:
     twin: str | None = None
     report: bool = True
     parts: tuple[str, ...] = ()
+    composite: bool = False
+    """Whether the method is a sum of other entries (``parts``; the registry's trait)."""
     base_label: str = ""
     """The label in the scenario file when a sweep renamed this entry (else "")."""
     solver_label: str = ""
@@ -468,12 +470,15 @@ def _parse_methods(top: Table, base: Scenario | None, cases: dict) -> list[Metho
 def _parse_method(mt: Table, cases: dict) -> MethodSpec:
     label = mt.string("label")
     method = mt.string("method")
-    if method not in BUILTIN_METHODS and ":" not in method:
-        mt.fail("method", f'unknown method "{method}"{did_you_mean(method, BUILTIN_METHODS)} '
-                          f'(built-in methods: {", ".join(BUILTIN_METHODS)}, or "module:Class" '
-                          f'/ "file.py:Class" for a method of your own)')
+    composite = False
+    if not registry.is_user_method(method):
+        try:
+            entry = registry.lookup(method)
+        except InputError as exc:
+            mt.fail("method", str(exc))
+        method, composite = entry.name, bool(entry.cls.composite)
     parts: tuple[str, ...] = ()
-    if method == "superposition":
+    if composite:
         parts = tuple(mt.strings("parts"))
         train: tuple[str, ...] = ()
     else:
@@ -490,7 +495,8 @@ def _parse_method(mt: Table, cases: dict) -> MethodSpec:
     report = mt.boolean("report", True)
     mt.close()
     return MethodSpec(label=label, method=method, train=train, n_modes=n_modes,
-                      options=dict(options), twin=twin, report=report, parts=parts)
+                      options=dict(options), twin=twin, report=report, parts=parts,
+                      composite=composite)
 
 
 def _check_method_labels(top: Table, methods: list[MethodSpec]) -> None:
@@ -511,7 +517,7 @@ def _check_method_labels(top: Table, methods: list[MethodSpec]) -> None:
             if p not in labels or p == m.label:
                 top.fail(f"{where}.parts[{j}]", f'unknown method label "{p}"; labels: '
                                                 f'{", ".join(x for x in labels if x != m.label)}')
-            if methods[labels.index(p)].method == "superposition":
+            if methods[labels.index(p)].composite:
                 top.fail(f"{where}.parts[{j}]", f'"{p}" is itself a superposition; list its '
                                                 "parts instead")
     if not any(m.report for m in methods):
@@ -554,14 +560,14 @@ def _check_method_options(top: Table, methods, folder: Path) -> None:
         problem = check_method_entry(m, by_label.__getitem__, folder)
         if problem is not None:
             field, message = problem
-            if m.method == "superposition":
+            if m.composite:
                 field = "parts"
             top.fail(f"methods[{i}].{field}", message)
 
 
-def _method_class(spec: MethodSpec, scenario: Scenario):
-
-    return method_class(spec.method, scenario.folder)
+def _method_entry(spec: MethodSpec, scenario: Scenario):
+    """The registry entry of an entry's method (a user's class too)."""
+    return method_entry(spec.method, scenario.folder)
 
 
 def _unique(t: Table, key: str, values) -> None:
@@ -676,13 +682,13 @@ def _parse_conditioning(t: Table):
 def _takes_option(spec: MethodSpec, scenario: Scenario, name: str) -> bool:
     """True if the entry's class has a constructor option ``name``."""
 
-    return name in option_names(_method_class(spec, scenario))[0]
+    return name in option_names(_method_entry(spec, scenario).cls)[0]
 
 
 def _uses_solver(spec: MethodSpec, scenario: Scenario) -> bool:
     """True for an entry that deconvolves (its class takes a ``solver`` option), or a
     superposition with such a part."""
-    if spec.method == "superposition":
+    if spec.composite:
         return any(_uses_solver(scenario.method(p), scenario) for p in spec.parts)
     return _takes_option(spec, scenario, "solver")
 
@@ -694,14 +700,16 @@ def method_solver(spec: MethodSpec, scenario: Scenario) -> str:
     superposition shows its parts')."""
     if spec.solver_label:
         return spec.solver_label
-    if spec.method == "superposition":
+    if spec.composite:
         names = [method_solver(scenario.method(p), scenario) for p in spec.parts]
         names = list(dict.fromkeys(n for n in names if n))
         return "+".join(names)
     if _uses_solver(spec, scenario):
         solver = spec.options.get("solver")
-        if solver is None:  # the class's default
-            solver = inspect.signature(_method_class(spec, scenario)).parameters["solver"].default
+        if solver is None:  # the configuration's, else the class's default
+            entry = _method_entry(spec, scenario)
+            solver = entry.params.get(
+                "solver", inspect.signature(entry.cls).parameters["solver"].default)
         return str(getattr(solver, "name", solver))
     return ""
 
@@ -727,11 +735,12 @@ def apply_overrides(scenario: Scenario, *, n_modes: int | None = None, solvers=N
     if n_modes is not None:
         out = []
         for m in methods:
-            if m.method == "superposition":
+            if m.composite:
                 out.append(m)
                 continue
             train = m.train
-            per_mode = getattr(_method_class(m, scenario), "records_per_mode", False)
+            per_mode = getattr(build_estimator(m, scenario.method, scenario.folder),
+                               "records_per_mode", False)
             if per_mode and coupled_train == "first" and len(train) >= n_modes:
                 train = train[:n_modes]
             out.append(dataclasses.replace(m, n_modes=n_modes, train=train))
@@ -750,7 +759,7 @@ def apply_overrides(scenario: Scenario, *, n_modes: int | None = None, solvers=N
                 continue
             for c in solvers:
                 opts = dict(m.options)
-                if m.method != "superposition":
+                if not m.composite:
                     opts["solver"] = c.solver
                     opts.pop("solver_options", None)
                     if c.options:

@@ -46,7 +46,6 @@ that are not identically zero.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -253,8 +252,8 @@ def unwindow(W_hat, dt: float, tau: float) -> np.ndarray:
 
 
 def _replace(record, **arrays):
-    if dataclasses.is_dataclass(record):
-        return dataclasses.replace(record, **arrays)
+    if isinstance(record, Record):
+        return record.replace(**arrays)
     base = {k: getattr(record, k, None) for k in ("W", "F", "w0", "v0", "dt")}
     return Record(**{**base, **arrays})
 

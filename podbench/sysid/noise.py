@@ -59,7 +59,7 @@ __all__ = ["NoiseSpec", "NOISE_MODELS", "NOISE_QUANTITIES", "noise_generator", "
 
 NOISE_MODELS = ("per_channel", "per_entry_rms")
 """``per_channel`` (default): per measured channel, on measured channels only;
-``per_entry_rms``: one RMS per quantity, noise on every entry (podbench before issue 12)."""
+``per_entry_rms``: one RMS per quantity, noise on every entry (podbench's first noise model)."""
 NOISE_QUANTITIES = ("W", "F", "w0", "v0")
 
 

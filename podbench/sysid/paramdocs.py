@@ -22,19 +22,15 @@ import textwrap
 from functools import partial
 from pathlib import Path
 
+from podbench.sysid import registry
 from podbench.sysid.deconvolution._api import available_solvers, get_solver
-from podbench.sysid.methods.forced import MultipleLoad, SingleLoad
-from podbench.sysid.methods.free import MDS, POVR
-from podbench.sysid.methods.mixed import MixedResponse
-from podbench.sysid.methods.peers import ERA, DMDc, OpInf
-from podbench.sysid.methods.superposition import Superposition
 from podbench.sysid.params import parameter_table, parameters, plain_text
 
 __all__ = ["METHODS", "SOLVERS", "BEGIN", "END", "render", "update", "entries",
            "parameter_help"]
 
-METHODS = (POVR, MDS, SingleLoad, MultipleLoad, MixedResponse, Superposition, ERA, DMDc, OpInf)
-"""The built-in methods, in the order of the docs."""
+METHODS = tuple(e.cls for e in registry.ENTRIES if not e.configuration)
+"""The built-in method classes, in the order of the docs (the registry's)."""
 SOLVERS = {name: get_solver(name) for name in available_solvers()}
 """The built-in deconvolution solvers by name."""
 
@@ -46,8 +42,9 @@ END = "<!-- parameter tables: end -->"
 def render() -> str:
     """The generated block (markers included)."""
     parts = [BEGIN, ""]
-    for cls in METHODS:
-        parts += [f"**`{cls.__name__}`** ({cls.abbreviation})", "", parameter_table(cls), ""]
+    for e in registry.ENTRIES:
+        if not e.configuration:
+            parts += [f"**`{e.cls.__name__}`** ({e.name})", "", parameter_table(e.cls), ""]
     for name, solver in SOLVERS.items():
         parts += [f"**`{solver.__name__}`** (`solver=\"{name}\"`)", "",
                   parameter_table(solver), ""]
@@ -56,9 +53,10 @@ def render() -> str:
 
 
 def entries() -> dict[str, type]:
-    """The names ``podbench methods`` takes: every built-in method by the name a scenario
-    gives (``ML``, ``superposition``), then every solver by its ``solver=`` name."""
-    return {**{cls.abbreviation: cls for cls in METHODS}, **SOLVERS}
+    """The names ``podbench methods`` takes: every registered method and configuration by
+    the name a scenario gives (``ML``, ``ML-TC``, ``superposition``), then every solver by
+    its ``solver=`` name."""
+    return {**{e.name: e.cls for e in registry.ENTRIES}, **SOLVERS}
 
 
 def _first_sentence(text: str) -> str:
@@ -66,9 +64,17 @@ def _first_sentence(text: str) -> str:
     return match.group(1) if match else text
 
 
-_USAGE = {"superposition": '[[methods]] method = "superposition", parts = [labels of other '
-                           'methods]'}
-"""How a scenario file gives a method whose parameters are not ``options``."""
+def _usage(name: str, cls) -> str:
+    """How a scenario file gives the method or solver ``name``."""
+    if name in SOLVERS:
+        return f'a method\'s options = {{ solver = "{name}", solver_options = {{ ... }} }}'
+    if getattr(cls, "composite", False):
+        return f'[[methods]] method = "{name}", parts = [labels of other methods]'
+    entry = registry.REGISTRY[name]
+    fixed = ", ".join(f"{k} = {v!r}" for k, v in entry.params.items())
+    given = "".join(f"; give {p} in options" for p in entry.supplied)
+    return (f'[[methods]] method = "{name}", options = {{ ... }}'
+            + (f"; fixes {fixed}" if fixed else "") + given)
 
 
 def parameter_help(name: str, *, full: bool = True, width: int = 88) -> str:
@@ -77,14 +83,11 @@ def parameter_help(name: str, *, full: bool = True, width: int = 88) -> str:
     description (``full``: all of it, else its first sentence), wrapped to ``width``."""
     cls = entries()[name]
     summary = plain_text(" ".join((inspect.getdoc(cls) or "").split("\n\n")[0].split()))
-    if name in SOLVERS:
-        usage = f'a method\'s options = {{ solver = "{name}", solver_options = {{ ... }} }}'
-    else:
-        usage = _USAGE.get(name, f'[[methods]] method = "{name}", options = {{ ... }}')
+    usage = _usage(name, cls)
     wrap = partial(textwrap.wrap, width=width, break_long_words=False, break_on_hyphens=False)
     lines = wrap(f"{name}: {cls.__name__} — {_first_sentence(summary)}",
                  subsequent_indent="  ")
-    lines.append(f"  ({usage})")
+    lines += wrap(f"({usage})", initial_indent="  ", subsequent_indent="   ")
     for p in parameters(cls):
         lines.append(f"  {p.name} (default {p.default}): {p.admits}")
         doc = p.doc if full else _first_sentence(p.doc)

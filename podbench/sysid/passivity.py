@@ -10,7 +10,7 @@ received from rest) the coupled energy cannot grow, and the coupled step is stab
 construction (growth factor ≤ 1), over any horizon. A real, passive component's exact
 Newmark kernel is passive; a kernel identified from noisy records need not be, and coupled
 to an undamped parent a non-passive kernel grows slowly (growth factor 1.0005–1.02 per step
-on the heavy chain of issue 25).
+on the heavy chain of the substructuring study).
 
 The condition in the frequency domain (``z = e^{jω}``, ``ω`` in radians per sample, ``H(z)``
 the kernel's z-transform ``Σ_k H[k] z^{−k}``, ``Ψ(X) = (X − Xᴴ)/(2j)`` the Hermitian
@@ -71,7 +71,7 @@ ITERATIONS = 30
 """Refinements of the constraint grid at most."""
 ON_CIRCLE = 1e-9
 """A pole within this of the unit circle counts as on it (an identified pole pulled onto the
-circle lands at ``|λ| = 1 ± 1e-16``, on either side depending on the BLAS kernel)."""
+circle lands at ``|λ| = 1 ± 1e-16``, on either side depending on round-off)."""
 TOL = 1e-10
 """A violation below ``TOL ×`` the kernel's peak frequency response counts as none."""
 
@@ -164,7 +164,7 @@ def passivity_margin(realization, quantity: str = "acceleration", *, n_grid: int
     passive; ``−inf``: a pole on (within :data:`ON_CIRCLE`) or outside the unit circle,
     where the condition cannot be evaluated; within ``±TOL`` it is reported as 0 (the
     round-off of a lossless or exactly passive kernel, which would otherwise print
-    differently on another BLAS kernel)."""
+    differently with another CPU's round-off)."""
     A, B, C, D = _check(realization, quantity)
     if A.shape[0] and np.max(np.abs(np.linalg.eigvals(A))) >= 1.0 - ON_CIRCLE:
         return -np.inf, float("nan")

@@ -33,8 +33,9 @@ import numpy as np
 from podbench.errors import InputError
 
 __all__ = ["steady_periods", "period_spectra", "excited_lines", "pooled_response",
-           "noise_variance", "periodic_prediction", "distortion_fractions", "LINE_THRESHOLD",
-           "PeriodSpectra"]
+           "noise_variance", "pooled_noise", "periodic_prediction", "distortion_fractions",
+           "choose_lines", "period_kernel", "period_convolution", "input_rms",
+           "interpolation_weights", "rational_poles", "LINE_THRESHOLD", "PeriodSpectra"]
 
 LINE_THRESHOLD = 1e-3
 """A line is excited when its period-averaged input power is at least this fraction of the
@@ -186,3 +187,137 @@ def distortion_fractions(spectra: PeriodSpectra, lines) -> tuple[np.ndarray, np.
     noise = np.sum(np.var(Y[:, :, other], axis=0, ddof=1), axis=1) / P if P > 1 else \
         np.full(Y.shape[1], np.nan)
     return np.sqrt(periodic / total), np.sqrt(noise / total)
+
+
+def pooled_noise(spectra, lines) -> np.ndarray:
+    """Noise variance of the pooled response (n_out, L): ``Σ_l w_l² var(Ĝ_l)`` with the
+    pooling weights ``w_l = |Ū_l|²/Σ|Ū|²`` (one input)."""
+    power = np.array([np.sum(np.abs(s.U_mean[:, lines]) ** 2, axis=0) for s in spectra])
+    w = power / power.sum(axis=0)
+    return sum(wl[None, :] ** 2 * noise_variance(s, lines)
+               for wl, s in zip(w, spectra, strict=True))
+
+
+def choose_lines(lines, U_means, period: int, threshold: float = LINE_THRESHOLD) -> np.ndarray:
+    """The lines a frequency response is identified on: ``"auto"``, the excited ones
+    (:func:`excited_lines` of the records' period-averaged input spectra ``U_means``), or
+    the given increasing DFT indices in ``1 … period//2`` (checked: one line naming the
+    parameter ``lines``)."""
+    if isinstance(lines, str) and lines == "auto":
+        return excited_lines(U_means, threshold)
+    if isinstance(lines, str):
+        raise InputError(f"Parameter `lines`: expected 'auto' or DFT line indices, got "
+                         f"{lines!r}")
+    out = np.asarray(lines)
+    if out.ndim != 1 or out.size == 0 or out.dtype.kind not in "iu" or \
+            out.min() < 1 or out.max() > period // 2 or np.any(np.diff(out) <= 0):
+        raise InputError(f"Parameter `lines`: expected increasing indices in 1 … "
+                         f"{period // 2}, got {lines!r}")
+    return out
+
+
+def period_kernel(G: np.ndarray, lines, period: int, dt: float) -> np.ndarray:
+    """The kernel over one period ``H[p]`` (c, n_in, period) of a frequency response ``G``
+    (c, n_in, L) on ``lines``: its inverse DFT over the period divided by ``Δt`` (the
+    kernel of ``v = Δt Σ H u``, in (output unit)/(input unit·s)); zero on other lines."""
+    full = np.zeros(G.shape[:2] + (period // 2 + 1,), dtype=complex)
+    full[:, :, np.asarray(lines)] = G
+    return np.fft.irfft(full, n=period, axis=2) / dt
+
+
+def period_convolution(H: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
+    """``v[s] = Δt Σ_{p<N} H[p] u[s − p]`` (c × n) from rest: the *linear* convolution of
+    the inputs ``u`` (n_in × n) with the kernel over one period (c, n_in, N), by FFT. In
+    every period after the first it equals the circular one (the steady state)."""
+    n = u.shape[1]
+    nfft = 1 << int(np.ceil(np.log2(n + H.shape[2] - 1)))
+    Uf = np.fft.rfft(u, nfft, axis=1)
+    Hf = np.fft.rfft(H * dt, nfft, axis=2)
+    return np.fft.irfft(np.einsum("kif,if->kf", Hf, Uf), nfft, axis=1)[:, :n]
+
+
+def input_rms(u: np.ndarray, period: int, transient: int, where: str = "inputs") -> float:
+    """RMS of inputs ``u`` (n_in × n) over their steady-state periods (all channels; the
+    input unit, e.g. N): the force level a model of that record belongs to."""
+    x = steady_periods(u, period, transient, where)
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
+def interpolation_weights(levels, x: float, *, scale: str = "linear",
+                          extrapolate: str = "clamp") -> np.ndarray:
+    """Weights of piecewise-linear interpolation at ``x`` between the sorted, distinct
+    ``levels``: the two neighbours of ``x`` share the weight by their distance (in ``x`` or,
+    ``scale="log"``, in ``log x``). Outside the range ``extrapolate="clamp"`` gives the
+    nearest level its whole weight, ``"linear"`` continues the end segment. One level: 1."""
+    r = np.asarray(levels, dtype=float)
+    w = np.zeros(r.size)
+    if r.size == 1:
+        w[0] = 1.0
+        return w
+    if scale == "log":
+        r, x = np.log(r), float(np.log(x))
+    if extrapolate == "clamp" and (x <= r[0] or x >= r[-1]):
+        w[0 if x <= r[0] else -1] = 1.0
+        return w
+    i = int(np.clip(np.searchsorted(r, x), 1, r.size - 1))
+    t = (x - r[i - 1]) / (r[i] - r[i - 1])
+    w[i - 1], w[i] = 1.0 - t, t
+    return w
+
+
+def rational_poles(G: np.ndarray, freqs, *, n_poles: int = 2, iterations: int = 30,
+                   tol: float = 1e-10) -> tuple[np.ndarray, np.ndarray, float]:
+    """The poles (rad/s) of a common-denominator rational fit of a frequency response.
+
+    ``G`` (c, L): the responses of ``c`` channels at ``freqs`` (L, Hz). Each is fitted by
+    ``N_c(p)/D(p)`` in ``p = jω/ω₀`` (``ω₀`` the band's centre), ``D`` monic of degree
+    ``n_poles`` and real, every ``N_c`` real of the same degree (residual terms of the modes
+    outside the band), by Sanathanan & Koerner's iteration (1963): the linear least-squares
+    fit of ``N_c − G_c D`` weighted by ``1/|D|`` of the previous step, from ``D = 1``,
+    until the denominator's coefficients change by less than ``tol`` (relative), at most
+    ``iterations`` steps. The same modes at every channel: one denominator.
+
+    Returns
+    -------
+    poles : (n_poles,) complex ndarray
+        ``s = ω₀ p`` (rad/s) of the denominator's roots.
+    residues : (c, n_poles) complex ndarray
+        ``N_c(p_k)/D'(p_k)`` per channel and pole: the pole's shape at the channels (any
+        scale; simple poles).
+    misfit : float
+        ``‖N/D − G‖ / ‖G‖`` over the channels and lines.
+    """
+    G = np.atleast_2d(np.asarray(G, dtype=complex))
+    f = np.asarray(freqs, dtype=float)
+    c, L = G.shape
+    w0 = 2 * np.pi * 0.5 * (f[0] + f[-1])
+    p = 1j * 2 * np.pi * f / w0
+    n = int(n_poles)
+    P = p[:, None] ** np.arange(n + 1)[None, :]  # (L, n+1): 1, p, …, p^n
+    weight = np.ones(L)
+    a = np.zeros(n)
+    for _ in range(int(iterations)):
+        # unknowns: the numerators' n+1 coefficients per channel, then a_0 … a_{n−1}
+        A = np.zeros((c * L, c * (n + 1) + n), dtype=complex)
+        b = np.zeros(c * L, dtype=complex)
+        for ch in range(c):
+            rows = slice(ch * L, (ch + 1) * L)
+            A[rows, ch * (n + 1):(ch + 1) * (n + 1)] = P / weight[:, None]
+            A[rows, c * (n + 1):] = -G[ch][:, None] * P[:, :n] / weight[:, None]
+            b[rows] = G[ch] * P[:, n] / weight
+        x = np.linalg.lstsq(np.vstack([A.real, A.imag]), np.concatenate([b.real, b.imag]),
+                            rcond=None)[0]
+        new = x[c * (n + 1):]
+        done = np.linalg.norm(new - a) <= tol * max(np.linalg.norm(new), 1e-300)
+        a = new
+        weight = np.abs(P[:, :n] @ a + P[:, n])
+        if done:
+            break
+    D = P[:, :n] @ a + P[:, n]
+    num = np.stack([P @ x[ch * (n + 1):(ch + 1) * (n + 1)] for ch in range(c)])
+    misfit = float(np.linalg.norm(num / D - G) / np.linalg.norm(G))
+    den = np.concatenate([[1.0], a[::-1]])  # highest power first
+    roots = np.roots(den)
+    residues = np.stack([np.polyval(x[ch * (n + 1):(ch + 1) * (n + 1)][::-1], roots)
+                         for ch in range(c)]) / np.polyval(np.polyder(den), roots)
+    return w0 * roots, residues, misfit

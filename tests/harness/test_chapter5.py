@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from podbench.core.recordfiles import read_record
 from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
 from podbench.study.claims import evaluate_claims, load_claims, load_claims_file
@@ -22,7 +23,6 @@ from podbench.study.experiments import (
     write_experiment,
 )
 from podbench.study.scenarios import find_scenarios, load_scenario
-from podbench.sysid.measured import read_record
 
 CH5 = bundled_scenarios() / "chapter5"
 ROOT = Path(__file__).resolve().parents[2]

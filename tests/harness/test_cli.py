@@ -237,7 +237,7 @@ def test_cache_and_out_are_checked_before_any_work(study, tmp_path, capsys, opti
         return
     assert code == 2
     err = _one_line_error(capsys)
-    assert f"{option} {path}" in err
+    assert f"{option}: {path}" in err
     assert blocker.read_text() == "precious\n" and (foreign / "notes.txt").read_text() == (
         "precious\n") and sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]
     _nothing_done(tmp_path)

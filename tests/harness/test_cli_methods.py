@@ -10,12 +10,13 @@ import pytest
 
 from podbench import cli
 from podbench.errors import InvalidParameterError
+from podbench.sysid import registry
 from podbench.sysid.deconvolution import available_solvers, get_solver
-from podbench.sysid.methods import BUILTIN_METHODS, Superposition
+from podbench.sysid.methods import BUILTIN_METHODS
 from podbench.sysid.paramdocs import entries
 from podbench.sysid.params import check_param, describe, parameter_docs, parameters
 
-EVERY = {**BUILTIN_METHODS, "superposition": Superposition,
+EVERY = {**{e.name: e.cls for e in registry.ENTRIES},
          **{n: get_solver(n) for n in available_solvers()}}
 
 

@@ -4,8 +4,8 @@ closest known name ("did you mean …")."""
 import pytest
 
 from podbench import cli
+from podbench.core.hints import did_you_mean
 from podbench.core.resources import resolve_bundled
-from podbench.study.hints import did_you_mean
 
 
 def test_did_you_mean_finds_the_closest_name_letter_case_aside():
@@ -21,7 +21,7 @@ def beam_forced():
 
 @pytest.mark.parametrize("old, new, extra, command, needle", [
     ('"lti_beam", "ltv_beam"', '"lti_bem", "ltv_beam"', "", "run", "did you mean 'lti_beam'?"),
-    ('method = "SL"', 'method = "sl"', "", "run", "unknown method \"sl\"; did you mean 'SL'?"),
+    ('method = "SL"', 'method = "SIL"', "", "run", "unknown method \"SIL\"; did you mean 'SL'?"),
     ('solver = "block"', 'solver = "blok"', "", "run", "did you mean 'block'?"),
     ('solver = "block"', 'solver = "cgls", solver_options = { maxiter = 50 }', "", "run",
      "unknown option 'maxiter' for solver 'cgls' (its options: reg, tol, max_iter); "

@@ -1,7 +1,10 @@
 """The one executor of units, sweep points and figures: order, progress, errors, cancel."""
 
 import os
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -96,3 +99,58 @@ def test_auto_is_the_cores_available_capped():
     assert resolve_jobs(3) == 3
     with pytest.raises(InputError, match="--jobs: expected a positive integer or 'auto'"):
         resolve_jobs("many", "--jobs")
+
+
+SCRIPT = """\
+import os
+from podbench.harness import executor
+executor.POOL_AFTER = 0.0  # start the workers at once
+{body}
+"""
+
+
+def _script(tmp_path, body: str) -> str:
+    """Run ``body`` as a plain script ``main.py`` in ``tmp_path`` (its tasks, a module-level
+    function, in ``work.py`` beside it); its stdout."""
+    (tmp_path / "work.py").write_text(
+        "import os, time\n\ndef pid_after(s):\n    time.sleep(s)\n    return os.getpid()\n")
+    (tmp_path / "main.py").write_text(SCRIPT.format(body=body))
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(tmp_path)]))
+    r = subprocess.run([sys.executable, "main.py"], cwd=tmp_path, env=env, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return r.stdout + r.stderr
+
+
+def test_a_plain_script_without_a_main_guard_computes_in_its_own_process(tmp_path):
+    """Without the guard a spawned worker would run the script again and call `execute`
+    while it starts (RuntimeError ... bootstrapping phase, BrokenProcessPool): the tasks run
+    in the script's process, once each, with one warning naming the script."""
+    out = _script(tmp_path, "import work\npids = executor.execute(work.pid_after, [0.3] * 6, "
+                            "jobs=2)\nprint('pids', len(pids), len(set(pids)), "
+                            "set(pids) == {os.getpid()})")
+    assert "pids 6 1 True" in out, out
+    assert out.count("computing in this process alone, not 2 processes") == 1, out
+    assert "main.py again" in out and "BrokenProcessPool" not in out
+
+
+def test_a_guarded_script_still_gets_its_worker_processes(tmp_path):
+    out = _script(tmp_path, "import work\nif __name__ == '__main__':\n"
+                            "    pids = executor.execute(work.pid_after, [0.3] * 6, jobs=2)\n"
+                            "    print('pids', len(pids), len(set(pids)))")
+    assert "pids 6 2" in out, out
+    assert "process alone" not in out
+
+
+@pytest.mark.parametrize("source, line, guarded", [
+    ("import x\nx.run()\n", 2, False),
+    ("import x\nif __name__ == '__main__':\n    x.run()\n", 3, True),
+    ('import x\nif "__main__" == __name__:\n    main()\n    other()\n', 4, True),
+    ("import x\nif __name__ == '__main__':\n    pass\nx.run()\n", 4, False),
+    ("def f():\n    if __name__ == '__main__':\n        run()\n", 3, False),  # not top level
+    ("if __name__ != '__main__':\n    run()\n", 2, False),
+    ("this is not python(\n", 1, False),
+])
+def test_guarded_line_reads_the_main_guard(source, line, guarded):
+    assert executor.guarded_line(source, line) is guarded

@@ -9,12 +9,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from podbench.core.recordfiles import read_record, write_record
 from podbench.core.resources import bundled_scenarios
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.runner import read_case, run_unit
 from podbench.study.resolve import MeasuredStructure, resolve_structure
 from podbench.study.scenarios import load_scenario
-from podbench.sysid.measured import read_record, write_record
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = bundled_scenarios() / "examples" / "measured" / "measured_chain.toml"

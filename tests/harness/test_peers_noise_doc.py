@@ -54,13 +54,13 @@ def _close(printed: str, value: float) -> bool:
 
 
 def test_the_readme_and_docs_peers_tables_are_results_peers():
-    """README's and docs/peers.md's tables of the peers study state results/peers's
-    total errors (to the digits they print)."""
+    """docs/peers.md's table of the peers study states results/peers's total errors (to the
+    digits it prints; the README's copy of the table moved there)."""
     df = pd.read_csv(ROOT / "results" / "peers" / "summary.csv").set_index(
         ["structure", "method", "target"])
     keys = set(df.index)
     n = 0
-    for doc in ("README.md", "docs/peers.md"):
+    for doc in ("docs/peers.md",):
         for structure, label, cells in _peers_rows((ROOT / doc).read_text(encoding="utf-8")):
             method = label if (structure, label, TARGETS[0]) in keys else \
                 re.sub(r"\s*\(.*\)$", "", label)
@@ -70,15 +70,15 @@ def test_the_readme_and_docs_peers_tables_are_results_peers():
                 value = float(df.loc[(structure, method, target), "total_error"])
                 assert _close(printed, value), (doc, structure, label, target, printed, value)
             n += 1
-    assert n >= 24  # 12 rows in each
+    assert n == 15  # 12 rows of ML and the peers, 3 of ML (basis all)
 
 
 def test_the_readme_peers_paragraphs_numbers_are_results_peers():
-    """The numbers of the README's prose beside the peers table: ML (basis all) on the LTV
-    beam, ERA's distance from its ML twin on the LTI beam, ML's linearization error on the NL
-    beam's half-sine and ERA from free decays against MDS."""
+    """The numbers of docs/peers.md's summary ("In short"): ML (basis all) on the LTV beam,
+    ERA's distance from its ML twin on the LTI beam, ML's linearization error on the NL beam's
+    half-sine and ERA from free decays against MDS."""
     df = pd.read_csv(ROOT / "results" / "peers" / "summary.csv")
-    text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    text = " ".join((ROOT / "docs" / "peers.md").read_text(encoding="utf-8").split())
 
     def err(structure, method, target, column="total_error"):
         sel = df[(df.structure == structure) & (df.method == method) & (df.target == target)]

@@ -1,8 +1,9 @@
-"""The README's table of the calibration study's measures is results/calibration/calibration.csv
-(issue 23: numbers in the README come from the tables, never typed; issue 21's targets).
+"""The calibration page's table of the study's measures (docs/studies/calibration.md) is
+results/calibration/calibration.csv (issue 23: numbers in the docs come from the tables, never
+typed; issue 21's targets).
 
 Each measured cell of the table is parsed by the template it is written in and compared with
-the same measure computed here from the committed table, at the digits the README prints.
+the same measure computed here from the committed table, at the digits the page prints.
 When the study is regenerated and a number moves, this test names the row to update."""
 
 import re
@@ -15,6 +16,7 @@ import pytest
 from scipy.stats import spearmanr
 
 ROOT = Path(__file__).resolve().parents[2]
+PAGE = ROOT / "docs" / "studies" / "calibration.md"
 CLASSES = {"LTI": "LTI", "LTV": "LTV", "NL": "NL", "truss": "truss (LTV)"}
 
 
@@ -25,8 +27,8 @@ def table():
 
 @pytest.fixture(scope="module")
 def rows():
-    """``{first cell: measured cell}`` of the README's calibration table."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    """``{first cell: measured cell}`` of the calibration page's table."""
+    text = PAGE.read_text(encoding="utf-8")
     out = {}
     for line in text.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -37,7 +39,7 @@ def rows():
 
 def _cell(rows, label):
     got = [v for k, v in rows.items() if k.startswith(label)]
-    assert len(got) == 1, f"README: the calibration table lost its row {label!r}"
+    assert len(got) == 1, f"{PAGE.name}: the calibration table lost its row {label!r}"
     return got[0]
 
 
@@ -82,7 +84,7 @@ def test_coverage_by_class_is_the_tables(table, rows):
     cell = _cell(rows, "90 % band coverage, ML and MDS")
     for name, cls in CLASSES.items():
         m = re.search(rf"\b{re.escape(name)} ([0-9.]+)–([0-9.]+)", cell)
-        assert m, f"README calibration row: no range for {name}"
+        assert m, f"{PAGE.name} calibration row: no range for {name}"
         sub = table[(table["class"] == cls) & table.method.str.match(r"^(ML|MDS)\d")]
         means = [g.coverage.mean() for fam in ("ML", "MDS")
                  for _, g in sub[sub.method.str.startswith(fam)].groupby("training_noise")]
@@ -94,7 +96,7 @@ def test_spearman_is_the_tables(table, rows):
     cell = _cell(rows, "Spearman(error_estimate, total_error)")
     m = re.fullmatch(r"([0-9.]+) over all (\d+); ([0-9.]+) over the (\d+) cross-validated; "
                      r"SL ([0-9.]+)", cell)
-    assert m, f"README Spearman row changed its wording: {cell!r}"
+    assert m, f"{PAGE.name}: the Spearman row changed its wording: {cell!r}"
     cv = table[table.source == "cross-validation"]
     sl = table[table.method == "SL"]
     expected = (f"{_spearman(table):.2f}", str(len(table)), f"{_spearman(cv):.2f}",
@@ -109,7 +111,7 @@ def test_within_a_factor_of_two_is_the_tables(table, rows):
                      r"all estimates reaches (\d+ %), one constant per fitted model \(method, "
                      r"class, training noise: (\d+) models\) chosen knowing the truth (\d+ %): "
                      r"below 80 % even for that oracle", cell)
-    assert m, f"README within-×2 row changed its wording: {cell!r}"
+    assert m, f"{PAGE.name}: the within-×2 row changed its wording: {cell!r}"
     cv = table[table.source == "cross-validation"]
     sl = table[table.method == "SL"]
     povr = table[table.method == "POVR"]
@@ -125,7 +127,7 @@ def test_interval_score_ratios_are_the_tables(table, rows):
     cell = _cell(rows, "interval score / best constant width")
     m = re.match(r"([0-9.]+) over all (\d+) \(SL ([0-9.]+), POVR ([0-9.]+)\), ([0-9.]+) over "
                  r"the beams, ([0-9.]+) cross-validated", cell)
-    assert m, f"README interval-score row changed its wording: {cell!r}"
+    assert m, f"{PAGE.name}: the interval-score row changed its wording: {cell!r}"
     beams = table[~table["class"].str.startswith("truss")]
     expected = (f"{_is_ratio(table):.2f}", str(len(table)),
                 f"{_is_ratio(table[table.method == 'SL']):.2f}",

@@ -1,5 +1,6 @@
-"""The README's Chapter 5 paragraph is results/chapter5's tables (issue 23: numbers in the
-README come from the tables, never typed; issue 24: the paragraph says what the study found
+"""The Chapter 5 paragraph of the studies' page (docs/studies/index.md, "Chapter 5 in
+brief") is results/chapter5's tables (issue 23: numbers in the docs come from the tables,
+never typed; issue 24: the paragraph says what the study found
 in the text's terms): the headline counts are FINDINGS.md's, and the Eq. 4.2 medians it
 quotes (the dissertation's TLS on the linear beam's load 4, percent) are summary.csv's and
 seeds.csv's at the digits printed."""
@@ -11,14 +12,14 @@ import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-README = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
-PARAGRAPH = README.split("**The Chapter 5 virtual experiment**", 1)[1].split("4. **", 1)[0]
+PAGE = (ROOT / "docs" / "studies" / "index.md").read_text(encoding="utf-8")
+PARAGRAPH = " ".join(PAGE.split("## Chapter 5 in brief", 1)[1].split("\n## ", 1)[0].split())
 RESULTS = ROOT / "results" / "chapter5"
 
 
 def _said(pattern: str) -> tuple:
     m = re.search(pattern, PARAGRAPH)
-    assert m, f"README's Chapter 5 paragraph changed its wording: {pattern!r}"
+    assert m, f"docs/studies/index.md's Chapter 5 paragraph changed its wording: {pattern!r}"
     return m.groups()
 
 

@@ -1,4 +1,5 @@
-"""The README's user method and user solver examples run as written, in a scenario."""
+"""The user method and user solver examples of docs/extending.md run as written, in a
+scenario."""
 
 import re
 from pathlib import Path
@@ -9,11 +10,11 @@ from conftest import CHAIN_FORCED
 
 from podbench.harness.runner import run_study
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+PAGE = Path(__file__).resolve().parents[2] / "docs" / "extending.md"
 
 
 def _example(first_line: str) -> str:
-    blocks = re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
+    blocks = re.findall(r"```python\n(.*?)```", PAGE.read_text(encoding="utf-8"), re.S)
     found = [b for b in blocks if b.startswith(first_line)]
     assert len(found) == 1, first_line
     return found[0]

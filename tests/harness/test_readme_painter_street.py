@@ -1,5 +1,6 @@
-"""The README's Painter Street numbers are results/painter_street's tables (issue 23: numbers
-in the README come from the tables, never typed): the table of mean errors over the 14
+"""The Painter Street page's numbers (docs/studies/painter_street.md) are
+results/painter_street's tables (issue 23: numbers in the docs come from the tables, never
+typed): the table of mean errors over the 14
 events and the paragraph's figures (ML-TC's errors, its band's coverage, its error
 estimate's factor-of-2 count and rank correlation). A regenerated study that moves one of
 them fails here, naming it."""
@@ -12,8 +13,7 @@ import pytest
 from scipy.stats import spearmanr
 
 ROOT = Path(__file__).resolve().parents[2]
-README = (ROOT / "README.md").read_text(encoding="utf-8")
-SECTION = README.split("## A real bridge", 1)[1].split("\n## ", 1)[0]
+SECTION = (ROOT / "docs" / "studies" / "painter_street.md").read_text(encoding="utf-8")
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +29,7 @@ def tc_events():
 
 
 def _label_methods(label: str) -> list[str]:
-    """The summary's method names of a README row's label."""
+    """The summary's method names of a table row's label."""
     if "mdof" in label:
         return ["mdof-SRIM", "mdof-OKID-ERA"]
     if "peers" in label:
@@ -69,7 +69,7 @@ def test_the_paragraphs_numbers_are_the_tables(summary, tc_events):
                   r"(\d\.\d+)–(\d\.\d+) per event; the estimate within a factor 2 of the "
                   r"realized error for (\d+) of (\d+) events, but it does not rank them: "
                   r"Spearman (−?\d\.\d+)", text)
-    assert m, "README: the Painter Street band sentence changed its wording"
+    assert m, "painter_street.md: the Painter Street band sentence changed its wording"
     rho = spearmanr(tc_events.error_estimate, tc_events.total_error).statistic
     expected = (f"{three.mean_coverage:.3f}", f"{tc_events.coverage.min():.2f}",
                 f"{tc_events.coverage.max():.2f}",

@@ -1,5 +1,6 @@
-"""The README's table of the deconvolution solvers under noise is results/beam_forced_noise/
-sweep.csv (issue 23: numbers in the README come from the tables, never typed): ML on the LTI
+"""The sweeps page's table of the deconvolution solvers under noise (docs/studies/sweeps.md)
+is results/beam_forced_noise/sweep.csv (issue 23: numbers in the docs come from the tables,
+never typed): ML on the LTI
 beam's load 5, the median total error over the seeds per noise level, the 5 % maximum in
 brackets, three significant digits as sweep.md writes them."""
 
@@ -25,8 +26,8 @@ def expected_table() -> str:
 
 
 def test_the_readme_solver_table_is_the_sweep():
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    text = (ROOT / "docs" / "studies" / "sweeps.md").read_text(encoding="utf-8")
     block = re.search(r"<!-- beam_forced_noise:[^>]*-->\n(.*?)\n<!-- /beam_forced_noise -->",
                       text, re.S)
-    assert block, "README.md lost its beam_forced_noise table markers"
+    assert block, "docs/studies/sweeps.md lost its beam_forced_noise table markers"
     assert block.group(1) == expected_table()

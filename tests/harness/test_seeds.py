@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from podbench.core.recordfiles import read_record
 from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
 from podbench.harness.seeds import _varied, run_seeds, seed_table, seed_unit
@@ -28,7 +29,6 @@ from podbench.study.claims import (
 )
 from podbench.study.experiments import generate, generate_seeds, load_experiment
 from podbench.study.scenarios import load_scenario
-from podbench.sysid.measured import read_record
 from podbench.sysid.methods import SingleLoad
 
 CH5 = bundled_scenarios() / "chapter5"

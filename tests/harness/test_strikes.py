@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from podbench.core.recordfiles import read_record
 from podbench.core.resources import bundled_scenarios
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import Pulse
@@ -14,7 +15,6 @@ from podbench.errors import ScenarioFileError
 from podbench.structures.files import load_structure
 from podbench.study.claims import evaluate_claims, load_claims
 from podbench.study.experiments import generate, load_experiment, strike_forces, write_experiment
-from podbench.sysid.measured import read_record
 from podbench.sysid.noise import noise_generator
 
 CH5 = bundled_scenarios() / "chapter5"

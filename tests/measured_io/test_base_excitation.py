@@ -6,7 +6,7 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from podbench import load_structure
-from podbench.core.iorecords import IORecord
+from podbench.core.records import Record
 from podbench.dynamics.base_excitation import (
     beam_strain_matrix,
     ground_motion,
@@ -19,7 +19,13 @@ from podbench.structures.truss import (
     member_strain_matrix,
     satellite_truss,
 )
-from podbench.sysid.methods.inputs import MultipleLoadIO
+from podbench.sysid.methods import MultipleLoad
+
+
+def measured_ml(**kw):
+    """ML on measured inputs with the lag rule (the former ``MultipleLoadIO``'s defaults)."""
+    return MultipleLoad(**{"inputs": "measured", "n_lags": "auto", "solver": "ls", **kw})
+
 
 DT = 1e-4
 
@@ -88,12 +94,12 @@ def test_ml_from_base_excited_acceleration_records_is_exact(beam):
 
     def rec(ag, name):
         y = simulate_base(beam, ag, DT)["absolute_acceleration"]
-        return IORecord(u=ag[None, :], y=y, dt=DT, input_units="in/s^2",
+        return Record(u=ag[None, :], y=y, dt=DT, input_units="in/s^2",
                         output_units="in/s^2", input_channels=("ground",),
                         output_channels=beam.sensor_labels, name=name)
 
     train, target = rec(train_ag, "pulse"), rec(test_ag, "burst")
-    ml = MultipleLoadIO(n_lags=None, solver="block").fit([train])
+    ml = measured_ml(n_lags=None, solver="block").fit([train])
     err = np.linalg.norm(ml.predict(target) - target.y) / np.linalg.norm(target.y)
     assert err < 1e-9
 

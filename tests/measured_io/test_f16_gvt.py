@@ -9,15 +9,16 @@ import pytest
 import scipy.signal
 
 import podbench as pb
-from podbench.core.iorecords import IORecord, read_io_record
+from podbench.core.recordfiles import read_record
+from podbench.core.records import Record
 from podbench.core.resources import bundled_scenarios
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.f16_gvt import errors, level_files, load_levels
 from podbench.study.f16_gvt import load_f16_gvt
+from podbench.sysid.methods import MultipleLoad
 from podbench.sysid.methods.periodic import (
     BestLinearApproximation,
     LevelInterpolatedML,
-    MultipleLoadPeriodic,
     interpolation_weights,
 )
 
@@ -28,12 +29,12 @@ SHARED = next((p / "shared" / "data" / "f16_gvt" for p in Path(__file__).resolve
 N = 8192
 
 
-def _short(level: int, periods: int = 3) -> IORecord:
+def _short(level: int, periods: int = 3) -> Record:
     """A bundled level record cut to its first ``periods`` periods."""
-    rec = read_io_record(level_files(DATA)[level])
+    rec = read_record(level_files(DATA)[level])
     n = periods * N
-    return IORecord(u=rec.u[:, :n], y=rec.y[:, :n], dt=rec.dt, input_units="N",
-                    output_units="m/s^2", input_channels=rec.input_channels,
+    return Record(u=rec.u[:, :n], y=rec.y[:, :n], dt=rec.dt, input_units="N",
+                  output_units="m/s^2", input_channels=rec.input_channels,
                     output_channels=rec.output_channels, name=rec.name)
 
 
@@ -52,7 +53,7 @@ def _pooled_by_hand(recs, lines):
 def test_bla_and_ml_over_one_period_are_the_pooled_frequency_response():
     recs = [_short(1), _short(3)]
     bla = BestLinearApproximation(period=N).fit(recs)
-    ml = MultipleLoadPeriodic(period=N).fit(recs)
+    ml = MultipleLoad(inputs="periodic", period=N).fit(recs)
     # the 267 excited lines of the benchmark's multisine, 2-15 Hz
     assert bla.lines_.size == 267 and bla.lines_[0] == 41 and bla.lines_[-1] == 307
     assert np.allclose(bla.frequencies_[[0, -1]], [2.001953125, 14.990234375])
@@ -90,7 +91,7 @@ def test_bla_recovers_a_known_linear_system_and_predicts_a_new_multisine():
     recs = []
     for level in (1.0, 2.0):
         u = _multisine(rng, lines, 4, level)
-        recs.append(IORecord(u=u, y=_system(u, b, a), dt=0.01, input_units="N",
+        recs.append(Record(u=u, y=_system(u, b, a), dt=0.01, input_units="N",
                              output_units="m/s^2", name=f"level{level}"))
     bla = BestLinearApproximation(period=N).fit(recs)
     z = np.exp(2j * np.pi * lines / N)
@@ -99,7 +100,7 @@ def test_bla_recovers_a_known_linear_system_and_predicts_a_new_multisine():
     assert np.max(np.abs(bla.frequency_response()[:, 0] - G)) < 1e-8 * np.max(np.abs(G))
     u = _multisine(rng, lines, 3, 1.5)
     y = _system(u, b, a)
-    new = IORecord(u=u, y=y, dt=0.01, input_units="N", output_units="m/s^2", name="new")
+    new = Record(u=u, y=y, dt=0.01, input_units="N", output_units="m/s^2", name="new")
     yh = bla.predict(new)
     ss = slice(N, None)  # the steady state: periods 2-3
     assert np.max(np.abs(yh[:, ss] - y[:, ss])) < 1e-7 * np.max(np.abs(y))
@@ -112,7 +113,7 @@ def test_the_noise_variance_matches_white_output_noise():
     u = _multisine(rng, lines, 9)
     y = np.vstack([scipy.signal.lfilter([0.5, 0.2], [1.0, -0.5], u[0])] * 3)
     s = 0.01 * np.std(y)
-    rec = IORecord(u=u, y=y + s * rng.standard_normal(y.shape), dt=0.01, input_units="N",
+    rec = Record(u=u, y=y + s * rng.standard_normal(y.shape), dt=0.01, input_units="N",
                    output_units="m/s^2", name="noisy")
     bla = BestLinearApproximation(period=N).fit([rec])
     # the DFT of white noise of variance s² has variance N s² per line; averaged over the
@@ -141,11 +142,11 @@ def test_level_interpolation_of_two_known_systems():
     recs = []
     for level, gain in ((1.0, 1.0), (3.0, 2.0)):  # the "structure" changes with the level
         u = _multisine(rng, lines, 3, level)
-        recs.append(IORecord(u=u, y=gain * _system(u, [[1.0, 0.2]] * 3, a), dt=0.01,
+        recs.append(Record(u=u, y=gain * _system(u, [[1.0, 0.2]] * 3, a), dt=0.01,
                              input_units="N", output_units="m/s^2", name=f"l{level}"))
     model = LevelInterpolatedML(period=N).fit(recs)
     u = _multisine(rng, lines, 3, 2.0)
-    target = IORecord(u=u, y=None, dt=0.01, input_units="N", output_units="m/s^2",
+    target = Record(u=u, y=None, dt=0.01, input_units="N", output_units="m/s^2",
                       name="target")
     levels = model.levels_
     w = (np.sqrt(np.mean(u[:, N:] ** 2)) - levels[0]) / (levels[1] - levels[0])
@@ -228,7 +229,8 @@ def test_the_voltage_is_ignored_unless_asked(tmp_path):
 
 
 @pytest.mark.parametrize("old, new, message", [
-    ('method = "ERA"', 'method = "ERB"', "field `f16_gvt.methods[8].method`: expected one of"),
+    ('method = "ERA-measured"', 'method = "ERB-measured"',
+     "field `f16_gvt.methods[8].method`: unknown method \"ERB-measured\"; did you mean"),
     ('options = { n_modes = 2 }', 'options = { n_mode = 2 }',
      "field `f16_gvt.methods[2].options`:"),
     ('{ train = [3], targets = [2] }', '{ train = [3], targets = [3] }',
@@ -322,18 +324,18 @@ def test_the_periodic_methods_keep_the_estimator_contract():
     from podbench.errors import NotFittedError
 
     recs = [_short(1), _short(3)]
-    for cls in (MultipleLoadPeriodic, BestLinearApproximation, LevelInterpolatedML):
-        est = cls(period=N)
+    for est in (MultipleLoad(inputs="periodic", period=N), BestLinearApproximation(period=N),
+                LevelInterpolatedML(period=N)):
         with pytest.raises(NotFittedError):
             est.predict(recs[0])
         twin = clone(est)
         assert twin.get_params() == est.get_params() and twin.fit(recs) is twin
     with pytest.raises(InputError, match="Parameter `period`: required"):
-        MultipleLoadPeriodic().fit(recs)
+        MultipleLoad(inputs="periodic").fit(recs)
     u = _multisine(np.random.default_rng(3), np.arange(20, 200), 3)
-    synthetic = IORecord(u=u, y=np.vstack([u[0]] * 3), dt=0.01, input_units="N",
+    synthetic = Record(u=u, y=np.vstack([u[0]] * 3), dt=0.01, input_units="N",
                          output_units="m/s^2", name="synthetic")
     with pytest.raises(InputError, match="Parameter `lines`: line 5 carries no input power"):
         BestLinearApproximation(period=N, lines=(5, 41)).fit([synthetic])
-    with pytest.raises(InputError, match="Parameter `scale`: expected 'linear' or 'log'"):
+    with pytest.raises(InputError, match="Parameter `scale`: expected one of 'linear', 'log'"):
         LevelInterpolatedML(period=N, scale="cubic").fit(recs)

@@ -6,10 +6,17 @@ import numpy as np
 import pytest
 
 from podbench.cli import main
-from podbench.core.iorecords import IORecord, write_io_record
+from podbench.core.recordfiles import write_record
+from podbench.core.records import Record
 from podbench.errors import InputError
+from podbench.sysid.methods import MultipleLoad
 from podbench.sysid.methods.bands import Prediction
-from podbench.sysid.methods.inputs import MultipleLoadIO
+
+
+def measured_ml(**kw):
+    """ML on measured inputs with the lag rule (the former ``MultipleLoadIO``'s defaults)."""
+    return MultipleLoad(**{"inputs": "measured", "n_lags": "auto", "solver": "ls", **kw})
+
 
 H = 0.05 * np.exp(-np.arange(20) / 5.0)[None, None, :] * \
     np.random.default_rng(99).normal(size=(3, 2, 1))  # one 2-input, 3-output FIR system
@@ -19,7 +26,7 @@ def _rec(rng, n, sigma, name="r", outputs=True):
     u = rng.normal(size=(2, n))
     y = np.stack([sum(np.convolve(u[i], H[o, i])[:n] for i in range(2)) for o in range(3)])
     noisy = y + sigma * rng.normal(size=y.shape)
-    rec = IORecord(u=u, y=noisy if outputs else None, dt=0.01, input_units="m/s^2",
+    rec = Record(u=u, y=noisy if outputs else None, dt=0.01, input_units="m/s^2",
                    output_units="m/s^2", name=name)
     return rec, y
 
@@ -36,7 +43,7 @@ def test_band_coverage_of_measured_targets_is_nominal_on_an_exact_fir_system():
     for seed in range(4):
         rng = np.random.default_rng(seed)
         train = [_rec(rng, n, 0.02, f"r{n}")[0] for n in (300, 340, 260, 320, 280)]
-        model = MultipleLoadIO(n_lags=20).fit(train)
+        model = measured_ml(n_lags=20).fit(train)
         for _ in range(5):
             target, y = _rec(rng, 300, 0.02)
             p = model.predict(target, coverage=0.9)
@@ -55,21 +62,20 @@ def test_a_target_without_outputs_gets_a_band_and_one_record_is_refused():
     rng = np.random.default_rng(1)
     train = [_rec(rng, n, 0.02, f"r{n}")[0] for n in (300, 260, 280)]
     target, _ = _rec(rng, 200, 0.0, outputs=False)
-    p = MultipleLoadIO(n_lags=20).fit(train).predict(target, coverage=0.8)
+    p = measured_ml(n_lags=20).fit(train).predict(target, coverage=0.8)
     assert p.lower.shape == (3, 200) and np.all(p.upper > p.lower)
     with pytest.raises(InputError, match="at least 2 training records"):
-        MultipleLoadIO(n_lags=20).fit(train[:1]).predict(target, coverage=0.8)
+        measured_ml(n_lags=20).fit(train[:1]).predict(target, coverage=0.8)
 
 
 def test_a_method_whose_fit_takes_no_basis_says_it_has_no_band():
-    class NoBasis(MultipleLoadIO):
-        def fit(self, records):
-            return super().fit(records)
+    class NoBasis(MultipleLoad):
+        takes_basis = False
 
     rng = np.random.default_rng(2)
     train = [_rec(rng, n, 0.02, f"r{n}")[0] for n in (300, 260, 280)]
-    m = NoBasis(n_lags=20).fit(train)
-    with pytest.raises(InputError, match="NoBasis: no prediction band"):
+    m = NoBasis(inputs="measured", n_lags=20).fit(train)
+    with pytest.raises(InputError, match="NoBasis takes no basis"):
         m.predict(train[0], coverage=0.9)
 
 
@@ -79,7 +85,7 @@ def _files(tmp_path, lengths, seed, outputs=True):
     for j, n in enumerate(lengths):
         rec, _ = _rec(rng, n, 0.02, outputs=outputs)
         p = tmp_path / f"s{seed}_{j}.csv"
-        write_io_record(p, rec)
+        write_record(p, rec, layout="io")
         paths.append(str(p))
     return paths
 
@@ -91,12 +97,12 @@ def test_predict_with_coverage_writes_the_band_and_the_estimate(tmp_path, capsys
     assert main(["predict", "--method", "ML", "--train", *train, "--target", *targets,
                  "--out", str(out), "--solver", "ls", "--coverage", "0.9"]) == 0
     rows = list(csv.DictReader(open(out / "errors.csv")))
-    assert list(rows[0]) == ["target", "method", "total_error", "units", "error_estimate",
-                             "coverage"]
+    assert list(rows[0]) == ["target", "method", "total_error", "units", "error:0", "error:1",
+                             "error:2", "error_estimate", "coverage", "note"]
     assert 0.7 < float(rows[0]["coverage"]) <= 1.0 and rows[1]["coverage"] == ""
     assert 0.5 < float(rows[0]["error_estimate"]) / float(rows[0]["total_error"]) < 2.0
     with np.load(out / "s2_0.npz") as z:
-        assert z["lower"].shape == z["upper"].shape == z["W_hat"].shape == (3, 220)
+        assert z["lower"].shape == z["upper"].shape == z["y_hat"].shape == (3, 220)
         assert np.all(np.isfinite(z["lower"])) and np.all(z["upper"] > z["lower"])
     assert "error_estimate" in capsys.readouterr().out
 
@@ -124,12 +130,12 @@ def test_the_folds_reuse_the_lags_and_tc_prior_chosen_by_the_full_fit():
     frozen_params gives both, and a model given them is the same fit (no search)."""
     rng = np.random.default_rng(5)
     train = [_rec(rng, n, 0.02, f"r{n}")[0] for n in (300, 340, 260)]
-    model = MultipleLoadIO(prior="tc", lag_grid=(0.1, 0.2, 0.3)).fit(train)
+    model = measured_ml(prior="tc", lag_grid=(0.1, 0.2, 0.3)).fit(train)
     frozen = model.frozen_params()
     assert frozen == {"n_lags": model.info_["n_lags"],
                       "prior": (model.info_["tc_tau"], model.info_["tc_gamma"])}
-    fixed = MultipleLoadIO(**{**model.get_params(), **frozen}).fit(train)
+    fixed = measured_ml(**{**model.get_params(), **frozen}).fit(train)
     np.testing.assert_allclose(fixed.theta_, model.theta_, rtol=1e-10, atol=1e-14)
     assert fixed.cv_errors_ == {}
     with pytest.raises(InputError, match="prior"):
-        MultipleLoadIO(prior=(0.1, -1.0), n_lags=10).fit(train)
+        measured_ml(prior=(0.1, -1.0), n_lags=10).fit(train)

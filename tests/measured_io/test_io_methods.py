@@ -3,11 +3,15 @@
 import numpy as np
 import pytest
 
-from podbench.core.iorecords import IORecord, convert
+from podbench.core.records import Record, convert
 from podbench.errors import InputError
-from podbench.harness.predict import make_method
 from podbench.sysid.deconvolution.lagged import lag_response, record_grams
-from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO, SingleLoadIO
+from podbench.sysid.methods import ERA, FIRLeastSquares, MixedResponse, MultipleLoad, SingleLoad
+
+
+def measured_ml(**kw):
+    """ML on measured inputs with the lag rule (the former ``MultipleLoadIO``'s defaults)."""
+    return MultipleLoad(**{"inputs": "measured", "n_lags": "auto", "solver": "ls", **kw})
 
 
 def _lti(n_in=2, n_out=3, order=6, seed=1, radius=0.97):
@@ -36,7 +40,7 @@ def _records(sys, lengths, seed=2, units="m/s^2"):
     out = []
     for j, n in enumerate(lengths):
         u = rng.normal(size=(sys[1].shape[1], n))
-        out.append(IORecord(u=u, y=_respond(sys, u), dt=0.01, input_units=units,
+        out.append(Record(u=u, y=_respond(sys, u), dt=0.01, input_units=units,
                             output_units=units, name=f"r{j}.npz"))
     return out
 
@@ -64,7 +68,7 @@ def test_ml_predicts_a_held_out_lti_response_with_feedthrough():
     sys = _lti(radius=0.9)  # 0.9^350 < 1e-15: 350 lags hold the whole kernel
     tr = _records(sys, [900, 1200, 700])
     target = _records(sys, [1500], seed=9)[0]
-    ml = MultipleLoadIO(n_lags=350).fit(tr)
+    ml = measured_ml(n_lags=350).fit(tr)
     assert ml.first_lag_ == 0
     err = np.linalg.norm(ml.predict(target) - target.y) / np.linalg.norm(target.y)
     assert err < 1e-9
@@ -77,10 +81,10 @@ def test_ml_full_length_kernel_by_block_deconvolution():
     (square block system), solved exactly by 'block'."""
     sys = _lti(n_in=1, n_out=3)
     pulse = 0.6 ** np.arange(400)[None, :]  # minimum phase: the substitution is stable
-    tr = [IORecord(u=pulse, y=_respond(sys, pulse), dt=0.01, input_units="m/s^2",
+    tr = [Record(u=pulse, y=_respond(sys, pulse), dt=0.01, input_units="m/s^2",
                    output_units="m/s^2", name="pulse.npz")]
     target = _records(sys, [400], seed=5)[0]
-    ml = MultipleLoadIO(n_lags=None, solver="block").fit(tr)
+    ml = measured_ml(n_lags=None, solver="block").fit(tr)
     err = np.linalg.norm(ml.predict(target) - target.y) / np.linalg.norm(target.y)
     assert err < 1e-10
 
@@ -89,14 +93,14 @@ def test_ml_with_as_many_modes_as_outputs_is_the_fir_baseline():
     sys = _lti()
     rng = np.random.default_rng(3)
     tr = _records(sys, [300, 350, 420])
-    tr = [IORecord(u=r.u, y=r.y + 0.3 * rng.normal(size=r.y.shape), dt=r.dt,
+    tr = [Record(u=r.u, y=r.y + 0.3 * rng.normal(size=r.y.shape), dt=r.dt,
                    input_units="m/s^2", output_units="m/s^2", name=r.name) for r in tr]
     target = _records(sys, [500], seed=4)[0]
-    a = MultipleLoadIO(n_lags=25).fit(tr).predict(target)
+    a = measured_ml(n_lags=25).fit(tr).predict(target)
     b = FIRLeastSquares(n_lags=25).fit(tr).predict(target)
     np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max())
     # the lag rule: the same choice for both, by leave-one-record-out on training records
-    fa = MultipleLoadIO(lag_grid=(0.05, 0.25, 0.5)).fit(tr)
+    fa = measured_ml(lag_grid=(0.05, 0.25, 0.5)).fit(tr)
     fb = FIRLeastSquares(lag_grid=(0.05, 0.25, 0.5)).fit(tr)
     assert fa.info_["n_lags"] == fb.info_["n_lags"]
 
@@ -105,14 +109,14 @@ def test_tc_prior_helps_on_noisy_short_records_and_chooses_on_training_only():
     sys = _lti(seed=4)
     rng = np.random.default_rng(6)
     tr = _records(sys, [250, 300, 280, 260], seed=7)
-    tr = [IORecord(u=r.u, y=r.y + 0.5 * np.std(r.y) * rng.normal(size=r.y.shape), dt=r.dt,
+    tr = [Record(u=r.u, y=r.y + 0.5 * np.std(r.y) * rng.normal(size=r.y.shape), dt=r.dt,
                    input_units="m/s^2", output_units="m/s^2", name=r.name) for r in tr]
     target = _records(sys, [400], seed=8)[0]
     from podbench.core.threads import single_blas_thread
 
     with single_blas_thread():
-        ls = MultipleLoadIO(n_lags=100).fit(tr)
-        tc = MultipleLoadIO(n_lags=100, prior="tc").fit(tr)
+        ls = measured_ml(n_lags=100).fit(tr)
+        tc = measured_ml(n_lags=100, prior="tc").fit(tr)
     e = [np.linalg.norm(m.predict(target) - target.y) / np.linalg.norm(target.y)
          for m in (ls, tc)]
     assert e[1] < 0.9 * e[0]
@@ -123,8 +127,8 @@ def test_si_and_inch_lbf_give_the_same_prediction_converted():
     sys = _lti()
     tr = _records(sys, [300, 340, 360])
     target = _records(sys, [400], seed=3)[0]
-    si = MultipleLoadIO(n_lags=60, prior="tc").fit(tr).predict(target)
-    ip = MultipleLoadIO(n_lags=60, prior="tc").fit([convert(r, "inch-lbf") for r in tr]) \
+    si = measured_ml(n_lags=60, prior="tc").fit(tr).predict(target)
+    ip = measured_ml(n_lags=60, prior="tc").fit([convert(r, "inch-lbf") for r in tr]) \
         .predict(convert(target, "inch-lbf"))
     np.testing.assert_allclose(ip * 0.0254, si, rtol=1e-9, atol=1e-12 * np.abs(si).max())
 
@@ -132,33 +136,32 @@ def test_si_and_inch_lbf_give_the_same_prediction_converted():
 def test_strain_or_displacement_outputs_start_at_lag_one():
     sys = _lti()
     r = _records(sys, [200, 220])
-    r = [IORecord(u=x.u, y=x.y, dt=x.dt, input_units="m/s^2", output_units="strain",
+    r = [Record(u=x.u, y=x.y, dt=x.dt, input_units="m/s^2", output_units="strain",
                   name=x.name) for x in r]
-    assert MultipleLoadIO(n_lags=10).fit(r).first_lag_ == 1
+    assert measured_ml(n_lags=10).fit(r).first_lag_ == 1
 
 
 def test_sl_and_mr_are_refused_with_the_reason():
     sys = _lti()
     tr = _records(sys, [200, 220])
     with pytest.raises(InputError, match="not forces at the output channels"):
-        SingleLoadIO(n_lags=10).fit(tr)
-    with pytest.raises(InputError, match="free responses"):
-        make_method("MR")
+        SingleLoad(n_lags=10).fit(tr)
+    with pytest.raises(InputError, match="MR: r0.npz: .*free responses .*no initial condition"):
+        MixedResponse().fit(tr)
 
 
 def test_a_training_record_too_short_is_named():
     sys = _lti()
     tr = _records(sys, [200, 40])
     with pytest.raises(InputError, match="r1.npz: field `inputs`: 40 samples"):
-        MultipleLoadIO(n_lags=50).fit(tr)
+        measured_ml(n_lags=50).fit(tr)
 
 
 def test_the_peers_take_the_same_records():
-    from podbench.sysid.methods.peers_io import ERAIO
 
     sys = _lti(n_in=3, n_out=3, order=6)
     tr = _records(sys, [600, 600, 600])  # one length: no zero padding
     target = _records(sys, [600], seed=11)[0]
-    era = ERAIO(max_order=10, blocks=0.3).fit(tr)
+    era = ERA(inputs="measured", max_order=10, blocks=0.3).fit(tr)
     err = np.linalg.norm(era.predict(target) - target.y) / np.linalg.norm(target.y)
     assert era.info_["order"] == 6 and err < 1e-6

@@ -8,7 +8,8 @@ import pytest
 
 from podbench.cli import main
 from podbench.core.iofiles import is_io_layout
-from podbench.core.iorecords import IORecord, read_io_record, write_io_record
+from podbench.core.recordfiles import read_record, write_record
+from podbench.core.records import Record
 from podbench.errors import InputError
 
 HAVE_PYUFF = importlib.util.find_spec("pyuff") is not None
@@ -38,7 +39,7 @@ def _rec(n=64, y=True, **kw):
                 input_channels=("ground x", "abut,2"), output_channels=("s1", "s2", "mid [c]"),
                 name="r")
     args.update(kw)
-    return IORecord(**args)
+    return Record(**args)
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".npz", ".mat",
@@ -47,8 +48,8 @@ def _rec(n=64, y=True, **kw):
 def test_every_format_round_trips_values_units_and_channels_exactly(tmp_path, suffix):
     r = _rec()
     p = tmp_path / f"rec{suffix}"
-    write_io_record(p, r)
-    s = read_io_record(p)
+    write_record(p, r, layout="io")
+    s = read_record(p)
     np.testing.assert_array_equal(s.u, r.u)  # exact: 17 digits in CSV, doubles in UFF 58b
     np.testing.assert_array_equal(s.y, r.y)
     assert s.dt == r.dt and s.n_samples == 64
@@ -64,10 +65,10 @@ def test_every_format_round_trips_values_units_and_channels_exactly(tmp_path, su
 def test_a_target_without_outputs_takes_the_declared_output_unit(tmp_path, suffix):
     r = _rec(y=False, input_units="m/s^2", output_units="m")
     p = tmp_path / f"t{suffix}"
-    write_io_record(p, r)
+    write_record(p, r, layout="io")
     with pytest.raises(InputError, match=f"t{suffix}: variable `outputs`: missing"):
-        read_io_record(p)
-    s = read_io_record(p, require_outputs=False, default_output_units="m")
+        read_record(p)
+    s = read_record(p, require_outputs=False, default_output_units="m")
     assert s.y is None and s.output_units == "m" and s.output_quantity == "displacement"
     np.testing.assert_array_equal(s.u, r.u)
 
@@ -91,7 +92,7 @@ def test_ascii_uff_written_by_pyuff_itself_is_read(tmp_path):
             data=data, x=t))
     p = tmp_path / "shaker.uff"
     pyuff.UFF(str(p)).write_sets(sets, mode="add")
-    r = read_io_record(p)
+    r = read_record(p)
     assert r.input_channels == ("5:3",) and r.output_channels == ("7:3",)
     assert (r.input_quantity, r.output_quantity) == ("force", "acceleration")
     assert r.dt == 0.01
@@ -120,7 +121,7 @@ def test_a_bad_csv_is_one_line_naming_the_file_and_the_field(tmp_path, text, wor
     p = tmp_path / "bad.csv"
     p.write_text(text)
     with pytest.raises(InputError) as exc:
-        read_io_record(p)
+        read_record(p)
     assert words in str(exc.value) and "\n" not in str(exc.value)
 
 
@@ -149,14 +150,14 @@ def test_a_bad_uff_is_one_line_naming_the_file_and_the_field(tmp_path):
         p = tmp_path / f"bad{k}.uff"
         pyuff.UFF(str(p)).write_sets(sets, mode="add")
         with pytest.raises(InputError, match=f"bad{k}.uff: .*{words}") as exc:
-            read_io_record(p)
+            read_record(p)
         assert "\n" not in str(exc.value)
 
 
 @needs_pyuff
 def test_uff_refuses_a_dt_it_cannot_store():
     with pytest.raises(InputError, match="x.uff: field `dt`: .* 6 significant digits"):
-        write_io_record("x.uff", _rec(dt=1 / 3000))
+        write_record("x.uff", _rec(dt=1 / 3000), layout="io")
 
 
 def test_predict_reads_csv_records_as_it_reads_npz(tmp_path):
@@ -167,11 +168,11 @@ def test_predict_reads_csv_records_as_it_reads_npz(tmp_path):
     for j, n in enumerate((300, 260, 280, 240)):
         u = rng.normal(size=(1, n))
         y = np.convolve(u[0], h)[:n][None]
-        rec = IORecord(u=u, y=None if j == 3 else y, dt=0.01, input_units="m/s^2",
+        rec = Record(u=u, y=None if j == 3 else y, dt=0.01, input_units="m/s^2",
                        output_units="m/s^2", input_channels=("g",), output_channels=("d",))
         for suffix in paths:
             p = tmp_path / f"r{j}{suffix}"
-            write_io_record(p, rec)
+            write_record(p, rec, layout="io")
             paths[suffix].append(str(p))
     preds = {}
     for suffix, ps in paths.items():
@@ -181,5 +182,5 @@ def test_predict_reads_csv_records_as_it_reads_npz(tmp_path):
         rows = list(csv.DictReader(open(out / "errors.csv")))
         assert float(rows[0]["total_error"]) < 1e-10 and rows[1]["total_error"] == ""
         with np.load(out / "r3.npz") as z:
-            preds[suffix] = z["W_hat"]
+            preds[suffix] = z["y_hat"]
     np.testing.assert_array_equal(preds[".csv"], preds[".npz"])

@@ -5,8 +5,8 @@ import pytest
 
 mdof = pytest.importorskip("mdof")
 
-from podbench.core.iorecords import IORecord  # noqa: E402
-from podbench.sysid.methods.mdof_peer import MdofIO, modal_simulate, okid_fixed  # noqa: E402
+from podbench.core.records import Record  # noqa: E402
+from podbench.sysid.methods.mdof_peer import Mdof, modal_simulate, okid_fixed  # noqa: E402
 
 
 def _system():
@@ -58,8 +58,8 @@ def test_mdof_peer_predicts_an_exact_system(method):
     for j, n in enumerate((800, 900, 700, 1000)):
         u = rng.normal(size=(2, n))
         u[:, -300:] = 0.0  # records end at rest (0.9^300 < 1e-13): joined end to end exactly
-        recs.append(IORecord(u=u, y=modal_simulate(*sys, u), dt=0.01, input_units="m/s^2",
+        recs.append(Record(u=u, y=modal_simulate(*sys, u), dt=0.01, input_units="m/s^2",
                              output_units="m/s^2", name=f"r{j}"))
-    m = MdofIO(method=method, order=4, horizon=0.1, markov=0.3).fit(recs[:3])
+    m = Mdof(method=method, order=4, horizon=0.1, markov=0.3).fit(recs[:3])
     err = np.linalg.norm(m.predict(recs[3]) - recs[3].y) / np.linalg.norm(recs[3].y)
     assert err < 1e-6

@@ -1,18 +1,25 @@
 """podbench predict and the Painter Street study (bundled records)."""
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from podbench.measured import write_record
 
 import podbench as pb
 from podbench.cli import main
-from podbench.core.iorecords import IORecord, write_io_record
+from podbench.core.recordfiles import write_record
+from podbench.core.records import Record
 from podbench.dynamics.excitations import Pulse
 from podbench.harness.painter_street import data_folder, load_events
-from podbench.sysid.methods import MultipleLoad, SingleLoad
+from podbench.sysid.methods import FIRLeastSquares, MultipleLoad, SingleLoad
+
+
+def measured_ml(**kw):
+    """ML on measured inputs with the lag rule (the former ``MultipleLoadIO``'s defaults)."""
+    return MultipleLoad(**{"inputs": "measured", "n_lags": "auto", "solver": "ls", **kw})
+
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "painter_street"
 
@@ -26,8 +33,9 @@ def _sys_records(tmp_path, lengths, seed=0, units="m/s^2"):
         u = rng.normal(size=(2, n))
         y = np.stack([sum(np.convolve(u[i], h[o, i])[:n] for i in range(2)) for o in range(2)])
         p = tmp_path / f"rec{seed}_{j}.npz"
-        write_io_record(p, IORecord(u=u, y=y, dt=0.01, input_units=units, output_units=units,
-                                    input_channels=("g1", "g2"), output_channels=("d1", "d2")))
+        write_record(p, Record(u=u, y=y, dt=0.01, input_units=units, output_units=units,
+                               input_channels=("g1", "g2"), output_channels=("d1", "d2")),
+                     layout="io")
         paths.append(str(p))
     return paths
 
@@ -42,15 +50,21 @@ def test_predict_writes_errors_and_predictions(tmp_path, capsys):
     assert [r["target"] for r in rows] == ["rec1_0"] and rows[0]["method"] == "ML"
     assert float(rows[0]["total_error"]) < 1e-10  # an exact 30-lag FIR, 0.25 s ≥ 30 lags
     with np.load(out / "rec1_0.npz", allow_pickle=False) as z:
-        assert z["W_hat"].shape == (2, 500) and str(z["units"]) == "m/s^2"
+        assert z["y_hat"].shape == (2, 500) and str(z["units"]) == "m/s^2"
+        assert "W_hat" not in z.files and str(z["quantity"]) == "acceleration"
+    assert rows[0]["error:d1"] and rows[0]["error:d2"]
+    config = json.loads((out / "config.json").read_text())
+    assert config["method"] == "ML" and config["parameters"]["inputs"] == "measured"
+    assert config["parameters"]["prior"] is None and config["fitted"]["n_lags"] >= 25
 
 
 def test_predict_refuses_bad_records_before_writing(tmp_path, capsys):
     train = _sys_records(tmp_path, [300, 400])
     bad = tmp_path / "bad.npz"
-    write_io_record(bad, IORecord(u=np.ones((2, 300)), y=np.ones((2, 300)), dt=0.02,
-                                  input_units="m/s^2", output_units="m/s^2",
-                                  input_channels=("g1", "g2"), output_channels=("d1", "d2")))
+    write_record(bad, Record(u=np.ones((2, 300)), y=np.ones((2, 300)), dt=0.02,
+                             input_units="m/s^2", output_units="m/s^2",
+                             input_channels=("g1", "g2"), output_channels=("d1", "d2")),
+                 layout="io")
     out = tmp_path / "out"
     assert main(["predict", "--method", "ML", "--train", *train, "--target", str(bad),
                  "--out", str(out)]) == 2
@@ -77,16 +91,16 @@ def test_predict_si_and_inch_lbf_files_give_the_same_prediction(tmp_path):
     for p in si:
         with np.load(p) as z:
             q = d / Path(p).name
-            write_io_record(q, IORecord(u=z["inputs"] / 0.0254, y=z["outputs"] / 0.0254,
-                                        dt=0.01, input_units="in/s^2", output_units="in/s^2",
-                                        input_channels=("g1", "g2"),
-                                        output_channels=("d1", "d2")))
+            write_record(q, Record(u=z["inputs"] / 0.0254, y=z["outputs"] / 0.0254,
+                                   dt=0.01, input_units="in/s^2", output_units="in/s^2",
+                                   input_channels=("g1", "g2"), output_channels=("d1", "d2")),
+                         layout="io")
             ip.append(str(q))
     for files, out in ((si, "a"), (ip, "b")):
         assert main(["predict", "--method", "ML", "--train", *files[:3], "--target",
                      files[3], "--out", str(tmp_path / out), "--units", "SI"]) == 0
-    a = np.load(tmp_path / "a" / "rec0_3.npz")["W_hat"]
-    b = np.load(tmp_path / "b" / "rec0_3.npz")["W_hat"]
+    a = np.load(tmp_path / "a" / "rec0_3.npz")["y_hat"]
+    b = np.load(tmp_path / "b" / "rec0_3.npz")["y_hat"]
     np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-12 * np.abs(a).max())
 
 
@@ -109,7 +123,6 @@ def test_bundled_records_are_the_shared_samples():
 def test_the_fir_baseline_reproduces_the_issue_number():
     """Leave-one-event-out, three inputs, 1-s lags: the issue measured 0.399."""
     from podbench.core.threads import single_blas_thread
-    from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO
 
     recs = load_events()
     errs = []
@@ -119,7 +132,7 @@ def test_the_fir_baseline_reproduces_the_issue_number():
             yh = FIRLeastSquares(n_lags=100).fit(tr).predict(t)
             errs.append(np.linalg.norm(yh - t.y) / np.linalg.norm(t.y))
             if j < 3:
-                ym = MultipleLoadIO(n_lags=100).fit(tr).predict(t)
+                ym = measured_ml(n_lags=100).fit(tr).predict(t)
                 np.testing.assert_allclose(ym, yh, rtol=1e-7, atol=1e-10 * np.abs(yh).max())
     assert np.mean(errs) == pytest.approx(0.3988, abs=5e-4)
 
@@ -175,7 +188,8 @@ def test_predict_sl_on_a_displacement_force_file_and_its_band(wf_files, tmp_path
     out = tmp_path / "sl"
     assert main(["predict", "--method", "SL", "--train", *paths[:2], "--target", paths[4],
                  "--out", str(out)]) == 2
-    assert "--train: SL identifies from one forced record" in capsys.readouterr().err
+    assert "--train: SL identifies from exactly 1 training file(s), got 2" in \
+        capsys.readouterr().err
     assert not out.exists()
     assert main(["predict", "--method", "SL", "--n-modes", "4", "--train", paths[0],
                  "--target", paths[4], "--out", str(out), "--coverage", "0.9"]) == 0
@@ -185,3 +199,69 @@ def test_predict_sl_on_a_displacement_force_file_and_its_band(wf_files, tmp_path
     with np.load(out / "wf4.npz", allow_pickle=False) as z:
         np.testing.assert_allclose(z["W_hat"], ref, rtol=0, atol=1e-12 * np.abs(ref).max())
         assert np.all(z["lower"] <= z["W_hat"]) and np.all(z["W_hat"] <= z["upper"])
+
+
+@pytest.fixture(scope="module")
+def free_files(tmp_path_factory):
+    """Free responses of the coupled chain (files holding W in in, dt, w0: no F): three
+    training decays from independent initial displacements and a held-out one."""
+    folder = tmp_path_factory.mktemp("free")
+    s = pb.load_structure("chain_coupled")
+    rng = np.random.default_rng(5)
+    paths, recs = [], []
+    for i in range(4):
+        w0 = rng.normal(size=s.n_dofs) * 1e-2
+        r = pb.simulate(s, n_samples=300, dt=2e-3, initial_displacement=w0)
+        p = folder / f"free{i}.npz"
+        np.savez(p, W=r.W, dt=r.dt, w0=r.w0)
+        paths.append(str(p))
+        recs.append(pb.Record(W=r.W, w0=r.w0, dt=r.dt))
+    return paths, recs
+
+
+@pytest.mark.parametrize("method, n_train", [("MDS", 3), ("POVR", 1), ("mds", 3)])
+def test_predict_mds_and_povr_on_free_response_files_with_bands(free_files, tmp_path,
+                                                                 capsys, method, n_train):
+    """--method MDS / POVR on files holding W, dt, w0 (no F): the prediction equals the
+    class's own on the same records, and --coverage gives a band and an error estimate."""
+    from podbench.sysid.methods import MDS, POVR
+
+    paths, recs = free_files
+    cls = MDS if method.upper() == "MDS" else POVR
+    ref = cls(n_modes=3).fit(recs[:n_train] if n_train > 1 else recs[0]).predict(recs[3])
+    out = tmp_path / method
+    assert main(["predict", "--method", method, "--n-modes", "3", "--train",
+                 *paths[:n_train], "--target", paths[3], "--out", str(out),
+                 "--coverage", "0.9"]) == 0
+    row = next(csv.DictReader(open(out / "errors.csv")))
+    assert row["method"] == method.upper()
+    err = np.linalg.norm(ref - recs[3].W) / np.linalg.norm(recs[3].W)
+    assert float(row["total_error"]) == pytest.approx(err, rel=1e-5)
+    assert float(row["error_estimate"]) > 0 and 0 <= float(row["coverage"]) <= 1
+    with np.load(out / "free3.npz", allow_pickle=False) as z:
+        np.testing.assert_allclose(z["W_hat"], ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+        np.testing.assert_array_equal(z["y_hat"], z["W_hat"])
+        assert np.all(z["lower"] <= z["W_hat"]) and np.all(z["W_hat"] <= z["upper"])
+        assert str(z["quantity"]) == "displacement"
+
+
+def test_predict_warns_when_a_target_is_a_training_file(free_files, tmp_path, capsys):
+    paths, _ = free_files
+    out = tmp_path / "same"
+    assert main(["predict", "--method", "MDS", "--train", *paths[:3], "--target",
+                 paths[0], "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "warning: target" in err and "is also a training file" in err
+
+
+def test_predict_names_an_unknown_method_and_refuses_an_option_it_lacks(free_files,
+                                                                         tmp_path, capsys):
+    paths, _ = free_files
+    out = tmp_path / "x"
+    assert main(["predict", "--method", "MSD", "--train", *paths[:3], "--target", paths[3],
+                 "--out", str(out)]) == 2
+    assert "did you mean 'MDS'?" in capsys.readouterr().err
+    assert main(["predict", "--method", "MDS", "--solver", "block", "--train", *paths[:3],
+                 "--target", paths[3], "--out", str(out)]) == 2
+    assert "--solver: MDS takes no deconvolution solver" in capsys.readouterr().err
+    assert not out.exists()

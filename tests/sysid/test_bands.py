@@ -99,11 +99,17 @@ def test_bad_coverage_is_one_clear_error(bad):
         model.predict(Record(W=case.W_new, w0=case.x0_new), coverage=bad)
 
 
-def test_array_form_fit_has_no_band():
+def test_array_form_fit_has_the_record_forms_band():
+    """The array form is read into records (podbench.sysid.methods.arrays), so its model
+    keeps its training records and has the same band as the record form's."""
     case = forced_case("coupled")
-    model = SingleLoad(n_modes=2, solver="block").fit(case.W[0], case.F[0], dt=case.dt)
-    with pytest.raises(InputError, match="record form"):
-        model.predict(Record(W=case.W_new, F=case.F_new, dt=case.dt), coverage=0.9)
+    target = Record(W=case.W_new, F=case.F_new, dt=case.dt)
+    arrays = SingleLoad(n_modes=2, solver="block").fit(case.W[0], case.F[0], dt=case.dt)
+    records = SingleLoad(n_modes=2, solver="block").fit(
+        Record(W=case.W[0], F=case.F[0], dt=case.dt))
+    a, r = arrays.predict(target, coverage=0.9), records.predict(target, coverage=0.9)
+    np.testing.assert_array_equal(a.upper, r.upper)
+    assert a.error_estimate == r.error_estimate > 0
 
 
 def test_one_record_methods_say_what_the_band_rests_on():

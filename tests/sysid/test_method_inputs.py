@@ -237,7 +237,7 @@ def _mr(mc, **kw):
 
 
 def test_mr_needs_three_data_sets(mixed):
-    with pytest.raises(InputError, match="exactly three data sets"):
+    with pytest.raises(InputError, match="exactly 3 training records"):
         _mr(mixed, W=mixed.W[:2], w0=mixed.w0[:2], v0=mixed.v0[:2], F=mixed.F[:2])
 
 

@@ -213,13 +213,12 @@ from __future__ import annotations
 
 import inspect
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from statistics import NormalDist
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord
-from podbench.core.records import Record, as_record
+from podbench.core.records import as_record
 from podbench.errors import InputError
 
 __all__ = ["Prediction", "BandCalibration", "calibrate", "predict_band", "check_coverage",
@@ -535,10 +534,7 @@ def _refit(model, records, *, n_modes=None, basis=None, frozen=None):
 
 
 def _with_W(rec, W):
-    if isinstance(rec, IORecord):
-        return replace(rec, y=W)
-    r = as_record(rec)
-    return Record(W=W, F=r.F, w0=r.w0, v0=r.v0, dt=r.dt)
+    return as_record(rec).replace(y=W)
 
 
 def estimate_noise_std(model, records) -> np.ndarray:
@@ -694,7 +690,7 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     known-answer case); ``reuse_choices=False`` lets every refit choose its regularization
     again (see the module docstring, *Regularization of the refits*)."""
     recs = list(records)
-    if isinstance(recs[0], IORecord) and cross_validate and len(recs) < 2:
+    if recs[0].u is not None and not recs[0].collocated and cross_validate and len(recs) < 2:
         raise InputError(f"{type(model).__name__}: a prediction band on input/output records "
                          "is calibrated by leave-one-record-out: it needs at least 2 training "
                          f"records (got {len(recs)})")

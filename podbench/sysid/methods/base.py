@@ -1,74 +1,84 @@
-"""Base class and shared input checks of the POD-based identification methods.
+"""The base class of the identification methods: one contract, explicit ``fit`` and ``predict``.
 
-The methods follow the scikit-learn estimator contract over records (see
-:class:`PODMethod` for the whole contract):
+Every method — POVR, MDS, SL, ML, MR, FIR-LS, the peers, a :class:`Superposition`, a user's
+class — is an estimator in scikit-learn's manner over records
+(:class:`~podbench.core.records.Record`):
 
 * ``__init__`` takes keyword-only hyperparameters and stores them unchanged;
-* ``fit(records, *, basis=None)`` validates hyperparameters and data and returns ``self``;
-* learned state ends in an underscore (``modes_``, ``povs_``, ``pocs_``, ``kernel_`` …);
-* ``predict(record)`` returns the predicted ``(m, n)`` displacement matrix and raises
-  :class:`~podbench.errors.NotFittedError` before ``fit``.
+* ``fit(records, *, basis=None)`` validates the hyperparameters and the records, keeps the
+  training records and returns ``self``; learned state ends in an underscore (``modes_``,
+  ``kernel_`` …);
+* ``predict(record, *, coverage=None)`` returns the predicted outputs, or with a coverage
+  the :class:`~podbench.sysid.methods.bands.Prediction` (band and error estimate) after the
+  named calibration step :meth:`PODMethod.calibrate_band`; ``NotFittedError`` before ``fit``.
 
-Methods see only records (:class:`~podbench.records.Record`: snapshot matrices ``m × n``,
-force matrices at the same sensors and times, initial profiles, Δt); they know nothing of
-how the data were produced.
+A subclass implements ``_fit(records, basis)`` and ``_predict(record)`` and declares what it
+needs (its traits and :meth:`PODMethod.required_fields`); the base does the rest. The
+dissertation's array forms of ``fit`` and ``predict`` are read into records by one adapter,
+:mod:`podbench.sysid.methods.arrays`.
 """
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Sequence
 from typing import cast
 
 import numpy as np
 
-from podbench.core.iorecords import IORecord
-from podbench.core.records import Record, as_record, is_record
-from podbench.core.validation import as_finite_array, check_positive
+from podbench.core.records import Record, as_record, check_records
 from podbench.errors import DimensionError, IllConditionedError, InputError, NotFittedError
 from podbench.sysid.deconvolution import ConvolutionSystem, Solver, deconvolve, make_solver
 from podbench.sysid.deconvolution._api import SOLVER_OPTIONS
+from podbench.sysid.methods.arrays import (
+    FIELD_WORDS,
+    ArrayForm,
+    is_record_input,
+    target_record,
+    training_records,
+)
 from podbench.sysid.methods.bands import calibrate, check_coverage, predict_band
+from podbench.sysid.methods.checks import (  # re-exported: the methods' modules read them here
+    check_datasets,
+    check_dt,
+    check_force,
+    check_forces,
+    check_new_force,
+    check_profile,
+    check_profiles,
+    check_snapshots,
+)
 from podbench.sysid.params import InstanceOf, Interval, Options, ParamsMixin, check_param
 from podbench.sysid.pod import check_orthonormal, n_modes_for_energy, numerical_rank, snapshot_svd
 
-__all__ = ["PODMethod", "is_record_input"]
+__all__ = ["PODMethod", "ArrayForm", "is_record_input", "check_datasets", "check_dt",
+           "check_force", "check_forces", "check_new_force", "check_profile",
+           "check_profiles", "check_snapshots"]
 
 
 class PODMethod(ParamsMixin):
-    """Base class of the identification methods (POVR, MDS, SL, ML, MR, superpositions, peers).
+    """Base class of the identification methods (module docstring: the contract).
 
-    The contract (scikit-learn's, over records instead of feature matrices):
+    Hyperparameters: ``_parameter_constraints`` declares what each admits
+    (:mod:`podbench.sysid.params`); :meth:`_validate_params` checks them without data (``fit``
+    calls it; the scenario loader calls it when a file is read, so a bad option fails
+    before any simulation) and raises :class:`~podbench.errors.InvalidParameterError` naming
+    ``.param``; :meth:`get_params` / :meth:`set_params` read the constructor's signature, so
+    :func:`sklearn.base.clone` works.
 
-    * ``__init__`` takes keyword-only hyperparameters and stores them unchanged; nothing is
-      validated there, so :func:`sklearn.base.clone` works;
-    * :meth:`get_params` / :meth:`set_params` read the constructor's signature (nested
-      ``solver__reg`` names reach a solver object given as a hyperparameter);
-    * ``_parameter_constraints`` declares what each hyperparameter admits
-      (:mod:`podbench.sysid.params`); :meth:`_validate_params` checks them without data
-      (``fit`` calls it; the scenario loader calls it when a file is read, so a bad option
-      fails before any simulation) and raises
-      :class:`~podbench.errors.InvalidParameterError` naming ``.param``;
-    * ``fit(records, *, basis=None)`` takes a record or a sequence of records (objects with
-      ``W, F, w0, v0, dt``: :class:`~podbench.data.Record`, :class:`~podbench.data.Response`)
-      and returns ``self``; learned state ends in ``_``; ``modes_`` is the ``m × k``
-      orthonormal basis the method predicts in;
-    * ``predict(record)`` returns the ``(m, n)`` displacement prediction for the excitation
-      in ``record`` (the fields the method uses: :meth:`required_fields`), and raises
-      :class:`~podbench.errors.NotFittedError` before ``fit``.
-
-    Each class declares what it needs: :attr:`excitation_kind` (``"free"``, ``"forced"`` or
-    ``"mixed"``), :attr:`coupled` (identifies full modal matrices: it is its own coupled
-    twin), :attr:`n_records` (how many training records it takes), :attr:`records_per_mode`
-    (``k`` is bounded by the number of records) and :meth:`coupled_twin` (the unfitted
-    coupled method whose error, in the same basis, isolates the diagonal assumption).
-    The array-level signatures of the dissertation (``POVR().fit(W, x0)``,
-    ``MultipleLoad().fit([W…], [F…], dt=…)``) remain as thin wrappers.
+    Traits, what a method needs and is: :attr:`excitation_kind` (``"free"``, ``"forced"``,
+    ``"mixed"`` or ``"io"``), :attr:`coupled` (identifies full modal matrices: it is its
+    own coupled twin), :attr:`n_records` (how many training records it takes),
+    :attr:`records_per_mode` (``k`` is bounded by the number of records), :attr:`composite`
+    (a sum of other methods, each fitted on its own records), :attr:`array_form` (the
+    dissertation's array form of ``fit``/``predict``, or None), :meth:`required_fields`
+    (what it reads from a record), :meth:`coupled_twin` (the unfitted coupled method whose
+    error, in the same basis, isolates the diagonal assumption) and :meth:`refusal` (the
+    reason it cannot identify from given records).
     """
 
     #: Short name used in tables (e.g. "POVR").
     abbreviation = ""
-    #: "free" (initial conditions), "forced" (loads from rest) or "mixed" (both).
+    #: "free" (initial conditions), "forced" (loads from rest), "mixed" (both) or "io"
+    #: (measured inputs to measured outputs).
     excitation_kind = ""
     #: True when the method identifies full (coupled) modal matrices (MDS, ML).
     coupled = False
@@ -76,42 +86,115 @@ class PODMethod(ParamsMixin):
     n_records: tuple[int, int | None] = (1, None)
     #: True when ``k`` may not exceed the number of training records (MDS, ML).
     records_per_mode = False
+    #: True for a sum of other methods (:class:`Superposition`): ``fit`` takes one training
+    #: set per part.
+    composite = False
+    #: The dissertation's array form of ``fit``/``predict`` (None: records only).
+    array_form: ArrayForm | None = None
+    #: False for a method that identifies in its own coordinates and takes no ``basis=``
+    #: (then it has no prediction band: the band refits a method in its fitted basis).
+    takes_basis = True
+    #: True for a method whose answer amplifies the records' round-off past a table's
+    #: digits (a study writes its errors at the digits a perturbation of the records
+    #: leaves in place, :func:`podbench.harness.digits.determined`).
+    amplifies_round_off = False
 
     # fitted state (set by ``fit``; declared for type checkers, absent before)
     modes_: np.ndarray
     n_modes_: int
     dt_: float
 
-    def __init_subclass__(cls, **kwargs):
-        # every method's fit remembers its training records and every predict takes
-        # ``coverage=`` (a band and an error estimate: podbench.sysid.methods.bands)
-        super().__init_subclass__(**kwargs)
-        if "fit" in cls.__dict__:
-            cls.fit = _remembering_fit(cls.__dict__["fit"])
-        if "predict" in cls.__dict__:
-            cls.predict = _banded_predict(cls.__dict__["predict"])
+    # ------------------------------------------------------------------ the contract
+    def fit(self, records, *arrays, basis=None, **fields) -> PODMethod:
+        """Identify the model from training records.
+
+        Parameters
+        ----------
+        records : Record or sequence of Record
+            The training records (:meth:`required_fields` says what each must hold). The
+            dissertation's array forms — ``fit(W, x0)``, ``fit([W…], [F…], dt=…)`` — are
+            read into records by :mod:`podbench.sysid.methods.arrays` (``*arrays``,
+            ``**fields``: the method's :attr:`array_form`).
+        basis : (m, k) array_like, optional
+            Orthonormal basis replacing the POMs the method would compute.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if basis is not None and not self.takes_basis:
+            raise InputError(f"Parameter `basis`: {type(self).__name__} takes no basis (it "
+                             "identifies in its own coordinates), so it has no prediction "
+                             "band (the band refits a method in its fitted basis)")
+        for name in [k for k in vars(self) if k.endswith("_") and not k.startswith("_")]:
+            delattr(self, name)  # a refit starts from nothing
+        recs = self._training_records(training_records(self, records, arrays, fields))
+        self._fit(recs, basis)
+        self.training_records_ = recs
+        return self
+
+    def predict(self, record=None, *, coverage=None, **fields):
+        """Predict the outputs of a target record.
+
+        Parameters
+        ----------
+        record : Record
+            The target: its excitation (inputs, or the initial condition of a free
+            response). The array forms ``predict(x0_new)``, ``predict(F_new)`` and MR's
+            ``predict(w0=…, v0=…, F=…)`` are read into a record
+            (:mod:`podbench.sysid.methods.arrays`).
+        coverage : float in (0, 1), optional
+            Also give the prediction band of that coverage and an error estimate, calibrated
+            on the training records (:meth:`calibrate_band`, run on first use).
+
+        Returns
+        -------
+        ndarray or Prediction
+            The predicted outputs (n_out × n, the training outputs' unit); with
+            ``coverage`` a :class:`~podbench.sysid.methods.bands.Prediction` (``mean``,
+            ``lower``, ``upper``, ``error_estimate``).
+        """
+        self._check_is_fitted()
+        target = target_record(self, record, fields)
+        mean = self._predict(target)
+        if coverage is None:
+            return mean
+        c = check_coverage(coverage)
+        cal = self.__dict__.get("band_calibration_")
+        if cal is None:
+            cal = self.calibrate_band()
+        return predict_band(self, target, c, cal, mean)
 
     def calibrate_band(self, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
                        cross_validate: bool = True, reuse_choices: bool = True):
-        """Calibrate the prediction band on the training records (done on first use of
-        ``predict(..., coverage=c)`` with the defaults; call it to set the noise level
-        ``noise_std`` (per channel, in the units of ``W``), the number of noise refits
-        ``n_draws``, ``cross_validate=False`` for the noise part alone, or
-        ``reuse_choices=False`` to let every refit choose its regularization again). Returns the
-        :class:`~podbench.sysid.methods.bands.BandCalibration`."""
+        """Calibrate the prediction band on the training records
+        (:func:`podbench.sysid.methods.bands.calibrate`); ``predict(..., coverage=c)`` runs
+        it with the defaults when the fit has no calibration yet. Call it to set the noise
+        level ``noise_std`` (per channel, in the units of the outputs), the number of noise
+        refits ``n_draws``, ``cross_validate=False`` for the noise part alone, or
+        ``reuse_choices=False`` to let every refit choose its regularization again. Returns
+        the :class:`~podbench.sysid.methods.bands.BandCalibration` (kept as
+        ``band_calibration_``)."""
         self._check_is_fitted()
-        recs = getattr(self, "training_records_", None)
-        if not recs:
-            raise InputError(
-                f"{type(self).__name__}: a prediction band needs the record form of fit "
-                "(fit(records) with a record or a sequence of records); this model was "
-                "fitted from arrays or from one record list per part (a superposition)"
-            )
-        self.band_calibration_ = calibrate(self, recs, noise_std=noise_std, n_draws=n_draws,
-                                           seed=seed, cross_validate=cross_validate,
+        if self.composite:
+            raise InputError(f"{type(self).__name__}: no prediction band for a sum of methods "
+                             "fitted on one record list per part; ask each part")
+        self.band_calibration_ = calibrate(self, self.training_records_, noise_std=noise_std,
+                                           n_draws=n_draws, seed=seed,
+                                           cross_validate=cross_validate,
                                            reuse_choices=reuse_choices)
         return self.band_calibration_
 
+    def _fit(self, records, basis) -> None:
+        """Identify the model from the checked training records (a subclass's own step)."""
+        raise NotImplementedError
+
+    def _predict(self, record: Record) -> np.ndarray:
+        """The prediction for a target record (a subclass's own step)."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ choices
     def frozen_params(self) -> dict:
         """Hyperparameters that fix this fit's data-driven choices, for the refits of the
         prediction band (:mod:`podbench.sysid.methods.bands`): a fold refitted with
@@ -159,6 +242,62 @@ class PODMethod(ParamsMixin):
         """The record fields ``fit`` reads from every training record (``predict`` reads
         the same fields but ``W`` and ``dt``)."""
         return ("W",)
+
+    @property
+    def initial_field(self) -> str:
+        """The record field of a free response's initial condition (``"w0"`` or ``"v0"``,
+        by ``excitation``): what the array form's ``x0`` is."""
+        return {"displacement": "w0", "velocity": "v0"}.get(
+            str(getattr(self, "excitation", "")), "w0")
+
+    def refusal(self, records) -> str | None:
+        """Why the method cannot identify from ``records`` at all (e.g. SL from inputs that
+        are not forces at the outputs), or None; ``fit`` raises it before anything else."""
+        return None
+
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+        """The parameters ``podbench predict --solver S --n-modes K`` mean for this method
+        and these training records: ``n_modes`` and ``solver`` where the method has them.
+        An option the method does not have is refused (not silently dropped): ``--n-modes``
+        always, ``--solver`` unless it is the default ``auto``."""
+        names = self._get_param_names()
+        name = self.abbreviation or type(self).__name__
+        out: dict = {}
+        if n_modes is not None:
+            if "n_modes" not in names:
+                raise InputError(f"Parameter `n_modes`: {name} has none")
+            out["n_modes"] = n_modes
+        if "solver" in names:
+            out["solver"] = solver
+        elif solver != "auto":
+            raise InputError(f"Parameter `solver`: {name} takes no deconvolution solver")
+        return out
+
+    def _modal(self, records) -> bool:
+        """Whether a forced method reads the records in the dissertation's form — modal
+        forces ``Uᵀ F`` of forces at the output sensors — rather than their inputs as
+        measured: its ``inputs`` hyperparameter (``"modal"``, ``"measured"``, or ``"auto"``:
+        modal when every record's inputs are forces at its output channels); modal for a
+        method without one."""
+        inputs = getattr(self, "inputs", "modal")
+        if inputs == "auto":
+            return all(r.collocated for r in records)
+        return inputs == "modal"
+
+    def _inputs_refusal(self, records) -> str | None:
+        """The refusal of a method with an ``inputs`` hyperparameter: a free response (no
+        inputs), or modal forces asked of inputs that are not forces at the outputs."""
+        name = self.abbreviation or type(self).__name__
+        for r in records:
+            if r.u is None:
+                return (f"{name}: {r.name}: a free response (no inputs); {name} identifies "
+                        "from loads or measured inputs")
+            if getattr(self, "inputs", "modal") == "modal" and not r.collocated:
+                return (f"{name}: {r.name}: inputs='modal' needs forces at the output "
+                        "channels (the modal forces Uᵀ F, Eq. 3.47); these inputs are "
+                        f"{r.input_quantity} at {', '.join(r.input_channels or ())}: use "
+                        "inputs='measured'")
+        return None
 
     def coupled_twin(self) -> PODMethod | None:
         """An unfitted estimator of the coupled twin (None if the method has none).
@@ -218,6 +357,14 @@ class PODMethod(ParamsMixin):
                 out["solver_choice"] = ",".join(choices)
         return out
 
+    def _chosen_diagnostics(self) -> dict:
+        """``n_modes`` and what the fit chose (``info_``: lags, prior, order …) as the
+        diagnostics of a fit on measured inputs."""
+        self._check_is_fitted()
+        out: dict = {"n_modes": int(self.n_modes_)}
+        out.update({k: v for k, v in self.info_.items() if isinstance(v, (int, float, str))})
+        return out
+
     @property
     def n_sensors_(self) -> int:
         """Number of sensors ``m`` seen in ``fit``."""
@@ -226,18 +373,20 @@ class PODMethod(ParamsMixin):
 
     # ------------------------------------------------------------------ records
     def _training_records(self, records, name: str = "records") -> list[Record]:
-        """The training records as a list, checked against the class declarations: their
-        number (:attr:`n_records`), one shape, the fields the method needs, one ``dt``."""
-        if is_record(records):
-            recs = [as_record(records, name)]
-        elif isinstance(records, (Sequence, np.ndarray)) and not isinstance(records, str) \
-                and len(records) and all(is_record(r) for r in records):
-            recs = [as_record(r, f"{name}[{j}]") for j, r in enumerate(records)]
+        """The training records as a list, checked against the class declarations: what
+        the method refuses (:meth:`refusal`), their number (:attr:`n_records`), their
+        shapes (:meth:`_check_shapes`), the fields the method needs, one ``dt``."""
+        if is_record_input(records):
+            recs = ([as_record(r, f"{name}[{j}]") for j, r in enumerate(records)]
+                    if isinstance(records, (list, tuple)) else [as_record(records, name)])
         else:
             raise InputError(
                 f"Parameter `{name}`: expected a record or a sequence of records (objects with "
                 f"W, F, w0, v0, dt such as podbench.Record), got {type(records).__name__}"
             )
+        reason = self.refusal(recs)
+        if reason is not None:
+            raise InputError(reason)
         lo, hi = self.n_records
         if len(recs) < lo or (hi is not None and len(recs) > hi):
             want = f"exactly {lo}" if lo == hi else (f"at least {lo}" if hi is None
@@ -246,19 +395,13 @@ class PODMethod(ParamsMixin):
                 f"Parameter `{name}`: {type(self).__name__} takes {want} training record"
                 f"{'' if want.endswith(' 1') else 's'}, got {len(recs)}"
             )
-        shape = recs[0].W.shape
-        for j, r in enumerate(recs[1:], start=1):
-            if r.W.shape != shape:
-                raise DimensionError(
-                    f"Parameter `{name}[{j}].W`: shape {r.W.shape} differs from "
-                    f"`{name}[0].W` {shape}; all records need the same sensors and sample count"
-                )
+        self._check_shapes(recs, name)
         for field_name in self.required_fields():
             for j, r in enumerate(recs):
                 if getattr(r, field_name) is None:
                     raise InputError(
                         f"Parameter `{name}[{j}].{field_name}`: {type(self).__name__} needs "
-                        f"{_FIELD_WORDS[field_name]} of every training record"
+                        f"{FIELD_WORDS[field_name]} of every training record"
                     )
         if "dt" in self.required_fields():
             dt0 = recs[0].dt
@@ -270,32 +413,32 @@ class PODMethod(ParamsMixin):
                     )
         return recs
 
-    def _fit_records(self, records, **beside) -> list[Record] | None:
-        """``fit``'s first step: the hyperparameters checked (:meth:`_validate_params`),
-        then the training records (:meth:`_training_records`) when ``fit`` got the record
-        form (a record or a sequence of records; then none of the array-form arguments
-        ``beside`` may be given too), else None (the array form)."""
-        self._validate_params()
-        if not is_record_input(records):
-            return None
-        for name, value in beside.items():
-            if value is not None:
-                raise InputError(
-                    f"Parameter `{name}`: give it in the records (their "
-                    f"{_BESIDE.get(name, name)}), not beside them")
-        return self._training_records(records)
+    def _check_shapes(self, recs: list[Record], name: str) -> None:
+        """Every record of one shape (the dissertation's methods stack their records);
+        records read with their inputs as measured (:meth:`_modal`) may differ in length
+        and are checked against each other (channels, units, ``dt``)."""
+        if not self._modal(recs):
+            check_records(recs)
+            return
+        shape = recs[0].W.shape if recs[0].W is not None else None
+        for j, r in enumerate(recs[1:], start=1):
+            if r.W is not None and r.W.shape != shape:
+                raise DimensionError(
+                    f"Parameter `{name}[{j}].W`: shape {r.W.shape} differs from "
+                    f"`{name}[0].W` {shape}; all records need the same sensors and sample count"
+                )
 
     def _target_record(self, record, name: str = "record", *, fields: bool = True) -> Record:
         """A record to predict from: the fields the method needs (unless ``fields`` is
         False), its ``dt`` equal to the training one (when the method has one)."""
         rec = as_record(record, name)
         for field_name in self.required_fields() if fields else ():
-            if field_name in ("W", "dt"):
+            if field_name in ("W", "dt", "y"):
                 continue
             if getattr(rec, field_name) is None:
                 raise InputError(
                     f"Parameter `{name}.{field_name}`: {type(self).__name__} predicts from "
-                    f"{_FIELD_WORDS[field_name]}; the record has none"
+                    f"{FIELD_WORDS[field_name]}; the record has none"
                 )
         dt_fit = getattr(self, "dt_", None)
         if dt_fit is not None and rec.dt is not None and \
@@ -305,168 +448,6 @@ class PODMethod(ParamsMixin):
                 f"{dt_fit:g} s (the identified kernel is sampled at the training interval)"
             )
         return rec
-
-
-def _remembering_fit(fit):
-    @functools.wraps(fit)
-    def wrapper(self, records, *args, **kwargs):
-        out = fit(self, records, *args, **kwargs)
-        if is_record_input(records) and not args and kwargs.keys() <= {"basis"}:
-            recs = [records] if is_record(records) else list(records)
-            self.training_records_ = recs
-        else:
-            self.training_records_ = None
-        self.__dict__.pop("band_calibration_", None)
-        return out
-
-    return wrapper
-
-
-def _banded_predict(predict):
-    @functools.wraps(predict)
-    def wrapper(self, *args, coverage=None, **kwargs):
-        mean = predict(self, *args, **kwargs)
-        if coverage is None:
-            return mean
-        c = check_coverage(coverage)
-        record = args[0] if args else kwargs.get("record")
-        if not (is_record(record) or isinstance(record, IORecord)):
-            raise InputError(f"{type(self).__name__}.predict: a band (`coverage`) needs the "
-                             "target as a record (an object with W, F, w0, v0, dt)")
-        cal = getattr(self, "band_calibration_", None)
-        if cal is None:
-            cal = self.calibrate_band()
-        return predict_band(self, record, c, cal, mean)
-
-    return wrapper
-
-
-_BESIDE = {"x0": "w0 or v0"}  # the record field of an array-form argument, for messages
-_FIELD_WORDS = {
-    "W": "the displacements W (in)",
-    "F": "the force matrix F (lbf)",
-    "w0": "the initial displacement w0 (in)",
-    "v0": "the initial velocity v0 (in/s)",
-    "dt": "the sampling interval dt (s)",
-}
-
-
-def is_record_input(data) -> bool:
-    """True if ``data`` is a record or a non-empty sequence of records (the record form of
-    ``fit``), False for arrays (the dissertation's array form)."""
-    if is_record(data):
-        return True
-    if isinstance(data, (list, tuple)) and data and all(is_record(r) for r in data):
-        return True
-    return False
-
-
-# ---------------------------------------------------------------------- checks
-def check_snapshots(W, name: str = "W") -> np.ndarray:
-    """A finite 2-D snapshot matrix with at least one sensor and one sample."""
-    W = as_finite_array(W, name, ndim=2)
-    if W.shape[0] == 0 or W.shape[1] == 0:
-        raise DimensionError(f"Parameter `{name}`: empty snapshot matrix, shape {W.shape}")
-    return W
-
-
-def check_datasets(Ws, name: str = "W") -> list[np.ndarray]:
-    """A non-empty sequence of snapshot matrices of one shape (a 3-D array also works)."""
-    if isinstance(Ws, np.ndarray) and Ws.ndim == 2:
-        raise DimensionError(
-            f"Parameter `{name}`: expected a sequence of (m, n) snapshot matrices (one per "
-            f"data set), got a single 2-D array of shape {Ws.shape}; wrap it in a list"
-        )
-    if not isinstance(Ws, (Sequence, np.ndarray)) or isinstance(Ws, str):
-        raise InputError(
-            f"Parameter `{name}`: expected a sequence of snapshot matrices, got {type(Ws)}"
-        )
-    if len(Ws) == 0:
-        raise InputError(f"Parameter `{name}`: no data set given")
-    out = [check_snapshots(W, f"{name}[{j}]") for j, W in enumerate(Ws)]
-    for j, W in enumerate(out[1:], start=1):
-        if W.shape != out[0].shape:
-            raise DimensionError(
-                f"Parameter `{name}[{j}]`: shape {W.shape} differs from `{name}[0]` "
-                f"{out[0].shape}; all data sets need the same sensors and sample count"
-            )
-    return out
-
-
-def check_profile(x, m: int, name: str) -> np.ndarray:
-    """A finite initial profile with one entry per sensor, shape (m,)."""
-    x = as_finite_array(x, name)
-    if x.ndim == 2 and 1 in x.shape:
-        x = x.ravel()
-    if x.shape != (m,):
-        raise DimensionError(
-            f"Parameter `{name}`: expected shape ({m},) (one value per sensor), got {x.shape}"
-        )
-    return x
-
-
-def check_profiles(xs, n_sets: int, m: int, name: str) -> list[np.ndarray]:
-    """One initial profile per data set (a sequence, or a 2-D array with one profile per row)."""
-    if isinstance(xs, np.ndarray) and xs.ndim == 1:
-        raise DimensionError(
-            f"Parameter `{name}`: expected {n_sets} profiles (one per data set), got a single "
-            f"1-D array of shape {xs.shape}"
-        )
-    _check_count(xs, n_sets, name, "profiles")
-    return [check_profile(x, m, f"{name}[{j}]") for j, x in enumerate(xs)]
-
-
-def check_forces(Fs, Ws, name: str = "F") -> list[np.ndarray]:
-    """One force matrix per data set, each of the shape of its snapshot matrix."""
-    if isinstance(Fs, np.ndarray) and Fs.ndim == 2:
-        raise DimensionError(
-            f"Parameter `{name}`: expected a sequence of (m, n) force matrices, got a single "
-            f"2-D array of shape {Fs.shape}; wrap it in a list"
-        )
-    _check_count(Fs, len(Ws), name, "force matrices")
-    pairs = enumerate(zip(Fs, Ws, strict=True))
-    return [check_force(F, W, f"{name}[{j}]") for j, (F, W) in pairs]
-
-
-def _check_count(xs, n_sets: int, name: str, what: str) -> None:
-    """``xs`` is a sequence of ``n_sets`` items, one per data set."""
-    try:
-        count = len(xs)
-    except TypeError:
-        raise InputError(f"Parameter `{name}`: expected a sequence of {what}") from None
-    if count != n_sets:
-        raise DimensionError(
-            f"Parameter `{name}`: expected {n_sets} {what} (one per data set), got {count}"
-        )
-
-
-def check_force(F, W: np.ndarray, name: str = "F") -> np.ndarray:
-    """A finite force matrix of the shape of its snapshot matrix ``W``."""
-    F = as_finite_array(F, name, ndim=2)
-    if F.shape != W.shape:
-        raise DimensionError(
-            f"Parameter `{name}`: force matrix shape {F.shape} differs from the snapshot "
-            f"matrix shape {W.shape} (forces are sampled at the same sensors and times)"
-        )
-    return F
-
-
-def check_new_force(F, m: int, n: int, name: str = "F") -> np.ndarray:
-    """A new force matrix with ``m`` rows and at most ``n`` samples."""
-    F = as_finite_array(F, name, ndim=2)
-    if F.shape[0] != m or not 1 <= F.shape[1] <= n:
-        raise DimensionError(
-            f"Parameter `{name}`: expected shape ({m}, n') with 1 <= n' <= {n} (the kernel was "
-            f"identified from {n} samples), got {F.shape}"
-        )
-    return F
-
-
-def check_dt(dt) -> float:
-    """Δt > 0 (s)."""
-    if dt is None:
-        raise InputError("Parameter `dt`: the sampling interval (s) is required")
-    return check_positive(dt, "dt")
 
 
 # ---------------------------------------------------------------------- declarations

@@ -10,7 +10,7 @@ import numpy as np
 
 from podbench.core.records import Record, is_record
 from podbench.core.validation import condition_number
-from podbench.errors import IllConditionedError, InputError
+from podbench.errors import IllConditionedError
 from podbench.sysid.methods.bands import diagonal_inconsistency, diagonal_split
 from podbench.sysid.methods.base import (
     BASES,
@@ -18,15 +18,14 @@ from podbench.sysid.methods.base import (
     MAX_COND,
     N_MODES,
     TOL,
+    ArrayForm,
     PODMethod,
     as_int_list,
-    check_datasets,
     check_energy,
     check_max_cond,
     check_n_modes,
     check_profile,
     check_profiles,
-    check_snapshots,
     check_tol,
     modal_share_too_small,
     per_record_basis,
@@ -56,6 +55,12 @@ def first_column_w0(records, excitation: str) -> list:
             if getattr(r, "w0", None) is None else r for r in recs]
 
 
+#: The dissertation's array forms: ``POVR().fit(W, x0)``, ``MDS().fit([W…], x0=[…])``,
+#: ``predict(x0_new)`` (:mod:`podbench.sysid.methods.arrays`).
+_ONE_RESPONSE = ArrayForm(positional=("x0",), target="x0")
+_RESPONSES = ArrayForm(positional=("x0",), sets=True, target="x0")
+
+
 class _FreeMethod(PODMethod):
     """What POVR and MDS share: the record field of the excitation, and a displacement
     record without ``w0`` taken to start at ``W[:, 0]``."""
@@ -74,6 +79,11 @@ class _FreeMethod(PODMethod):
             return getattr(self._target_record(record), _X0[self.excitation])
         return record
 
+    @property
+    def initial_field(self) -> str:
+        """``"w0"`` or ``"v0"``, by ``excitation``."""
+        return _X0.get(self.excitation, "w0")
+
     def projection_share(self, record) -> float | None:
         """The share of a target's initial displacement outside the basis,
         ``ρ = ‖(I − UUᵀ) w̃0‖ / ‖w̃0‖``: the relative error of the prediction at ``t = 0``,
@@ -89,21 +99,9 @@ class _FreeMethod(PODMethod):
             return None
         return float(np.linalg.norm(x - self.modes_ @ (self.modes_.T @ x))) / scale
 
-    def predict(self, record) -> np.ndarray:
-        """Response to a new initial displacement (in) or velocity (in/s): Eq. 3.11 (POVR),
-        Eqs. 3.28–3.29 (MDS).
-
-        Parameters
-        ----------
-        record : record, or (m,) array_like
-            A record with the new ``w0`` (in) or ``v0`` (in/s) by ``excitation``, or the
-            new initial profile itself.
-
-        Returns
-        -------
-        (m, n) ndarray
-            Predicted displacements (in).
-        """
+    def _predict(self, record) -> np.ndarray:
+        """Response (in, ``(m, n)``) to the target's new initial displacement ``w0`` (in) or
+        velocity ``v0`` (in/s) by ``excitation``: Eq. 3.11 (POVR), Eqs. 3.28–3.29 (MDS)."""
         x = check_profile(self._new_profile(record), self.modes_.shape[0], "x0_new")
         return self.modes_ @ self._modal_histories(x)
 
@@ -168,6 +166,7 @@ class POVR(_FreeMethod):
     abbreviation = "POVR"
     excitation_kind = "free"
     n_records = (1, 1)
+    array_form = _ONE_RESPONSE
     _parameter_constraints = {"n_modes": N_MODES, "excitation": EXCITATIONS,
                               "energy": ENERGY, "tol": TOL}
 
@@ -181,40 +180,14 @@ class POVR(_FreeMethod):
         """MDS for the same excitation (Φ11 / Φ12 without the diagonal assumption)."""
         return MDS(excitation=self.excitation, n_modes=self.n_modes)
 
-    def fit(self, records, x0=None, *, basis=None) -> POVR:
-        """Identify the model from one free response.
+    def _fit(self, records, basis) -> None:
+        """One free response (``W`` in in; ``w0`` in in or ``v0`` in in/s by ``excitation``;
+        a displacement record without ``w0`` starts at ``W[:, 0]``)."""
+        rec = records[0]
+        self._identify(rec.W, check_profile(getattr(rec, _X0[self.excitation]),
+                                            rec.W.shape[0], "x0"), basis)
 
-        Parameters
-        ----------
-        records : record, or (m, n) array_like
-            The training record (``W`` in in, and ``w0`` in in or ``v0`` in in/s by
-            ``excitation``; a displacement record without ``w0`` uses ``W[:, 0]``), or its
-            snapshot matrix ``W`` with column 0 at ``t = 0`` (array form).
-        x0 : (m,) array_like, optional
-            Array form only: the initial displacement ``w0`` (in; default ``W[:, 0]``) or
-            initial velocity ``ẇ0`` (in/s; required for ``excitation="velocity"``).
-        basis : (m, k) array_like, optional
-            Orthonormal basis to use instead of the POMs of ``W``.
-
-        Returns
-        -------
-        self
-        """
-        recs = self._fit_records(records, x0=x0)
-        if recs is not None:
-            W, x0 = recs[0].W, getattr(recs[0], _X0[self.excitation])
-        else:
-            W = check_snapshots(records)
-            if x0 is None:
-                if self.excitation == "velocity":
-                    raise InputError(
-                        "Parameter `x0`: the initial velocity profile v0 (in/s) of the "
-                        "training response is required for excitation='velocity' (Eq. 3.18)"
-                    )
-                x0 = W[:, 0]
-        return self._fit(W, check_profile(x0, W.shape[0], "x0"), basis)
-
-    def _fit(self, W, x0, basis) -> POVR:
+    def _identify(self, W, x0, basis) -> None:
         n_modes = check_n_modes(self.n_modes)
         energy = check_energy(self.energy)
         tol = check_tol(self.tol)
@@ -244,7 +217,6 @@ class POVR(_FreeMethod):
         idx = np.arange(k)
         Phi[:, idx, idx] = (pocs * povs) / a
         self.Phi_ = Phi
-        return self
 
     def new_povs(self, x0_new) -> np.ndarray:
         """Recalculated POVs ``σ̃_j`` for a new initial profile (Eqs. 3.13 / 3.17), (k,)."""
@@ -333,6 +305,7 @@ class MDS(_FreeMethod):
     excitation_kind = "free"
     coupled = True
     records_per_mode = True
+    array_form = _RESPONSES
     _parameter_constraints = {"excitation": EXCITATIONS, "n_modes": N_MODES,
                               "max_cond": MAX_COND, "basis": BASES}
 
@@ -343,46 +316,18 @@ class MDS(_FreeMethod):
         self.max_cond = max_cond
         self.basis = basis
 
-    def fit(self, records, x0=None, *, basis=None) -> MDS:
-        """Identify ``Φ11`` / ``Φ12`` from several free responses.
+    def _fit(self, records, basis) -> None:
+        """Several free responses (``W`` in in; ``w0`` in in or ``v0`` in in/s by
+        ``excitation``), all of one shape."""
+        self._identify([r.W for r in records],
+                       [getattr(r, _X0[self.excitation]) for r in records], basis)
 
-        Parameters
-        ----------
-        records : sequence of records, or sequence of (m, n) array_like
-            The training records (``W`` in in; ``w0`` in in or ``v0`` in in/s by
-            ``excitation``; a displacement record without ``w0`` uses ``W[:, 0]``), or
-            their snapshot matrices (array form), all of one shape.
-        x0 : sequence of (m,) array_like, optional
-            Array form only: the initial displacements (in; default the first columns) or
-            velocities (in/s; required for ``excitation="velocity"``).
-        basis : (m, k) array_like, optional
-            Orthonormal basis to use instead of the POMs of the first record.
-
-        Returns
-        -------
-        self
-        """
-        recs = self._fit_records(records, x0=x0)
-        if recs is not None:
-            Ws = [r.W for r in recs]
-            x0 = [getattr(r, _X0[self.excitation]) for r in recs]
-        else:
-            Ws = check_datasets(records)
-        return self._fit(Ws, x0, basis)
-
-    def _fit(self, Ws, x0, basis) -> MDS:
+    def _identify(self, Ws, x0, basis) -> None:
         n_modes = check_n_modes(self.n_modes)
         max_cond = check_max_cond(self.max_cond)
         n_sets = len(Ws)
         m, n = Ws[0].shape
         word, sym, _ = _WORD[self.excitation]
-        if x0 is None:
-            if self.excitation == "velocity":
-                raise InputError(
-                    "Parameter `x0`: the initial velocity profiles (in/s) of the data sets "
-                    "are required for excitation='velocity' (Eq. 3.31)"
-                )
-            x0 = [Wj[:, 0] for Wj in Ws]
         X0 = np.column_stack(check_profiles(x0, n_sets, m, "x0"))
         too_few = ("MDS: fewer data sets ({n_sets}) than modes ({k}); Φ (k × k) needs at least "
                    "k = {k} responses to linearly independent initial " + word + "s (Eq. 3.26)")
@@ -404,7 +349,6 @@ class MDS(_FreeMethod):
         self._set_basis(U, povs, pocs)
         self.initial_coordinates_ = V0
         self.condition_number_ = cond
-        return self
 
     def fold_predictions(self, records, basis, frozen=None) -> list[np.ndarray] | None:
         """The leave-one-record-out predictions of a prediction band

@@ -32,12 +32,14 @@ import inspect
 import numpy as np
 import scipy.signal
 
-from podbench.core.iorecords import check_records
+from podbench import _compat
+from podbench.core.records import check_compatible
 from podbench.errors import InputError
-from podbench.sysid.methods.inputs import io_records
-from podbench.sysid.methods.peers_io import IOPeer
+from podbench.sysid.methods.base import PODMethod
+from podbench.sysid.methods.inputs import measured_basis
+from podbench.sysid.params import Boolean, Interval, Options
 
-__all__ = ["MdofIO", "okid_fixed", "EXTRA_HINT"]
+__all__ = ["Mdof", "okid_fixed", "EXTRA_HINT"]
 
 EXTRA_HINT = "pip install 'podbench[mdof]'"
 _BUG = "for i in range(k-1):"
@@ -111,12 +113,13 @@ def _bd_zero_state(A, C, Ys, Us):
     return B, D
 
 
-class MdofIO(IOPeer):
+class Mdof(PODMethod):
     """mdof's OKID-ERA or SRIM as a peer on input/output records (module docstring).
 
     Parameters
     ----------
     method : "okid-era" or "srim"
+        mdof's identification (``"srim"``, default).
     order : int
         Model order (mdof's default 20).
     horizon : float
@@ -125,7 +128,18 @@ class MdofIO(IOPeer):
         OKID's number of Markov parameters, s (2 s).
     fix_okid, fix_srim : bool
         The workarounds of the module docstring (default True).
+    feedthrough : "auto", True or False
+        Kept for the configurations that give it; mdof's models always have a ``D``.
     """
+
+    excitation_kind = "io"
+    takes_basis = False
+    _parameter_constraints = {"method": [Options("okid-era", "srim")],
+                              "order": [Interval("integer", 1)],
+                              "horizon": [Interval("number", 0, closed="neither")],
+                              "markov": [Interval("number", 0, closed="neither")],
+                              "fix_okid": [Boolean()], "fix_srim": [Boolean()],
+                              "feedthrough": [Options("auto"), Boolean()]}
 
     def __init__(self, *, method="srim", order=20, horizon=0.5, markov=2.0, fix_okid=True,
                  fix_srim=True, feedthrough="auto"):
@@ -138,20 +152,27 @@ class MdofIO(IOPeer):
         self.feedthrough = feedthrough
 
     @property
-    def abbreviation(self):
+    def abbreviation(self):  # type: ignore[override]
         return f"mdof-{str(self.method).upper()}"
 
-    def fit(self, records):
-        markov_mod, realize = _mdof()
+    def _validate_params(self) -> None:
         if self.method not in ("okid-era", "srim"):
             raise InputError(f"Parameter `method`: expected 'okid-era' or 'srim', got "
                              f"{self.method!r}")
-        recs = io_records(records)
-        check_records(recs)
-        U, povs = self._basis(recs)
-        dt = recs[0].dt
-        Ys = [U.T @ r.y for r in recs]
-        Us = [r.u for r in recs]
+        super()._validate_params()
+
+    def required_fields(self) -> tuple[str, ...]:
+        return ("u", "y", "dt")
+
+    def _modal(self, records) -> bool:
+        return False  # the inputs as measured, records of any lengths
+
+    def _fit(self, records, basis) -> None:
+        markov_mod, realize = _mdof()
+        U, povs = measured_basis(records, None)
+        dt = records[0].dt
+        Ys = [U.T @ r.y for r in records]
+        Us = [r.u for r in records]
         ycat, ucat = np.hstack(Ys), np.hstack(Us)
         no = max(2, int(round(self.horizon / dt)))
         if self.method == "srim":
@@ -173,8 +194,19 @@ class MdofIO(IOPeer):
         self.povs_ = povs
         self.n_modes_ = U.shape[1]
         self.dt_ = dt
-        self.reference_ = recs[0]
-        return self
+        self.reference_ = records[0]
 
-    def _respond_io(self, u):
-        return modal_simulate(*self.model_, u)
+    def _predict(self, record) -> np.ndarray:
+        check_compatible(self.reference_, record, min_samples=1)
+        return self.modes_ @ modal_simulate(*self.model_, record.u)
+
+    @property
+    def diagnostics_(self) -> dict:
+        """``n_modes`` and the identified model's ``order``, ``spectral_radius``, ``norm_B``,
+        ``norm_D``."""
+        return self._chosen_diagnostics()
+
+
+def __getattr__(name: str):
+    """Retired names of this module (:data:`podbench._compat.RETIRED`)."""
+    return _compat.retired(__name__, name)

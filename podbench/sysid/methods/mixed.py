@@ -62,17 +62,14 @@ from podbench.sysid.methods.base import (
     N_MODES,
     SOLVER_PARAMS,
     TOL,
+    ArrayForm,
     PODMethod,
     as_int_list,
-    check_datasets,
-    check_dt,
     check_energy,
-    check_forces,
     check_max_growth,
     check_n_modes,
     check_new_force,
     check_profile,
-    check_profiles,
     check_tol,
     make_method_solver,
     select_basis,
@@ -83,9 +80,22 @@ from podbench.sysid.methods.free import MDS
 from podbench.sysid.methods.superposition import Superposition
 from podbench.sysid.params import Options
 
-__all__ = ["MixedResponse"]
+__all__ = ["MixedResponse", "refuse_measured_inputs", "check_measured_inputs"]
 
 _SCALINGS = ("ratio", "finite_difference")
+
+
+def refuse_measured_inputs(record) -> str:
+    """Why MR cannot identify from a record driven from rest by measured inputs."""
+    return (f"MR: {getattr(record, 'name', 'record')}: the mixed-response method identifies "
+            "Φ11, Φ12 from free responses (initial displacement and velocity) beside forced "
+            "ones; a record driven from rest by measured inputs has no initial condition to "
+            "identify them from. Use ML")
+
+
+def check_measured_inputs(record) -> None:
+    """Raise MR's refusal of a record driven from rest by measured inputs."""
+    raise InputError(refuse_measured_inputs(record))
 
 
 class MixedResponse(PODMethod):
@@ -160,6 +170,10 @@ class MixedResponse(PODMethod):
     abbreviation = "MR"
     excitation_kind = "mixed"
     n_records = (3, 3)
+    #: The dissertation's array form: ``fit([Wa, Wb, Wc], w0=…, v0=…, F=…, dt=…)``,
+    #: ``predict(w0=…, v0=…, F=…)`` (:mod:`podbench.sysid.methods.arrays`).
+    array_form = ArrayForm(keywords=("w0", "v0", "F", "dt"), sets=True,
+                           target_keywords=("w0", "v0", "F"))
     _parameter_constraints = {"n_modes": N_MODES, "energy": ENERGY, **SOLVER_PARAMS,
                               "velocity_scaling": [Options(*_SCALINGS)], "tol": TOL,
                               "max_growth": MAX_GROWTH}
@@ -177,6 +191,14 @@ class MixedResponse(PODMethod):
     def required_fields(self) -> tuple[str, ...]:
         return ("W", "F", "w0", "v0", "dt")
 
+    def refusal(self, records) -> str | None:
+        """Records driven by measured inputs that are not forces at the outputs: no initial
+        condition, no modal force."""
+        for r in records:
+            if r.u is not None and not r.collocated:
+                return refuse_measured_inputs(records[0])
+        return None
+
     def coupled_twin(self):
         """MDS (displacements) + MDS (velocities) + ML, summed: the coupled counterpart of
         each of MR's three parts (each needs its own training records, one per mode)."""
@@ -188,57 +210,16 @@ class MixedResponse(PODMethod):
                          solver_options=self.solver_options),
         ))
 
-    def fit(self, records, *, w0=None, v0=None, F=None, dt=None, basis=None) -> MixedResponse:
-        """Identify the model from the three mixed responses ``a``, ``b``, ``c``.
+    def _fit(self, records, basis) -> None:
+        """Cases ``a``, ``b``, ``c``: each record holds ``W`` (in), its own initial
+        displacement ``w0`` (in) and velocity ``v0`` (in/s), its load ``F`` (lbf, first
+        sample at ``t = 0``) and ``dt`` (s)."""
+        Ws = [r.W for r in records]
+        w0s, v0s, Fs = ([cast(np.ndarray, getattr(r, f)) for r in records]
+                        for f in ("w0", "v0", "F"))
+        self._identify(Ws, w0s, v0s, Fs, records[0].dt, basis)
 
-        Parameters
-        ----------
-        records : sequence of three records, or of three (m, n) array_like
-            Cases ``a``, ``b``, ``c``: each record holds ``W`` (in), its own initial
-            displacement ``w0`` (in) and velocity ``v0`` (in/s), its load ``F`` (lbf, first
-            sample at ``t = 0``) and ``dt`` (s). Array form: the three displacement
-            matrices, with the other quantities as keywords.
-        w0 : sequence of three (m,) array_like, optional
-            Array form: initial displacements (in); default the first columns of ``W``.
-        v0 : sequence of three (m,) array_like
-            Array form: initial velocities (in/s).
-        F : sequence of three (m, n) array_like
-            Array form: forces at the sensors (lbf).
-        dt : float
-            Array form: sampling interval (s).
-        basis : (m, k) array_like, optional
-            Orthonormal basis to use instead of the POMs of case ``a``.
-
-        Returns
-        -------
-        self
-        """
-        recs = self._fit_records(records, w0=w0, v0=v0, F=F, dt=dt)
-        if recs is not None:
-            Ws = [r.W for r in recs]
-            w0s, v0s, Fs = ([cast(np.ndarray, getattr(r, f)) for r in recs]
-                            for f in ("w0", "v0", "F"))
-            dt = recs[0].dt
-        else:
-            if v0 is None or F is None:
-                raise InputError("Parameter `v0` and `F`: the initial velocities (in/s) and "
-                                 "forces (lbf) of the three cases are required")
-            dt = check_dt(dt)
-            Ws = check_datasets(records, "W")
-            if len(Ws) != 3:
-                raise InputError(
-                    f"Parameter `W`: MR needs exactly three data sets (cases a, b, c), "
-                    f"got {len(Ws)}"
-                )
-            m = Ws[0].shape[0]
-            if w0 is None:
-                w0 = [Wj[:, 0] for Wj in Ws]
-            w0s = check_profiles(w0, 3, m, "w0")
-            v0s = check_profiles(v0, 3, m, "v0")
-            Fs = check_forces(F, Ws)
-        return self._fit(Ws, w0s, v0s, Fs, dt, basis)
-
-    def _fit(self, Ws, w0s, v0s, Fs, dt, basis) -> MixedResponse:
+    def _identify(self, Ws, w0s, v0s, Fs, dt, basis) -> None:
         n_modes = check_n_modes(self.n_modes)
         energy = check_energy(self.energy)
         solver = make_method_solver(self.solver, self.solver_options)
@@ -284,36 +265,15 @@ class MixedResponse(PODMethod):
         self.initial_velocity_coordinates_ = V0[:, 0]
         self.fit_residual_ = float(np.sqrt(res2 / rhs2)) if rhs2 > 0 else float(np.sqrt(res2))
         self.velocity_scaling_ = self.velocity_scaling
-        return self
 
-    def predict(self, record=None, *, w0=None, v0=None, F=None) -> np.ndarray:
-        """Response to any combination of a new initial displacement, velocity and load.
-
-        Parameters
-        ----------
-        record : record, optional
-            A record with the new ``w0``, ``v0`` and ``F`` (any of them; ``dt``, if given,
-            must equal the training one); or give them as keywords:
-        w0 : (m,) array_like, optional
-            New initial displacement (in).
-        v0 : (m,) array_like, optional
-            New initial velocity (in/s).
-        F : (m, n') array_like, optional
-            New load (lbf), ``n' <= n`` samples; sets the length of the prediction
-            (default ``n``).
-
-        Returns
-        -------
-        (m, n') ndarray
-            Predicted displacements (in), the superposition of the three parts.
-        """
-        self._check_is_fitted()
-        if record is not None:
-            if w0 is not None or v0 is not None or F is not None:
-                raise InputError("MR.predict: give a record or the keywords w0, v0, F, "
-                                 "not both")
-            rec = self._target_record(record, "record", fields=False)  # any of w0, v0, F
-            w0, v0, F = rec.w0, rec.v0, rec.F
+    def _predict(self, record) -> np.ndarray:
+        """Response (in, ``(m, n')``, the superposition of the three parts) to any
+        combination of the target's new initial displacement ``w0`` (in), velocity ``v0``
+        (in/s) and load ``F`` (lbf, ``n' <= n`` samples; sets the length of the prediction,
+        default ``n``); ``dt``, if given, must equal the training one. The array form
+        ``predict(w0=…, v0=…, F=…)`` gives them as keywords."""
+        rec = self._target_record(record, "record", fields=False)  # any of w0, v0, F
+        w0, v0, F = rec.w0, rec.v0, rec.F
         if w0 is None and v0 is None and F is None:
             raise InputError("MR.predict: give at least one of `w0`, `v0`, `F`")
         U = self.modes_

@@ -50,6 +50,7 @@ class Superposition(PODMethod):
 
     abbreviation = "superposition"
     excitation_kind = "mixed"
+    composite = True
     _parameter_constraints = {"parts": _PARTS}
 
     def __init__(self, *, parts=()):
@@ -84,27 +85,19 @@ class Superposition(PODMethod):
                     out.append(f)
         return tuple(out)
 
-    def fit(self, records, *, basis=None) -> Superposition:
-        """Fit every part on its own training records, all in one basis.
-
-        Parameters
-        ----------
-        records : sequence (one per part) of a record or a sequence of records
-            ``records[j]`` is what ``parts[j].fit`` takes.
-        basis : (m, k) array_like, optional
-            The basis of every part; default the first part's own POMs.
-
-        Returns
-        -------
-        self
-        """
-        self._validate_params()
+    def _training_records(self, records, name: str = "records") -> list:
+        """One training set per part (``records[j]`` is what ``parts[j].fit`` takes)."""
         if not isinstance(records, Sequence) or len(records) != len(self.parts):
             got = len(records) if isinstance(records, Sequence) else type(records).__name__
             raise InputError(
-                f"Parameter `records`: expected one training set per part "
+                f"Parameter `{name}`: expected one training set per part "
                 f"({len(self.parts)}), got {got}"
             )
+        return list(records)
+
+    def _fit(self, records, basis) -> None:
+        """Every part on its own training records, all in one basis: ``basis``, default
+        the first part's own POMs."""
         fitted = []
         for j, (p, recs) in enumerate(zip(self.parts, records, strict=True)):
             est = type(p)(**p.get_params(deep=False))
@@ -115,9 +108,7 @@ class Superposition(PODMethod):
         self.parts_ = fitted
         self.modes_ = np.asarray(basis, dtype=float)
         self.n_modes_ = int(self.modes_.shape[1])
-        return self
 
-    def predict(self, record) -> np.ndarray:
+    def _predict(self, record) -> np.ndarray:
         """The sum of the parts' predictions for ``record`` (each reads its own fields)."""
-        self._check_is_fitted()
         return np.asarray(sum(np.asarray(p.predict(record), dtype=float) for p in self.parts_))

@@ -8,6 +8,12 @@ training records side by side (``[¹W ²W …]``), ``k`` by default the number o
 records (the forces of ``n_rec`` point-load tests span at most ``n_rec`` input directions,
 and ML, the twin, needs ``k ≤ n_rec``). The prediction is ``Ŵ = U Ŷ``.
 
+Measured inputs elsewhere (``inputs="measured"``, as ML's,
+:mod:`podbench.sysid.methods.inputs`): the outputs are projected on the POMs of all training
+outputs (``k = n_out`` by default), the inputs enter as measured, and records of different
+lengths are zero-padded at the end to the longest (a record that ends at rest is unchanged;
+one that ends quiet but not at rest gets a small error: stated, not hidden).
+
 Sampling: column ``j`` is ``t_j = j·Δt``; training and target records start at rest
 (``W[:, 0] = 0``, ``F[:, 0] = 0``), so every peer simulates from a zero state.
 """
@@ -15,17 +21,18 @@ Sampling: column ``j`` is ``t_j = j·Δt``; training and target records start at
 from __future__ import annotations
 
 import importlib
-from typing import cast
 
 import numpy as np
 
+from podbench.core.records import check_compatible
 from podbench.errors import InputError
 from podbench.sysid.methods.base import PODMethod, check_n_modes, select_basis
-from podbench.sysid.methods.forced import MultipleLoad
+from podbench.sysid.methods.forced import INPUTS, MultipleLoad
+from podbench.sysid.methods.inputs import given_basis, measured_basis
 from podbench.sysid.params import Interval
 from podbench.sysid.pod import snapshot_svd
 
-__all__ = ["PeerMethod", "require", "simulate", "holdout_split"]
+__all__ = ["PeerMethod", "require", "simulate", "holdout_split", "padded", "INPUTS"]
 
 EXTRA_HINT = "pip install 'podbench[peers]'"
 
@@ -100,13 +107,27 @@ INT_OR_NONE: list = [None, Interval("integer", 1)]
 DELAYS: list = [Interval("integer", 1)]
 
 
+def padded(recs, U) -> tuple[np.ndarray, np.ndarray]:
+    """``(Ys, Us)``: every record's outputs in the basis ``U`` and its measured inputs,
+    zero-padded at the end to the longest record, ``(R, k, n)`` and ``(R, n_in, n)``."""
+    n = max(r.n_samples for r in recs)
+    Ys = np.zeros((len(recs), U.shape[1], n))
+    Us = np.zeros((len(recs), recs[0].n_inputs, n))
+    for j, r in enumerate(recs):
+        Ys[j, :, : r.n_samples] = U.T @ r.y
+        Us[j, :, : r.n_samples] = r.u
+    return Ys, Us
+
+
 class PeerMethod(PODMethod):
-    """Base of the peers: forced records, an output/input basis, a forced coupled twin (ML).
+    """Base of the peers: forced records (or measured inputs), an output/input basis, a
+    forced coupled twin (ML).
 
     Subclasses implement ``_identify(Ys, Us, n_fit)`` (identify from the first ``n_fit``
     samples of every record, in basis coordinates; returns a model object) and
-    ``_respond(model, Uin)`` (zero-state response, ``(R, k, n)``), and name the
-    hyperparameter the hold-out rule chooses.
+    ``_respond(model, Uin)`` (zero-state response, ``(R, k, n)``), name the hyperparameter
+    the hold-out rule chooses, and ``_fit_modal`` / ``_fit_measured`` (modal forces, or
+    inputs as measured: :meth:`~podbench.sysid.methods.base.PODMethod._modal`).
     """
 
     excitation_kind = "forced"
@@ -115,11 +136,13 @@ class PeerMethod(PODMethod):
     #: the hyperparameters, so a missing library fails when a scenario is read).
     _requires: tuple[str, str, str] | None = None
 
-    def __init__(self, *, n_modes=None, holdout=0.25):
+    def __init__(self, *, n_modes=None, holdout=0.25, inputs="auto"):
         # the hyperparameters every peer has and this base reads: the size of the basis
-        # (``_basis``) and the hold-out fraction of its rule (``_fit_by_rule``)
+        # (``_basis``), the hold-out fraction of its rule (``_fit_by_rule``) and how the
+        # records' inputs are read (``_fit``)
         self.n_modes = n_modes
         self.holdout = holdout
+        self.inputs = inputs
 
     def _validate_params(self) -> None:
         super()._validate_params()
@@ -127,7 +150,54 @@ class PeerMethod(PODMethod):
             require(*self._requires)
 
     def required_fields(self) -> tuple[str, ...]:
-        return ("W", "F", "dt")
+        return {"modal": ("W", "F", "dt"), "measured": ("u", "y", "dt")}.get(
+            self.inputs, ("W", "dt"))
+
+    def refusal(self, records) -> str | None:
+        return self._inputs_refusal(records)
+
+    def _fit(self, records, basis) -> None:
+        if self._modal(records):
+            self.inputs_ = "modal"
+            self._fit_modal(records, basis)
+            return
+        self.inputs_ = "measured"
+        U, povs = measured_basis(records, self.n_modes) if basis is None else \
+            given_basis(records, basis)
+        Ys, Us = padded(records, U)
+        self.model_, self.info_ = self._identify_measured(Ys, Us, records)
+        self.modes_, self.povs_, self.n_modes_ = U, povs, U.shape[1]
+        self.dt_ = records[0].dt
+        self.reference_ = records[0]
+
+    def _fit_modal(self, records, basis) -> None:
+        raise NotImplementedError
+
+    def _identify_measured(self, Ys, Us, records) -> tuple:
+        """``(model, info)`` from records of measured inputs (basis coordinates, padded)."""
+        raise NotImplementedError
+
+    def _measured(self) -> bool:
+        return getattr(self, "inputs_", "modal") == "measured"
+
+    def _predict(self, record) -> np.ndarray:
+        if not self._measured():
+            return self._predict_modal(record)
+        check_compatible(self.reference_, record, min_samples=1)
+        return self.modes_ @ self._respond(self.model_, record.u)
+
+    def _predict_modal(self, record) -> np.ndarray:
+        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
+        return self.modes_ @ self._respond(self._model(), self._new_inputs(record))
+
+    def _model(self):
+        """The fitted model ``_respond`` simulates."""
+        raise NotImplementedError
+
+    @property
+    def diagnostics_(self) -> dict:
+        """Measured inputs: ``n_modes`` and what the rule chose (``info_``)."""
+        return self._chosen_diagnostics() if self._measured() else super().diagnostics_
 
     def coupled_twin(self):
         """ML in the peer's basis (the POD method that identifies the full kernel ``C(t)``
@@ -148,13 +218,24 @@ class PeerMethod(PODMethod):
             U, povs, pocs = pod.modes[:, :n_modes], pod.povs[:n_modes], pod.pocs[:, :n_modes]
         return U, povs, pocs
 
-    def _fit_records(self, records, basis):
-        self._validate_params()
-        recs = self._training_records(records)
+    def _modal_data(self, recs, basis):
+        """The basis and the records in it: ``(U, povs, pocs, Ys, Us)``."""
         U, povs, pocs = self._basis(recs, basis)
         Ys = np.stack([U.T @ r.W for r in recs])  # (R, k, n)
         Us = np.stack([U.T @ r.F for r in recs])
-        return recs, U, povs, pocs, Ys, Us
+        return U, povs, pocs, Ys, Us
+
+    def _delay_rule_measured(self, Ys, Us, records, candidates, name: str) -> tuple:
+        """``(model, {name: choice})`` of a delay-coordinate peer (DMDc, OpInf) on measured
+        inputs: its hyperparameter by the hold-out rule among ``candidates``. Delay
+        coordinates hold inputs and outputs in one dimension: ``n_in = k`` or refused."""
+        k = Ys.shape[1]
+        if records[0].n_inputs != k:
+            raise InputError(f"{self.abbreviation}: delay coordinates need as many inputs as "
+                             f"output modes ({records[0].n_inputs} inputs, {k} modes)")
+        choice, _ = self._select_by_holdout(Ys, Us, candidates, self._identify, self._respond,
+                                            self.holdout)
+        return self._identify(Ys, Us, choice), {name: choice}
 
     def _respond_delayed(self, A, B, C, Uin):
         """Zero-state response of the delay model ``(A, B)`` read out by ``C`` to the basis
@@ -165,11 +246,11 @@ class PeerMethod(PODMethod):
         out = simulate(A, B, C, np.zeros((k, B.shape[1])), V)
         return out[0] if Uin.ndim == 2 else out
 
-    def _fit_by_rule(self, records, basis, value, candidates):
+    def _fit_by_rule(self, recs, basis, value, candidates):
         """Fit the basis and the model (``_identify``), the rule's hyperparameter ``value``
         chosen by the hold-out rule among ``candidates`` when None; sets the basis,
         ``holdout_errors_`` and ``fit_residual_`` and returns ``(model, value)``."""
-        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
+        U, povs, pocs, Ys, Us = self._modal_data(recs, basis)
         errors = None
         if value is None:
             value, errors = self._select_by_holdout(Ys, Us, candidates(U.shape[1]),
@@ -212,7 +293,10 @@ class PeerMethod(PODMethod):
 
     def _new_inputs(self, record) -> np.ndarray:
         self._check_is_fitted()
-        F = cast(np.ndarray, self._target_record(record).F)  # a field the peer requires
+        F = self._target_record(record).F
+        if F is None:
+            raise InputError(f"Parameter `record.F`: {type(self).__name__} predicts from the "
+                             "force matrix F (lbf) at the output sensors; the record has none")
         if F.shape[0] != self.modes_.shape[0]:
             raise InputError(f"Parameter `record.F`: {F.shape[0]} rows, the peer was fitted "
                              f"on {self.modes_.shape[0]} sensors")

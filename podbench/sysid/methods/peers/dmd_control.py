@@ -23,6 +23,7 @@ import numpy as np
 from podbench.sysid.methods.peers._common import (
     DELAYS,
     HOLDOUT,
+    INPUTS,
     INT_OR_NONE,
     PeerMethod,
     delay_coordinates,
@@ -34,9 +35,10 @@ __all__ = ["DMDc"]
 
 #: Relative singular-value cut of ``Ω = [Z; V]`` when ``svd_rank_omega`` is None (the
 #: default): the rank passed to PyDMD is the number of singular values above 1e-8 of the
-#: largest. Without a cut (−1) the pseudo-inverse of Ω kept round-off directions, and the
-#: hold-out errors of the full-rank candidate moved by up to a factor 4 between two OpenBLAS
-#: kernels (peers study); the same rule as ERA's cut (round-off stays below the tables' digits).
+#: largest. Without a cut (−1) the pseudo-inverse of Ω keeps round-off directions, and the
+#: hold-out errors of the full-rank candidate depend on the round-off (docs/peers.md,
+#: "Round-off in ERA/OKID"); the same rule as ERA's cut (round-off stays below the tables'
+#: digits).
 OMEGA_RCOND = 1e-8
 
 #: PyDMD's rank: an int >= -1 (0: optimal hard threshold, -1: none) or an energy fraction.
@@ -65,6 +67,9 @@ class DMDc(PeerMethod):
         (those below carry round-off only).
     holdout : float
         Fraction of each training record held out by the rank rule (0.25).
+    inputs : {"auto", "modal", "measured"}
+        The records' inputs as modal forces or as measured (as ERA's; delay coordinates
+        then need as many inputs as output modes).
 
     Attributes
     ----------
@@ -83,11 +88,11 @@ class DMDc(PeerMethod):
     _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
                               "svd_rank": [None, *_PYDMD_RANK],
                               "svd_rank_omega": [None, *_PYDMD_RANK],
-                              "holdout": HOLDOUT}
+                              "holdout": HOLDOUT, "inputs": INPUTS}
 
     def __init__(self, *, n_modes=None, delays=2, svd_rank=None, svd_rank_omega=None,
-                 holdout=0.25):
-        super().__init__(n_modes=n_modes, holdout=holdout)
+                 holdout=0.25, inputs="auto"):
+        super().__init__(n_modes=n_modes, holdout=holdout, inputs=inputs)
         self.delays = delays
         self.svd_rank = svd_rank
         self.svd_rank_omega = svd_rank_omega
@@ -112,26 +117,29 @@ class DMDc(PeerMethod):
         Atilde, Btilde, Ur = model
         return self._respond_delayed(Atilde, Btilde, Ur[:Uin.shape[-2]], Uin)
 
-    def fit(self, records, *, basis=None) -> DMDc:
-        """Fit ``(Ã, B̃)`` on forced records that start at rest (``basis``: replaces the
-        POMs of the training records); returns ``self``."""
+    def _fit_modal(self, records, basis) -> None:
+        """``(Ã, B̃)`` from forced records that start at rest."""
         (Atilde, Btilde, Ur), _ = self._fit_by_rule(
             records, basis, self.svd_rank, lambda k: list(range(1, self.delays * k + 1)))
         self.Atilde_, self.Btilde_, self.basis_ = Atilde, Btilde, Ur
         self.rank_ = int(Atilde.shape[0])
         self.eigs_ = np.linalg.eigvals(Atilde)
-        return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
-        Uin = self._new_inputs(record)  # checks that the model is fitted
-        return self.modes_ @ self._respond((self.Atilde_, self.Btilde_, self.basis_), Uin)
+    def _identify_measured(self, Ys, Us, records) -> tuple:
+        return self._delay_rule_measured(Ys, Us, records,
+                                         list(range(1, self.delays * Ys.shape[1] + 1)), "rank")
+
+    def _model(self):
+        return self.Atilde_, self.Btilde_, self.basis_
 
     @property
     def diagnostics_(self) -> dict:
         """``n_modes``, ``rank`` (the rule's choice), ``delays``, ``fit_residual`` (training
-        records simulated from rest), ``holdout_error``, ``spectral_radius``."""
+        records simulated from rest), ``holdout_error``, ``spectral_radius``. Measured
+        inputs: ``n_modes`` and ``info_``."""
         out = super().diagnostics_
+        if self._measured():
+            return out
         out["rank"] = self.rank_
         out["delays"] = int(self.delays)
         out["spectral_radius"] = float(np.max(np.abs(self.eigs_)))

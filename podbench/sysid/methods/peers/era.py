@@ -49,19 +49,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from podbench.core.records import is_record
 from podbench.errors import InputError
+from podbench.sysid.methods.base import ArrayForm
 from podbench.sysid.methods.free import MDS, first_column_w0
-from podbench.sysid.methods.peers._common import (
-    HOLDOUT,
-    INT_OR_NONE,
-    PeerMethod,
-    simulate,
-)
+from podbench.sysid.methods.peers._common import HOLDOUT, INPUTS, INT_OR_NONE, PeerMethod, simulate
 from podbench.sysid.params import Interval, Options
 from podbench.sysid.statespace import era_realization, realize
 
-__all__ = ["ERA", "okid_markov", "era_realization", "free_markov", "excited_inputs"]
+__all__ = ["ERA", "okid_markov", "era_realization", "free_markov", "excited_inputs",
+           "ERA_BLOCKS"]
+
+ERA_BLOCKS = 1.0
+"""Hankel block rows of ERA on measured records (s of Markov parameters): the ``blocks`` its
+configurations on measured inputs give (half of a 60-s record at 100 Hz would be a
+9000 × 9000 SVD)."""
 
 _EXCITATIONS = ("forced", "displacement", "velocity")
 _X0 = {"displacement": "w0", "velocity": "v0"}
@@ -114,17 +115,12 @@ def _regressors(Ys, Us, lags: int):
 
 #: Relative singular-value cut of OKID's least squares (Eq. 1): directions of the regressor
 #: below 1e-8 of its largest singular value are dropped. NumPy's default cut (machine epsilon
-#: times the larger dimension, ~1e-13 here) keeps directions that carry only round-off; the
-#: observer recursion (Eq. 2) amplifies them, so that the Hankel singular values moved by 3 %
-#: and the chosen order from 12 to 19 (NL beam, peers study) between two OpenBLAS kernels, and
-#: under a 1e-15 relative perturbation of the records. The rule: round-off (1e-16 relative)
-#: amplified by at most 1/rcond stays two digits below the tables' sixth significant digit.
-#: That bound leaves out the recursion (Eq. 2) itself, measured on the LTV beam of the peers
-#: study (order 12, spectral radius 0.99997): the least-squares solution moves by 1.6e-10
-#: relative between the Haswell and SkylakeX kernels, the Markov parameters by 2e-8 at lag 1,
-#: 4e-6 at lag 100 and 1.2e-5 at lag 200, the prediction by 2e-6 (its Eq. 4.2 maximum
-#: 1039.19 against 1039.20). A 1-ulp perturbation of the records moves them as much (8e-6 at
-#: lag 200): where ERA cannot model the structure its sixth digit is not set by the data.
+#: times the larger dimension) keeps directions that carry only round-off, which the observer
+#: recursion (Eq. 2) amplifies until the chosen order depends on the round-off of the
+#: records. The rule: round-off (1e-16 relative) amplified by at most 1/rcond stays two
+#: digits below the tables' sixth significant digit. The recursion itself still amplifies
+#: round-off where ERA cannot model the structure (the measurements: docs/peers.md, "Round-off
+#: in ERA/OKID").
 OKID_RCOND = 1e-8
 
 
@@ -135,14 +131,10 @@ def excited_inputs(Us, rcond: float = OKID_RCOND):
 
     The Markov parameters' response to an input direction no record excites is not
     determined by the records: the least squares of Eq. 1 leaves it at its minimum norm,
-    zero up to round-off, and the recursion of Eq. 2 amplifies that round-off. Measured on
-    the peers study's band refits (ERA with the 4 POMs of 4 records, refitted on 3 records,
-    whose 3 pulse locations span 3 of the 4 input directions; NL beam, order 12): a 1e-12
-    relative perturbation of the records moved the Markov parameters by up to 20 % and the
-    held-out record's prediction by 2e-3, so that the band's error estimate differed in its
-    second digit between the OpenBLAS Haswell and SkylakeX kernels (0.756 / 0.75). Identified
-    in the excited directions (``u → Qᵀu``, ``h = h̃ Qᵀ``), the response to the rest is
-    exactly zero: what the records say about it."""
+    zero up to round-off, and the recursion of Eq. 2 amplifies that round-off (a band's
+    refit on fewer records than input directions is such a case: docs/peers.md, "Round-off
+    in ERA/OKID"). Identified in the excited directions (``u → Qᵀu``, ``h = h̃ Qᵀ``), the
+    response to the rest is exactly zero: what the records say about it."""
     Um = np.asarray(Us, dtype=float).transpose(1, 0, 2).reshape(Us.shape[1], -1)
     if Um.size == 0:
         return None
@@ -238,6 +230,16 @@ class ERA(PeerMethod):
         ``"displacement"`` / ``"velocity"``: ERA from free decays (Eqs. 4–5; records with
         ``w0`` or ``v0``, beside MDS); ``lags`` is then unused and the order rule holds out
         the last ``holdout`` of every decay.
+    blocks : float, optional
+        Hankel block rows (and columns) of the forced realization, in seconds of Markov
+        parameters, at most half the record. None (default): half the record (the Markov
+        parameters a record holds).
+    inputs : {"auto", "modal", "measured"}
+        The records' inputs as modal forces ``Uᵀ F`` (forces at the output sensors) or as
+        measured (a base acceleration: the outputs in the POMs of all training outputs,
+        ``k = n_out`` by default, records of different lengths zero-padded); ``"auto"``:
+        modal when every record's inputs are forces at its output channels
+        (:data:`~podbench.sysid.methods.forced.INPUTS`).
 
     Attributes
     ----------
@@ -258,20 +260,27 @@ class ERA(PeerMethod):
     """
 
     abbreviation = "ERA"
+    #: the observer recursion (Eq. 2) amplifies the records' round-off (:data:`OKID_RCOND`)
+    amplifies_round_off = True
+    #: a free decay's ``predict(x0_new)`` (:mod:`podbench.sysid.methods.arrays`)
+    array_form = ArrayForm(target="x0")
     _parameter_constraints = {"n_modes": INT_OR_NONE, "order": INT_OR_NONE,
                               "max_order": [Interval("integer", 1)], "lags": INT_OR_NONE,
                               "holdout": HOLDOUT,
                               "rcond": [Interval("number", 0, 1, closed="left")],
-                              "excitation": [Options(*_EXCITATIONS)]}
+                              "excitation": [Options(*_EXCITATIONS)],
+                              "blocks": [None, Interval("number", 0, closed="neither")],
+                              "inputs": INPUTS}
 
     def __init__(self, *, n_modes=None, order=None, max_order=40, lags=None, holdout=0.25,
-                 rcond=OKID_RCOND, excitation="forced"):
-        super().__init__(n_modes=n_modes, holdout=holdout)
+                 rcond=OKID_RCOND, excitation="forced", blocks=None, inputs="auto"):
+        super().__init__(n_modes=n_modes, holdout=holdout, inputs=inputs)
         self.order = order
         self.max_order = max_order
         self.lags = lags
         self.rcond = rcond
         self.excitation = excitation
+        self.blocks = blocks
 
     @property
     def excitation_kind(self) -> str:  # type: ignore[override]
@@ -281,7 +290,19 @@ class ERA(PeerMethod):
     def required_fields(self) -> tuple[str, ...]:
         if self.excitation in _X0:
             return ("W", _X0[self.excitation])
-        return ("W", "F", "dt")
+        return super().required_fields()
+
+    def refusal(self, records) -> str | None:
+        return None if self.excitation in _X0 else super().refusal(records)
+
+    def _modal(self, records) -> bool:
+        # free decays are stacked as the modal-force records are: one shape
+        return self.excitation in _X0 or super()._modal(records)
+
+    def _training_records(self, records, name: str = "records"):
+        if self.excitation in _X0:  # a displacement decay without w0 starts at W[:, 0]
+            records = first_column_w0(records, self.excitation)
+        return super()._training_records(records, name)
 
     def coupled_twin(self):
         """ML in the peer's basis (forced), MDS (free decay)."""
@@ -297,11 +318,13 @@ class ERA(PeerMethod):
         top = max(self.max_order, self.order or 0)
         return int(np.ceil(top / k))
 
-    @staticmethod
-    def _blocks(n: int) -> int:
-        """Hankel block rows = columns: half the record (the Markov parameters a record of
-        ``n`` samples holds, ``h_1 … h_{n−1}``)."""
-        return max(1, (n - 1) // 2)
+    def _blocks(self, n: int, dt: float) -> int:
+        """Hankel block rows = columns: ``blocks`` seconds, at most half the record (the
+        Markov parameters a record of ``n`` samples holds, ``h_1 … h_{n−1}``)."""
+        half = max(1, (n - 1) // 2)
+        if self.blocks is None:
+            return half
+        return max(1, min(int(round(self.blocks / dt)), half))
 
     def _order(self, Ys, Us, rank_cap: int, identify, respond, hankel: str):
         """``(order, hold-out errors)``: ``order`` if given (at most ``rank_cap``, the rows
@@ -321,28 +344,25 @@ class ERA(PeerMethod):
             raise np.linalg.LinAlgError("OKID Markov parameters are not finite")
         return h, residual, era_realization(h, blocks)
 
-    def fit(self, records, *, basis=None) -> ERA:
-        """Identify ``(A, B, C, D)`` from forced records that start at rest.
-
-        Parameters
-        ----------
-        records : sequence of records
-            Training records (``W`` in in, ``F`` in lbf at the sensors, one ``dt`` in s).
-        basis : (m, k) array_like, optional
-            Orthonormal basis replacing the POMs of the training records.
-
-        Returns
-        -------
-        self
-        """
-        self._validate_params()
+    def _fit(self, records, basis) -> None:
         if self.excitation in _X0:
-            return self._fit_free(records, basis)
-        recs, U, povs, pocs, Ys, Us = self._fit_records(records, basis)
-        k, n = U.shape[1], Ys.shape[2]
+            self._fit_free(records, basis)
+        else:
+            super()._fit(records, basis)
+
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+        """On measured inputs the Hankel matrix of :data:`ERA_BLOCKS` seconds."""
+        out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        if self.excitation == "forced" and not self._modal(records):
+            out.update(inputs="measured", blocks=ERA_BLOCKS)
+        return out
+
+    def _realize_forced(self, Ys, Us, dt: float) -> dict:
+        """OKID (Eqs. 1–2) and ERA (Eq. 3) from records in basis coordinates, the order by
+        the hold-out rule: the realization and what was chosen."""
+        k, n = Ys.shape[1], Ys.shape[2]
         lags = self._lags(k)
-        blocks = self._blocks(n)
-        rank_cap = blocks * k
+        blocks = self._blocks(n, dt)
         factors: dict = {}  # the truncated records' factorization, shared by all orders
 
         def identify(Yf, Uf, cand):
@@ -355,24 +375,43 @@ class ERA(PeerMethod):
             A, B, C, D = mdl
             return simulate(A, B, C, D, Uin)
 
-        order, errors = self._order(Ys, Us, rank_cap, identify, respond,
+        order, errors = self._order(Ys, Us, blocks * k, identify, respond,
                                     f"the Hankel matrix ({blocks} blocks of {k})")
         h, residual, (P, sv, Qt, H1) = self._factor(Ys, Us, lags, blocks)
-        A, B, C, D = realize(P, sv, Qt, H1, h[0], order)
-        self._set_basis(U, povs, pocs, recs[0].dt)
-        self.A_, self.B_, self.C_, self.D_ = A, B, C, D
-        self.markov_ = h
-        self.hankel_sv_ = sv
-        self.order_ = int(order)
-        self.lags_ = int(lags)
-        self.holdout_errors_ = errors
-        self.fit_residual_ = residual
-        return self
+        return {"model": realize(P, sv, Qt, H1, h[0], order), "markov": h, "sv": sv,
+                "order": int(order), "lags": int(lags), "blocks": int(blocks),
+                "errors": errors, "residual": residual}
 
-    def _fit_free(self, records, basis) -> ERA:
+    def _fit_modal(self, records, basis) -> None:
+        """``(A, B, C, D)`` from forced records that start at rest (``W`` in in, ``F`` in
+        lbf at the sensors, one ``dt`` in s), in the POMs of all training records."""
+        U, povs, pocs, Ys, Us = self._modal_data(records, basis)
+        r = self._realize_forced(Ys, Us, records[0].dt)
+        self._set_basis(U, povs, pocs, records[0].dt)
+        self.A_, self.B_, self.C_, self.D_ = r["model"]
+        self.markov_ = r["markov"]
+        self.hankel_sv_ = r["sv"]
+        self.order_ = r["order"]
+        self.lags_ = r["lags"]
+        self.holdout_errors_ = r["errors"]
+        self.fit_residual_ = r["residual"]
+
+    def _identify_measured(self, Ys, Us, records) -> tuple:
+        """``(A, B, C, D)`` from measured inputs (padded records in the outputs' POMs)."""
+        r = self._realize_forced(Ys, Us, records[0].dt)
+        self.A_, self.B_, self.C_, self.D_ = r["model"]
+        self.order_, self.lags_ = r["order"], r["lags"]
+        return r["model"], {"order": r["order"], "lags": r["lags"], "blocks": r["blocks"],
+                            "fit_residual": float(r["residual"])}
+
+    def _respond(self, model, Uin):
+        return simulate(*model, Uin)
+
+    def _model(self):
+        return self.A_, self.B_, self.C_, self.D_
+
+    def _fit_free(self, recs, basis) -> None:
         """ERA from free decays (Eqs. 4–5, then 3); the order by the hold-out rule."""
-
-        recs = self._training_records(first_column_w0(records, self.excitation))
         U, povs, pocs = self._basis(recs, basis)
         field = _X0[self.excitation]
         k = U.shape[1]
@@ -421,18 +460,16 @@ class ERA(PeerMethod):
         self.n_samples_ = n
         self.holdout_errors_ = errors
         self.fit_residual_ = float(np.linalg.norm(Yhat - Ys) / ny) if ny > 0 else 0.0
-        return self
 
     def _predict_free(self, record) -> np.ndarray:
-        n = self.n_samples_
-        if is_record(record):
-            rec = self._target_record(record)
-            x = getattr(rec, _X0[self.excitation])
-            if x is None and self.excitation == "displacement":
-                x = rec.W[:, 0]
-            n = rec.W.shape[1]
-        else:
-            x = np.asarray(record, dtype=float)
+        rec = self._target_record(record, fields=False)
+        x = getattr(rec, _X0[self.excitation])
+        if x is None and self.excitation == "displacement" and rec.W is not None:
+            x = rec.W[:, 0]
+        if x is None:
+            raise InputError(f"Parameter `record.{_X0[self.excitation]}`: ERA predicts a "
+                             "free decay from its initial profile; the record has none")
+        n = rec.n_samples or self.n_samples_
         m = self.modes_.shape[0]
         if x.shape != (m,):
             raise InputError(f"Parameter `x0_new`: expected shape ({m},) (one value per "
@@ -440,24 +477,24 @@ class ERA(PeerMethod):
         u = (self.modes_.T @ x)[None]
         return self.modes_ @ simulate_free(self.A_, self.B_, self.C_, u, n)[0]
 
-    def predict(self, record) -> np.ndarray:
+    def _predict(self, record) -> np.ndarray:
         """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in.
         Free decay: the response to the record's ``w0`` / ``v0`` (or a profile array),
         ``Ŵ_t = U C A^t B Uᵀx̃0``, as many samples as the record's ``W`` (or the training
         records')."""
-        self._check_is_fitted()
         if self.excitation in _X0:
             return self._predict_free(record)
-        Uin = self._new_inputs(record)
-        return self.modes_ @ simulate(self.A_, self.B_, self.C_, self.D_, Uin)
+        return super()._predict(record)
 
     @property
     def diagnostics_(self) -> dict:
         """``n_modes``, ``order`` and ``lags`` (the rules' choices), ``fit_residual`` (OKID),
         ``holdout_error`` (of the chosen order), ``hankel_sv_ratio`` ``σ_{N+1}/σ_1`` and
         ``spectral_radius`` of ``A``. ``fit_residual`` of the free variant: the realization's
-        relative error on the training decays."""
+        relative error on the training decays. Measured inputs: ``n_modes`` and ``info_``."""
         out = super().diagnostics_
+        if self._measured():
+            return out
         out["order"] = self.order_
         out["lags"] = self.lags_
         sv = self.hankel_sv_

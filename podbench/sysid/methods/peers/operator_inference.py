@@ -23,6 +23,7 @@ import numpy as np
 from podbench.sysid.methods.peers._common import (
     DELAYS,
     HOLDOUT,
+    INPUTS,
     INT_OR_NONE,
     PeerMethod,
     delay_coordinates,
@@ -34,9 +35,9 @@ __all__ = ["OpInf"]
 
 #: Regularizers the hold-out rule tries, ``λ = ρ·σ_1(D)``, simplest (strongest) first. No
 #: ``ρ = 0``: the unregularized least squares keeps directions that carry only round-off, so
-#: its hold-out error (and with it the rule's choice inside the bands' folds) moved by a
-#: factor 2 between two OpenBLAS kernels (LTI beam, peers study); the weakest,
-#: ``ρ = 1e-10``, bounds the amplification of round-off.
+#: its hold-out error (and with it the rule's choice inside the bands' folds) would depend on
+#: the round-off (docs/peers.md, "Round-off in ERA/OKID"); the weakest, ``ρ = 1e-10``, bounds
+#: the amplification of round-off.
 REG_GRID = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 
 
@@ -58,6 +59,9 @@ class OpInf(PeerMethod):
         ``holdout``).
     holdout : float
         Fraction of each training record held out by the rule (0.25).
+    inputs : {"auto", "modal", "measured"}
+        The records' inputs as modal forces or as measured (as ERA's; delay coordinates
+        then need as many inputs as output modes).
 
     Attributes
     ----------
@@ -72,10 +76,12 @@ class OpInf(PeerMethod):
     abbreviation = "OpInf"
     _requires = ("opinf", "OpInf", "opinf")
     _parameter_constraints = {"n_modes": INT_OR_NONE, "delays": DELAYS,
-                              "regularizer": [None, Interval("number", 0)], "holdout": HOLDOUT}
+                              "regularizer": [None, Interval("number", 0)], "holdout": HOLDOUT,
+                              "inputs": INPUTS}
 
-    def __init__(self, *, n_modes=None, delays=2, regularizer=None, holdout=0.25):
-        super().__init__(n_modes=n_modes, holdout=holdout)
+    def __init__(self, *, n_modes=None, delays=2, regularizer=None, holdout=0.25,
+                 inputs="auto"):
+        super().__init__(n_modes=n_modes, holdout=holdout, inputs=inputs)
         self.delays = delays
         self.regularizer = regularizer
 
@@ -101,26 +107,27 @@ class OpInf(PeerMethod):
         A, B = model
         return self._respond_delayed(A, B, np.eye(Uin.shape[-2], A.shape[0]), Uin)
 
-    def fit(self, records, *, basis=None) -> OpInf:
-        """Infer ``(Â, B̂)`` from forced records that start at rest (``basis``: replaces the
-        POMs of the training records); returns ``self``."""
+    def _fit_modal(self, records, basis) -> None:
+        """``(Â, B̂)`` from forced records that start at rest."""
         (A, B), rho = self._fit_by_rule(records, basis, self.regularizer,
                                         lambda k: list(REG_GRID))
         self.A_, self.B_ = A, B
         self.regularizer_ = float(rho)
-        return self
 
-    def predict(self, record) -> np.ndarray:
-        """Response to the forces of ``record`` (from rest): ``Ŵ = U Ŷ``, ``(m, n')`` in."""
-        Uin = self._new_inputs(record)  # checks that the model is fitted
-        return self.modes_ @ self._respond((self.A_, self.B_), Uin)
+    def _identify_measured(self, Ys, Us, records) -> tuple:
+        return self._delay_rule_measured(Ys, Us, records, list(REG_GRID), "regularizer")
+
+    def _model(self):
+        return self.A_, self.B_
 
     @property
     def diagnostics_(self) -> dict:
         """``n_modes``, ``regularizer`` (the rule's choice ``ρ``), ``delays``,
         ``fit_residual`` (training records simulated from rest), ``holdout_error``,
-        ``spectral_radius``."""
+        ``spectral_radius``. Measured inputs: ``n_modes`` and ``info_``."""
         out = super().diagnostics_
+        if self._measured():
+            return out
         out["regularizer"] = self.regularizer_
         out["delays"] = int(self.delays)
         out["spectral_radius"] = float(np.max(np.abs(np.linalg.eigvals(self.A_))))

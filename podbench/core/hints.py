@@ -1,5 +1,5 @@
 """The "did you mean …" hint of an unknown name (a study, structure, method, solver or
-option), shared by the readers and the API so that every such error reads alike."""
+option), shared by every reader and the API so that every such error reads alike."""
 
 from __future__ import annotations
 

@@ -1,0 +1,209 @@
+"""Modes of an identified discrete state-space model, which of them are physical, and how they
+match a reference set (the finite-element modes).
+
+**Modes** (:func:`discrete_modes`): the eigenvalues ``λ`` of ``A`` (one per complex
+conjugate pair, ``Im λ > 0``) mapped to continuous time, ``s = ln λ / Δt``, and the shapes
+``C ψ`` at the output channels (:mod:`podbench.core.modeshapes`: frequency ``|s|/2π``,
+damping ratio ``−Re s/|s|``, real phase-aligned shape). ``ln`` is the map of sampled
+continuous signals (a record of a continuous structure holds ``λ = e^{sΔt}`` whatever the
+hold of its inputs); records simulated by podbench's Newmark hold the trapezoidal map of
+the structure's poles instead, which :func:`podbench.dynamics.modes.fe_modes` with ``dt``
+gives for the comparison.
+
+**Physical modes** (:func:`physical_modes`), the hard criteria: ``0 < f < f_Nyquist = 1/(2Δt)``
+and ``0 ≤ ζ < 1`` (real poles are not modes); and the soft criterion of a stabilization
+diagram, as SSI practice states it (pyOMA2's ``SC_apply``, after Reynders, Houbrechts & De
+Roeck 2012; Juang & Pappa's ERA users read the same diagram): a mode is *stable* when the
+realizations of the same Markov parameters at higher orders hold a pole that differs by at
+most :data:`STABILITY` — 1 % in frequency, 5 % in damping ratio (relative), MAC at least
+0.97 (pyOMA2's defaults ``err_fn = 0.01``, ``err_xi = 0.05``, ``err_phi = 0.03``) — from
+it, the pole of nearest frequency at each of those orders. podbench compares the model's
+order ``N`` with ``N + 2`` and ``N + 4`` (:data:`STABILITY_ORDERS`): a physical mode
+persists as the order grows, a computational one (noise, model error) moves or vanishes;
+comparing with lower orders instead would drop the weakest physical mode of an exact model
+(at ``N − 2`` it is gone). Modes that fail are left out of the modes table; how many is
+stated in its notes. Where the model comes with no realization at other orders (a solver's
+own pole model, whose order its hold-out rule chose) only the hard criteria apply, said so.
+
+**Matching** (:func:`match_modes`): identified modes are paired with reference modes by MAC,
+not by index: the assignment that maximizes the total MAC (Hungarian algorithm on
+``1 − MAC``, :func:`scipy.optimize.linear_sum_assignment`) among pairs with
+``MAC ≥ mac_floor`` (:data:`MAC_FLOOR`); a reference mode without a partner above the floor
+is reported unmatched.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+import scipy.optimize
+
+from podbench.core.modeshapes import ModeSet, frequency_damping, mac
+from podbench.errors import DimensionError, InputError
+
+__all__ = ["discrete_modes", "physical_mask", "stability_mask", "physical_modes",
+           "match_modes", "STABILITY", "STABILITY_ORDERS", "MAC_FLOOR"]
+
+STABILITY = {"frequency": 0.01, "damping": 0.05, "mac": 0.97}
+"""The stabilization criterion (module docstring): largest relative frequency difference,
+largest relative damping-ratio difference, smallest MAC between a mode and its counterpart
+at another order (pyOMA2's defaults)."""
+
+STABILITY_ORDERS = (2, 4)
+"""Orders above the model's at which a mode must persist to be stable."""
+
+MAC_FLOOR = 0.5
+"""Smallest MAC of a matched pair: below it an identified mode shares less than half of its
+shape (in the MAC's sense) with the reference mode, and is not called the same mode."""
+
+
+def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
+                   source: str = "") -> ModeSet:
+    """All oscillatory modes of ``x_{j+1} = A x_j``, ``y_j = C x_j`` sampled at ``dt`` (s):
+    the eigenvalues with ``Im λ > 0`` as ``s = ln λ / Δt`` and their shapes ``C ψ``.
+
+    Parameters
+    ----------
+    A : (N, N) array_like
+    C : (m, N) array_like
+    dt : float
+        Sampling interval (s).
+    channels : sequence of str, optional
+        Names of the ``m`` outputs (default ``"0"``, ``"1"``, …).
+    """
+    A = np.asarray(A, dtype=float)
+    C = np.asarray(C, dtype=float)
+    if A.ndim != 2 or A.shape[0] != A.shape[1] or C.ndim != 2 or C.shape[1] != A.shape[0]:
+        raise DimensionError(f"discrete_modes: A {A.shape} must be square and C {C.shape} "
+                             "have as many columns")
+    if not (np.isfinite(dt) and dt > 0):
+        raise InputError(f"Parameter `dt`: expected a positive sampling interval (s), got {dt!r}")
+    names = tuple(str(c) for c in channels) if channels is not None else \
+        tuple(str(i) for i in range(C.shape[0]))
+    if len(names) != C.shape[0]:
+        raise DimensionError(f"Parameter `channels`: {len(names)} names for {C.shape[0]} "
+                             "outputs")
+    if A.size == 0:
+        return ModeSet(np.zeros(0), np.zeros((C.shape[0], 0)), names, source)
+    lam, V = np.linalg.eig(A)
+    scale = max(float(np.max(np.abs(lam))), 1e-300)
+    up = lam.imag > 1e-12 * scale
+    n_real = int(np.sum(~up & (np.abs(lam.imag) <= 1e-12 * scale)))
+    s = np.log(lam[up]) / dt
+    notes = (f"{n_real} real poles (no oscillation) are not modes",) if n_real else ()
+    return ModeSet(s, C @ V[:, up], names, source, notes)
+
+
+def physical_mask(modes: ModeSet, dt: float) -> np.ndarray:
+    """The hard criteria: ``0 < f < 1/(2Δt)`` and ``0 ≤ ζ < 1`` (module docstring)."""
+    f, z = frequency_damping(modes.poles)
+    return (f > 0) & (f < 0.5 / dt) & (z >= 0) & (z < 1)
+
+
+def _counterpart_ok(f0, z0, phi0, other: ModeSet, crit: dict) -> bool:
+    if len(other) == 0:
+        return False
+    f, z = frequency_damping(other.poles)
+    j = int(np.argmin(np.abs(f - f0)))
+    if abs(f[j] - f0) > crit["frequency"] * f0:
+        return False
+    if abs(z[j] - z0) > crit["damping"] * abs(z0):
+        return False
+    return bool(mac(phi0[:, None], other.shapes[:, j : j + 1])[0, 0] >= crit["mac"])
+
+
+def stability_mask(modes: ModeSet, others: Sequence[ModeSet],
+                   criteria: dict | None = None) -> np.ndarray:
+    """Which of ``modes`` are stable against every mode set of ``others`` (the same Markov
+    parameters realized at other orders): the pole of nearest frequency in each differs by
+    at most ``criteria`` (default :data:`STABILITY`)."""
+    crit = {**STABILITY, **(criteria or {})}
+    f, z = frequency_damping(modes.poles)
+    out = np.ones(len(modes), dtype=bool)
+    for i in range(len(modes)):
+        out[i] = all(_counterpart_ok(f[i], z[i], modes.shapes[:, i], o, crit) for o in others)
+    return out
+
+
+def physical_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
+                   realize_at: Callable[[int], tuple] | None = None,
+                   criteria: dict | None = None, source: str = "") -> ModeSet:
+    """The physical modes of a discrete model (module docstring): the hard criteria, then
+    stability at the orders ``N + 2`` and ``N + 4`` realized by ``realize_at(order) -> (A,
+    C)`` (None: the hard criteria only). The mode set's ``stable`` flags are all True; its
+    notes state the rule and what was left out."""
+    every = discrete_modes(A, C, dt, channels, source=source)
+    hard = physical_mask(every, dt)
+    notes = list(every.notes)
+    if np.any(~hard):
+        notes.append(f"{int(np.sum(~hard))} modes outside 0 < f < {0.5 / dt:g} Hz (Nyquist) "
+                     "or 0 ≤ ζ < 1 left out")
+    modes = every.subset(hard)
+    N = np.asarray(A).shape[0]
+    others = []
+    if realize_at is not None:
+        for step in STABILITY_ORDERS:
+            try:
+                Ah, Ch = realize_at(N + step)
+            except InputError:
+                break
+            if np.asarray(Ah).shape[0] != N + step:
+                break
+            others.append(discrete_modes(Ah, Ch, dt, modes.channels))
+    crit = {**STABILITY, **(criteria or {})}
+    if others:
+        stable = stability_mask(modes, others, crit)
+        rule = (f"stable at orders {', '.join(str(N + s) for s in STABILITY_ORDERS[:len(others)])}"
+                f" (model order {N}): frequency within {crit['frequency']:.0%}, damping ratio "
+                f"within {crit['damping']:.0%}, MAC ≥ {crit['mac']:g}")
+        notes.append(rule + (f"; {int(np.sum(~stable))} unstable (computational) modes left "
+                             "out" if np.any(~stable) else ""))
+        modes = modes.subset(stable)
+    else:
+        notes.append(f"no realization at orders above {N}: the hard criteria only")
+    return ModeSet(modes.poles, modes.shapes, modes.channels, source, tuple(notes),
+                   np.ones(len(modes), dtype=bool))
+
+
+def match_modes(identified: ModeSet, reference: ModeSet, *,
+                mac_floor: float = MAC_FLOOR) -> pd.DataFrame:
+    """Pair identified modes with reference modes by MAC (module docstring).
+
+    Returns
+    -------
+    DataFrame
+        One row per reference mode (sorted by frequency): ``mode`` (1, 2, …),
+        ``frequency_hz``, ``damping_ratio`` (the reference's), ``identified`` (the matched
+        identified mode's row number in its table, 1-based; NaN when unmatched),
+        ``identified_frequency_hz``, ``identified_damping_ratio``, ``frequency_error_pct``
+        (``100·(f_id − f)/f``), ``damping_error`` (``ζ_id − ζ``), ``damping_error_rel``
+        (``(ζ_id − ζ)/ζ``; NaN for ``ζ = 0``) and ``mac``.
+    """
+    if identified.channels != reference.channels:
+        raise InputError(f"match_modes: the identified modes' channels {list(identified.channels)}"
+                         f" differ from the reference's {list(reference.channels)}")
+    M = mac(identified.shapes, reference.shapes)  # (n_id, n_ref)
+    rows = np.full(len(reference), -1)
+    if M.size:
+        cost = np.where(M >= mac_floor, 1.0 - M, 2.0)
+        r_id, r_ref = scipy.optimize.linear_sum_assignment(cost)
+        for i, j in zip(r_id, r_ref, strict=True):
+            if M[i, j] >= mac_floor:
+                rows[j] = i
+    f, z = reference.frequency_hz, reference.damping_ratio
+    fi, zi = identified.frequency_hz, identified.damping_ratio
+    hit = rows >= 0
+    idx = np.where(hit, rows, 0)
+    nan = np.full(len(reference), np.nan)
+    f_id = np.where(hit, fi[idx] if len(identified) else nan, nan)
+    z_id = np.where(hit, zi[idx] if len(identified) else nan, nan)
+    m = np.where(hit, M[idx, np.arange(len(reference))] if M.size else nan, nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where(z != 0, (z_id - z) / np.where(z != 0, z, 1.0), np.nan)
+    return pd.DataFrame({"mode": np.arange(1, len(reference) + 1), "frequency_hz": f,
+                         "damping_ratio": z, "identified": np.where(hit, rows + 1.0, np.nan),
+                         "identified_frequency_hz": f_id, "identified_damping_ratio": z_id,
+                         "frequency_error_pct": 100.0 * (f_id - f) / f,
+                         "damping_error": z_id - z, "damping_error_rel": rel, "mac": m})
