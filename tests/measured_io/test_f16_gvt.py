@@ -339,3 +339,24 @@ def test_the_periodic_methods_keep_the_estimator_contract():
         BestLinearApproximation(period=N, lines=(5, 41)).fit([synthetic])
     with pytest.raises(InputError, match="Parameter `scale`: expected one of 'linear', 'log'"):
         LevelInterpolatedML(period=N, scale="cubic").fit(recs)
+
+
+def test_rational_poles_recover_two_modes_and_their_shapes():
+    """The common-denominator fit of an exact two-mode response returns its poles (and
+    shapes up to scale), independent of the data: s = −ζω ± jω√(1−ζ²)."""
+    from podbench.core.modeshapes import frequency_damping
+    from podbench.sysid.periodic import rational_poles
+
+    f = np.linspace(2.0, 15.0, 267)
+    s = 2j * np.pi * f
+    modes = [(5.0, 0.01, np.array([1.0, 0.5, -0.2])), (9.0, 0.03, np.array([0.3, -1.0, 0.8]))]
+    G = 0
+    for fn, z, phi in modes:
+        w = 2 * np.pi * fn
+        G = G + phi[:, None] * (s ** 2 / (s ** 2 + 2 * z * w * s + w ** 2))[None, :]
+    poles, residues, misfit = rational_poles(G, f, n_poles=4)
+    fr, zr = frequency_damping(poles[poles.imag > 0])
+    order = np.argsort(fr)
+    assert np.allclose(fr[order], [5.0, 9.0], rtol=1e-8)
+    assert np.allclose(zr[order], [0.01, 0.03], rtol=1e-6)
+    assert misfit < 1e-8
