@@ -54,10 +54,9 @@ def _cases():
     import numpy as np
 
     import podbench as pb
-    from podbench.core.iorecords import IORecord
+    from podbench.core.records import Record
     from podbench.dynamics.excitations import Pulse, StaticDisplacement
-    from podbench.sysid.methods import MDS, POVR, MultipleLoad, SingleLoad
-    from podbench.sysid.methods.inputs import FIRLeastSquares, MultipleLoadIO
+    from podbench.sysid.methods import MDS, POVR, FIRLeastSquares, MultipleLoad, SingleLoad
 
     s = pb.load_structure("lti_beam")
     ml6, ml4 = _forced(s, ML6), _forced(s, ML4)
@@ -74,12 +73,12 @@ def _cases():
     io_forces.append(Pulse(14.0, 500.0, 5e-4, hits=[[2.0e-3, 0.5]]))
     io_sims = [pb.simulate(s, n_samples=N, dt=DT, force=f) for f in io_forces]
     row = int(np.argmax(np.abs(io_sims[0].F).sum(axis=1)))
-    io6 = [IORecord(u=r.F[row:row + 1], y=r.W, dt=DT, input_units="lbf", output_units="in")
+    io6 = [Record(u=r.F[row:row + 1], y=r.W, dt=DT, input_units="lbf", output_units="in")
            for r in io_sims]
     io_target = pb.simulate(s, n_samples=N, dt=DT,
                             force=Pulse(14.0, 300.0, 5e-4, hits=[[3.0e-3, 0.4]]))
-    io_target = IORecord(u=io_target.F[row:row + 1], y=io_target.W, dt=DT,
-                         input_units="lbf", output_units="in")
+    io_target = Record(u=io_target.F[row:row + 1], y=io_target.W, dt=DT,
+                       input_units="lbf", output_units="in")
     return {
         "ML6-cgls": (lambda: MultipleLoad(n_modes=4, solver="cgls"), ml6, forced_target),
         "ML6-fft": (lambda: MultipleLoad(n_modes=4, solver="fft"), ml6, forced_target),
@@ -89,26 +88,24 @@ def _cases():
         "MDS5": (lambda: MDS(n_modes=3), free, free_target),
         "POVR": (lambda: POVR(n_modes=3), free[:1], free_target),
         "FIR-LS (IO)": (lambda: FIRLeastSquares(lag_grid=IO_LAGS), io6, io_target),
-        "ML-TC (IO)": (lambda: MultipleLoadIO(prior="tc", lag_grid=IO_LAGS), io6, io_target),
+        "ML-TC (IO)": (lambda: MultipleLoad(inputs="measured", n_lags="auto", solver="ls",
+                                                 prior="tc", lag_grid=IO_LAGS), io6, io_target),
     }
 
 
 def _noisy(recs, label, level):
-    from dataclasses import replace
-
     import numpy as np
 
-    from podbench.core.iorecords import IORecord
     from podbench.sysid.noise import NoiseSpec, noisy
 
     spec = NoiseSpec(level=level, seed=0)
     out = []
     for j, r in enumerate(recs):
-        if isinstance(r, IORecord):  # per-channel noise on y (and u) of an IO record
+        if r.u is not None and not r.collocated:  # per-channel noise on y of an IO record
             rng = np.random.default_rng(j)
             y = r.y + level * np.sqrt(np.mean(r.y ** 2, axis=1, keepdims=True)) * \
                 rng.standard_normal(r.y.shape)
-            out.append(replace(r, y=y))
+            out.append(r.replace(y=y))
         else:
             out.append(noisy(r, spec, "bands_bench", "lti_beam", f"{label}{j}"))
     return out

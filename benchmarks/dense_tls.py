@@ -1,5 +1,4 @@
-"""The dense solvers' fast paths against their references, timed in one process (issue 24
-item 10).
+"""The dense solvers' fast paths against their references, timed in one process.
 
 Systems shaped like Chapter 5's (``scenarios/chapter5``): n = 1024 samples at Δt = 1e-4 s,
 a 0.5-ms half-sine strike with a rebound (lbf), a kernel of two damped modes (in/(lbf·s)),
@@ -7,11 +6,17 @@ per-channel noise on force and response (seed 0). SL: one mode, one load case
 (1024 × 1024, one right-hand side); ML: two modes, two load cases (2048 × 2048, two
 right-hand sides). For each, one BLAS thread, best of ``--repeat``:
 
-* ``tls`` with ``scale=True`` (Chapter 5's ``tls-scaled``): the fast path (eigenvectors of
-  ``[A | B]ᵀ[A | B]`` below the cut, a Rayleigh–Ritz step on ``[A | B]``) against the
-  reference (the economy SVD, ``dense._tls_svd``), with their relative difference;
-* the memo of the built-in dense solvers: a repeated ``ls`` solve of the same system
-  against the first one (``gelsd``).
+* ``tls-appendix`` (the dissertation's TLS, Chapter 5's rows) at tol = 1000 and at tol = 20
+  (5 % noise's SNR rule): the appendix as written (the full SVD of ``[X y]``), the former
+  route (the eigenvectors of ``CᵀC`` below the cut, ``dense._appendix_solve``), and the
+  bordered route (``podbench.sysid.deconvolution.bordered``) cold (the eigendecomposition
+  of ``XᵀX`` included) and warm (another tol on the same forces), with the relative
+  difference of the bordered answer from the SVD's;
+* ``ls``: LAPACK's ``gelsd`` against the cached SVD of the convolution matrix, cold and warm
+  (another right-hand side on the same forces);
+* ``tls-dt`` with ``scale=True`` (Chapter 5's ``tls-dt`` rows): the fast path (eigenvectors
+  of ``[A | B]ᵀ[A | B]`` below the cut, a Rayleigh–Ritz step on ``[A | B]``) against the
+  reference (the economy SVD, ``dense._tls_svd``), with their relative difference.
 
 ::
 
@@ -77,34 +82,70 @@ def _best(fn, repeat: int):
     return best, out
 
 
+def _appendix_rows(label, system, repeat) -> list[str]:
+    import numpy as np
+
+    from podbench.sysid.deconvolution import AppendixTLS, bordered, dense
+
+    X = system.dense() / DT
+    y = system._B2[:, 0]
+    out = []
+    for tol in (1000.0, 20.0):
+        def svd(tol=tol):
+            C = np.hstack([X, y[:, None]])
+            _, S, Vt = np.linalg.svd(C)
+            r = int(np.count_nonzero(S[0] / S <= tol))
+            V = Vt.T
+            n = V.shape[0] - 1
+            return (V[n, :r] * V[:n, :r]).sum(axis=1) / (1 - np.sum(V[n, :r] ** 2))
+
+        def new(tol=tol, cold=True):
+            if cold:
+                bordered._CACHE.clear()
+            return np.ravel(AppendixTLS(tol=tol).solve(system).X) * DT
+
+        t_ref, h_ref = _best(svd, 1)
+        t_old, _ = _best(lambda tol=tol: dense._appendix_solve(X, y, tol), repeat)
+        t_cold, h = _best(new, 1)
+        t_warm, _ = _best(lambda tol=tol: new(tol, cold=False), repeat)
+        diff = float(np.linalg.norm(h[:h_ref.size] - h_ref) / np.linalg.norm(h_ref))
+        out.append(f"{label:<22}{f'appendix {tol:g}':<16}{t_ref:>9.2f}{t_old:>9.2f}"
+                   f"{t_cold:>9.2f}{t_warm:>9.3f}{diff:>11.1e}")
+    return out
+
+
 def run(noise: float, repeat: int) -> list[str]:
     import numpy as np
 
-    from podbench.sysid.deconvolution import ConvolutionSystem, dense
+    from podbench.sysid.deconvolution import ConvolutionSystem, bordered, dense
 
     lines = [f"noise {noise:g}, one BLAS thread, best of {repeat} (s)",
-             f"{'system':<22}{'path':<12}{'reference':>10}{'fast':>10}{'ratio':>8}"
+             f"{'system':<22}{'path':<16}{'svd/ref':>9}{'former':>9}{'cold':>9}{'warm':>9}"
              f"{'rel. diff':>11}"]
     for label, k, cases in (("SL 1024 x 1024, r=1", 1, 1), ("ML 2048 x 2048, r=2", 2, 2)):
         Q, B = _system(k, cases, noise)
         system = ConvolutionSystem(Q, B, DT)
+        lines += _appendix_rows(label, ConvolutionSystem(Q, B[:, 0], DT), repeat)
         A, B2 = system.dense(), system._B2
+        t_ref, (Xr, _) = _best(lambda A=A, B2=B2: dense._lstsq(A, B2, None), 1)
+        dense._MEMO.clear()
+        bordered._SVD_CACHE.clear()
+        t_cold, Xc = _best(lambda system=system: dense.LeastSquares().solve(system).X, 1)
+        other = ConvolutionSystem(Q, 2.0 * B, DT)
+        t_warm, _ = _best(lambda other=other: (dense._MEMO.clear(),
+                                               dense.LeastSquares().solve(other))[1], repeat)
+        diff = float(np.linalg.norm(Xc - Xr) / np.linalg.norm(Xr))
+        lines.append(f"{label:<22}{'ls (gelsd)':<16}{t_ref:>9.2f}{'':>9}{t_cold:>9.2f}"
+                     f"{t_warm:>9.3f}{diff:>11.1e}")
         da, db = dense._column_scales(A), dense._column_scales(B2)
         t_ref, (Xr, _) = _best(lambda A=A, B2=B2, da=da, db=db: dense._tls_svd(
-            A / da, B2 / db, None, None, None), repeat)
+            A / da, B2 / db, None, None, None), 1)
         t_new, (Xf, _) = _best(lambda A=A, B2=B2: dense._tls(A, B2, None, None, None, True),
                                repeat)
         Xr = Xr / da[:, None] * db[None, :]
         diff = float(np.linalg.norm(Xf - Xr) / np.linalg.norm(Xr))
-        lines.append(f"{label:<22}{'tls-scaled':<12}{t_ref:>10.3f}{t_new:>10.3f}"
-                     f"{t_ref / t_new:>8.1f}{diff:>11.1e}")
-        dense._MEMO.clear()
-        t_first, first = _best(lambda system=system: (dense._MEMO.clear(), dense.LeastSquares()
-                                                       .solve(system))[1], 1)
-        t_hit, hit = _best(lambda system=system: dense.LeastSquares().solve(system), repeat)
-        same = 0.0 if np.array_equal(first.X, hit.X) else float("nan")
-        lines.append(f"{label:<22}{'ls memo':<12}{t_first:>10.3f}{t_hit:>10.3f}"
-                     f"{t_first / t_hit:>8.0f}{same:>11.1e}")
+        lines.append(f"{label:<22}{'tls-dt scaled':<16}{t_ref:>9.2f}{'':>9}{t_new:>9.2f}"
+                     f"{'':>9}{diff:>11.1e}")
     return lines
 
 

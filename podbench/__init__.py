@@ -17,21 +17,46 @@ Quick tour::
     res.summary                                       # results/chapter4/summary.csv
 """
 
+import importlib
+
 from podbench import _compat, errors
-from podbench.api import StudyResult, run
-from podbench.core.records import Record
-from podbench.core.response import Response, displacement_norm, norm_percent_error
 from podbench.core.version import __version__ as __version__
-from podbench.dynamics import excitations, simulate
-from podbench.structures import list_structures, load_structure
-from podbench.structures.structure import Structure
-from podbench.sysid import deconvolution, methods, pod
 
 _compat.install()
+
+_LAZY = {
+    "run": "podbench.api", "StudyResult": "podbench.api", "fit": "podbench.api",
+    "load_model": "podbench.api",
+    "Record": "podbench.core.records",
+    "Response": "podbench.core.response", "displacement_norm": "podbench.core.response",
+    "norm_percent_error": "podbench.core.response",
+    "excitations": "podbench.dynamics", "simulate": "podbench.dynamics",
+    "list_structures": "podbench.structures", "load_structure": "podbench.structures",
+    "Structure": "podbench.structures.structure",
+    "deconvolution": "podbench.sysid", "methods": "podbench.sysid", "pod": "podbench.sysid",
+}
+"""Public name → the module it comes from, imported on first use (PEP 562): ``import
+podbench`` and the command line's ``--help`` do not pay for SciPy, pandas or Matplotlib."""
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'podbench' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "run",
     "StudyResult",
+    "fit",
+    "load_model",
     "Record",
     "Response",
     "Structure",

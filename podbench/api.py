@@ -34,6 +34,9 @@ import pandas as pd
 from podbench.core.atomic import atomic_write_text
 from podbench.core.hints import did_you_mean
 from podbench.core.resources import (
+    DEFAULT_BASELINE,
+    DEFAULT_CACHE,
+    DEFAULT_RESULTS,
     DEFAULT_STUDY,
     SWEEPS_STUDY,
     bundled_studies,
@@ -44,6 +47,7 @@ from podbench.errors import InputError, UnknownNameError
 from podbench.harness.base_excited import run_study as run_base_excited
 from podbench.harness.executor import resolve_jobs
 from podbench.harness.f16_gvt import run_study as run_f16_gvt
+from podbench.harness.fit import fit_files
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
 from podbench.harness.painter_street import run_study as run_painter_street
@@ -72,18 +76,14 @@ from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
 from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.study.substructuring import load_substructuring
-from podbench.sysid.deconvolution import available_solvers
+from podbench.sysid.deconvolution import RENAMED, available_solvers
+from podbench.sysid.models import Model
+from podbench.sysid.registry import lookup
 
-__all__ = ["run", "StudyResult", "predict", "regress", "sweep", "experiment", "resolve_study",
-           "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE", "DEFAULT_RESULTS",
-           "DEFAULT_BASELINE", "REGRESS_STUDIES"]
+__all__ = ["run", "StudyResult", "predict", "fit", "load_model", "Model", "regress", "sweep",
+           "experiment", "resolve_study", "own_study", "Runner", "RUNNERS", "DEFAULT_CACHE",
+           "DEFAULT_RESULTS", "DEFAULT_BASELINE", "REGRESS_STUDIES"]
 
-DEFAULT_CACHE = Path(".podbench_cache")
-"""The truth cache's folder, in the current folder."""
-DEFAULT_RESULTS = Path("results")
-"""Where ``run`` writes without ``out``: ``results/<study>``."""
-DEFAULT_BASELINE = DEFAULT_RESULTS / "baseline.csv"
-"""The committed accuracy baseline ``regress`` compares with."""
 REGRESS_STUDIES = ("chapter4", "chapter5")
 """What ``regress`` re-runs without a study: the numerical study and the noisy-measurement
 study (the committed baseline holds their rows)."""
@@ -378,7 +378,7 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
     df, evaluated = write_study(results, out, scenarios=scenarios, claims_path=claims,
                                 figures=figures, jobs=jobs, figure_format=figure_format,
                                 progress=progress, command=command, sensitivity=linked,
-                                nonlinearity=nonlinearity, seeds=seeds)
+                                nonlinearity=nonlinearity, seeds=seeds, seconds=seconds)
     n_sim, n_cached = response_counts(results)
     drawn = sorted((out / "figures").glob(f"*.{figure_format}")) if figures else []
     return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
@@ -453,21 +453,61 @@ def _announcement(files, scenarios: dict, claims_file, claims, figures: bool) ->
 
 
 # ----------------------------------------------------------------------------- predict
-def predict(method: str, train, target, out, *, solver: str = "auto", n_modes=None,
+def predict(method: str | None, train, target, out, *, solver: str = "auto", n_modes=None,
             coverage=None, input_units=None, output_units=None,
-            units=None) -> PredictResult:
+            units=None, model=None) -> PredictResult:
     """Fit ``method`` (a registered name, :mod:`podbench.sysid.registry`) on the ``train``
     record files and predict every ``target`` file, as ``podbench predict``:
     ``out/errors.csv`` (target, method, total_error, per-channel errors), ``out/<target
     stem>.npz`` with ``y_hat`` (and ``W_hat`` for displacements; with ``coverage``:
     ``lower``, ``upper`` in the ``.npz``, ``error_estimate`` and ``coverage`` in errors.csv)
     and ``out/config.json`` (the fitted configuration). Every file is checked before any
-    fitting; ``out`` is written whole or not at all. Returns the
+    fitting; ``out`` is written whole or not at all. With ``model`` (a ``model.npz`` of
+    :func:`fit`), the saved model predicts (``method`` and ``train`` None). Returns the
     :class:`~podbench.harness.predict.PredictResult` (``rows`` of errors.csv, ``config``)."""
     out = output_folder(out, "out", "errors.csv")
-    return predict_files(method, _as_list(train), _as_list(target), out, solver=solver,
-                         n_modes=n_modes, coverage=coverage, input_units=input_units,
-                         output_units=output_units, units=units)
+    return predict_files(method, _as_list(train) if train is not None else None,
+                         _as_list(target), out, solver=solver, n_modes=n_modes,
+                         coverage=coverage, input_units=input_units,
+                         output_units=output_units, units=units, model=model)
+
+
+def fit(method: str, records, out=None, *, training_files=(), solver: str | None = None,
+        n_modes=None, input_units=None, output_units=None, units=None, **params):
+    """Fit a registered ``method`` and return the model you keep
+    (:class:`~podbench.sysid.models.Model`: ``predict``, ``modes()``, ``to_statespace()``,
+    ``save``).
+
+    ``records`` are :class:`~podbench.core.records.Record` objects, fitted with the
+    method's ``params`` as given (``pb.fit("ML", records, n_lags="auto")``); or record
+    files, fitted as ``podbench fit`` fits them (``solver``, ``n_modes`` as its options)
+    and, with ``out``, written as ``podbench fit`` writes them (model.npz, model.json,
+    modes.csv).
+    """
+    recs = _as_list(records)
+    if recs and all(isinstance(r, (str, Path)) for r in recs):
+        if params:
+            raise InputError(f"Parameter `{next(iter(params))}`: record files are fitted as "
+                             "podbench fit fits them (solver, n_modes); fit Records to give "
+                             "the method's own parameters")
+        folder = output_folder(out if out is not None else default_out(recs), "out",
+                               "model.npz")
+        return fit_files(method, recs, folder, solver=solver or "auto", n_modes=n_modes,
+                         input_units=input_units, output_units=output_units,
+                         units=units).model
+    if out is not None:
+        raise InputError("Parameter `out`: a folder for fits of record files; save a model "
+                         "of Records with model.save(path)")
+    given = {k: v for k, v in (("solver", solver), ("n_modes", n_modes)) if v is not None}
+    est = lookup(method).build(**{**params, **given}).fit(recs)
+    return Model(est, training_files=training_files)
+
+
+def load_model(path) -> Model:
+    """The model saved in ``path`` (a ``model.npz`` of :func:`fit` or ``podbench fit``):
+    refused in one line naming the file if it is not a podbench model, has an unknown
+    ``format_version`` or holds pickles."""
+    return Model.load(path)
 
 
 # -------------------------------------------------------- studies with their own runner
@@ -615,10 +655,12 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
             engine: str | None = None, quiet: bool = True, progress=None) -> RegressResult:
     """Re-run studies (default: Chapter 4 and 5) or read a ``table`` and compare every error
     with the ``baseline`` (relative ``rtol``, absolute ``atol``), as ``podbench regress``;
-    with ``update`` the baseline is (re)written instead. Returns the
-    :class:`RegressResult`."""
-    files = None if table else resolve_study(study, REGRESS_STUDIES)[1]  # missing paths first
-    if files is not None:
+    with ``update`` the baseline is (re)written instead. Only the study's rows are judged
+    (the scenarios of ``study``, or with ``table`` alone those the table names): a baseline
+    row of another study is neither missing nor compared, and ``update`` replaces the
+    study's rows and keeps the others. Returns the :class:`RegressResult`."""
+    files = None if table and not study else resolve_study(study, REGRESS_STUDIES)[1]
+    if files is not None:  # missing paths first, then a study with its own runner
         _refuse_own(files, "regress")
     baseline = Path(baseline)
     if update:  # checked before any work: the new baseline can be written
@@ -631,17 +673,25 @@ def regress(study=None, *, baseline=DEFAULT_BASELINE, rtol: float = 0.01, atol: 
     elif not baseline.is_file():
         raise InputError(f"{baseline}: no such baseline (create it with --update)")
     base = None if update else read_table(baseline)
+    names = None if files is None else set(load_scenarios(files, "regress"))
     if table:
         new = read_table(table)
     else:
-        load_scenarios(files, "regress")
         cache_dir = _check_run_options(jobs, cache)
         new = summary_table(run_study(files, jobs=jobs, cache_dir=cache_dir, engine=engine,
                                       progress=_progress(progress, quiet), keep_series=False))
     if update:
+        if baseline.is_file():  # the other studies' rows stay
+            kept = read_table(baseline)
+            new = pd.concat([kept[~kept["scenario"].isin(set(new["scenario"]) | (names or set()))],
+                             new], ignore_index=True)
         atomic_write_text(baseline, table_csv(new), keep=unmoved)
         return RegressResult(comparison=None, rows=len(new), baseline=baseline, updated=True)
     assert base is not None  # read above, before the run, unless update
+    # judge exactly the study's rows: its scenarios, or those the table names
+    names = set(new["scenario"]) if names is None else names
+    new = new[new["scenario"].isin(names)]
+    base = base[base["scenario"].isin(names)]
     return RegressResult(comparison=compare(new, base, rtol=rtol, atol=atol), rows=len(new),
                          baseline=baseline)
 
@@ -680,11 +730,12 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
     axes = {"noise": noise, "n_modes": n_modes, "seeds": seeds}
     if solvers is not None:
         for name in solvers:
-            if name not in available_solvers():
+            if name not in available_solvers() and name.lower() not in RENAMED:
                 raise UnknownNameError(f"{_param('solvers')}: unknown solver {name!r}"
                                        f"{did_you_mean(name, available_solvers())} "
                                        f"(solvers: {', '.join(available_solvers())})")
-        axes["solvers"] = [SolverChoice(label=n, solver=n) for n in solvers]
+        axes["solvers"] = [SolverChoice(label=n, solver=RENAMED.get(n.lower(), (n,))[0])
+                           for n in solvers]  # a former name: the solver it runs
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
     cache_dir = None if cache is None else writable_folder(cache, "cache")
     writable_folder(out, "out")

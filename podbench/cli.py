@@ -9,6 +9,7 @@ shows the traceback); 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import os
 import re
@@ -17,20 +18,57 @@ import textwrap
 import traceback
 from pathlib import Path
 
-from podbench import api
-from podbench.api import DEFAULT_BASELINE, DEFAULT_CACHE
 from podbench.core.hints import did_you_mean
-from podbench.core.resources import SWEEPS_STUDY, bundled_structures, bundled_studies, display_path
+from podbench.core.resources import (
+    DEFAULT_BASELINE,
+    DEFAULT_CACHE,
+    SWEEPS_STUDY,
+    bundled_scenarios,
+    bundled_structures,
+    bundled_studies,
+    display_path,
+)
+from podbench.core.tomlfile import load_toml
 from podbench.core.version import __version__
 from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError, UnknownNameError
-from podbench.harness.progress import Progress
-from podbench.structures.files import structure_dirs
-from podbench.study.claims import NOT_CHECKABLE, TIE, text_claims
-from podbench.study.scenarios import CLAIMS_FILE, NOT_SCENARIOS, load_scenario
-from podbench.sysid import registry
-from podbench.sysid.deconvolution import available_solvers
-from podbench.sysid.paramdocs import entries, parameter_help
+
+
+class _OnFirstUse:
+    """A module imported on first attribute access: ``podbench --help`` and ``podbench
+    list`` do not pay for the NumPy/SciPy/pandas/Matplotlib stack of the commands."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attr: str):
+        return getattr(importlib.import_module(self._name), attr)
+
+
+api = _OnFirstUse("podbench.api")
+registry = _OnFirstUse("podbench.sysid.registry")
+_claims = _OnFirstUse("podbench.study.claims")
+_scenarios = _OnFirstUse("podbench.study.scenarios")
+_deconvolution = _OnFirstUse("podbench.sysid.deconvolution")
+_paramdocs = _OnFirstUse("podbench.sysid.paramdocs")
+
+
+def Progress(**kw):  # noqa: N802 - the class it builds
+    """:class:`podbench.harness.progress.Progress` (imported on first use)."""
+    return importlib.import_module("podbench.harness.progress").Progress(**kw)
+
+
+def available_solvers() -> tuple:
+    return _deconvolution.available_solvers()
+
+
+def entries() -> dict:
+    return _paramdocs.entries()
+
+
+def load_scenario(path):
+    return _scenarios.load_scenario(path)
+
 
 _EPILOG = """\
 Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
@@ -97,8 +135,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"podbench {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_run, _add_regress, _add_sweep, _add_predict, _add_experiment, _add_list,
-                _add_methods):
+    for add in (_add_run, _add_regress, _add_sweep, _add_fit, _add_predict, _add_experiment,
+                _add_list, _add_methods):
         add(sub)
     return p
 
@@ -186,8 +224,9 @@ def _add_regress(sub) -> None:
     g = _command(
         sub, "regress", "re-run the study and compare every error with the baseline",
         "Re-run the scenarios (no figures, nothing written to results/ except "
-        "with --update) and compare every error column with the baseline table. "
-        "An error is worse when it exceeds base·(1 + rtol) + atol. Exit 0 when "
+        "with --update) and compare every error column with the baseline table's rows of "
+        "those scenarios (another study's rows are not judged). An error is worse when "
+        "it exceeds base·(1 + rtol) + atol. Exit 0 when "
         "nothing got worse, 1 with a readable diff when something did, 2 on "
         "unusable input.",
         _EPILOG)
@@ -203,7 +242,8 @@ def _add_regress(sub) -> None:
     g.add_argument("--update", action="store_true",
                    help="write this run's table as the new baseline (deliberately) and exit 0")
     g.add_argument("--table", default=None, metavar="CSV",
-                   help="compare this existing summary.csv instead of re-running")
+                   help="compare this existing summary.csv instead of re-running (its rows "
+                        "of the study named, else the scenarios it holds)")
 
 
 def _add_sweep(sub) -> None:
@@ -319,12 +359,15 @@ Examples:
   podbench predict --method MDS --train free0.npz free1.npz free2.npz \\
       --target free3.npz --out pred/ --coverage 0.9   # free responses: W, dt, w0
 """, formatter_class=argparse.RawDescriptionHelpFormatter)
-    pr.add_argument("--method", required=True,
+    pr.add_argument("--method", default=None,
                     help="a registered method (podbench methods; letter case aside): ML, "
                          "FIR-LS, ERA, DMDc, OpInf, mdof on measured inputs; ML, SL (one "
                          "training file), MR on displacement/force files; MDS, POVR (one "
                          "training file) on free responses; configurations such as ML-TC")
-    pr.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    pr.add_argument("--train", nargs="+", default=None, metavar="FILE")
+    pr.add_argument("--model", default=None, metavar="MODEL.npz",
+                    help="predict with a model saved by podbench fit (instead of --method "
+                         "and --train)")
     pr.add_argument("--target", nargs="+", required=True, metavar="FILE")
     pr.add_argument("--out", required=True, metavar="DIR",
                     help="output folder (new, empty, or a previous predict output)")
@@ -350,6 +393,58 @@ Examples:
                     help="units of the outputs for files that carry none")
     pr.add_argument("--debug", action="store_true",
                     help="show the Python traceback of an internal error (exit code 3)")
+
+
+def _add_fit(sub) -> None:
+    """``podbench fit``."""
+    ft = sub.add_parser(
+        "fit", help="fit a method on training records and save the model",
+        description=textwrap.fill(
+            "Fit METHOD on the --train record files (read and checked as podbench predict "
+            "reads them) and write OUT/model.npz (the fitted model: arrays plus a JSON "
+            "header with format_version, no pickles), OUT/model.json (its readable summary: "
+            "parameters, training files with SHA-256, dt, channels, units, what the fit "
+            "chose, how its state-space realization and modes were chosen) and "
+            "OUT/modes.csv (mode, frequency_hz, damping_ratio, shape:<channel>: the physical "
+            "modes, sorted by frequency). podbench predict --model OUT/model.npz predicts "
+            "with it.", width=88),
+        epilog="""
+Examples:
+  podbench fit --method ML --train a.npz b.npz c.npz --out chain_ml/
+  podbench fit --method ERA --train a.npz b.npz c.npz --n-modes 5 --out chain_era/
+  podbench predict --model chain_ml/model.npz --target x.npz --out pred/
+""", formatter_class=argparse.RawDescriptionHelpFormatter)
+    ft.add_argument("--method", required=True,
+                    help="a registered method (podbench methods; letter case aside)")
+    ft.add_argument("--train", nargs="+", required=True, metavar="FILE")
+    ft.add_argument("--out", required=True, metavar="DIR",
+                    help="output folder (new, empty, or a previous fit output)")
+    ft.add_argument("--solver", default="auto", help="as for podbench predict")
+    ft.add_argument("--n-modes", type=_positive_int, default=None, metavar="K",
+                    help="number of modes: the POMs of a POD method, order 2K of ERA; "
+                         "refused for a method without one")
+    ft.add_argument("--units", choices=("SI", "inch-lbf"), default=None,
+                    help="convert every record to this unit system when it is read")
+    ft.add_argument("--input-units", default=None, metavar="UNIT",
+                    help="units of the inputs for files that carry none")
+    ft.add_argument("--output-units", default=None, metavar="UNIT",
+                    help="units of the outputs for files that carry none")
+    ft.add_argument("--debug", action="store_true",
+                    help="show the Python traceback of an internal error (exit code 3)")
+
+
+def cmd_fit(args) -> int:
+    import json
+
+    api.fit(args.method, args.train, args.out, solver=args.solver, n_modes=args.n_modes,
+            input_units=args.input_units, output_units=args.output_units, units=args.units)
+    summary = json.loads((Path(args.out) / "model.json").read_text())
+    print(f"{summary['method']}: model -> {args.out}/model.npz (summary model.json)")
+    if summary.get("modes_table"):
+        print(f"{_plural(summary['modes_count'], 'physical mode')} -> {args.out}/modes.csv")
+    else:
+        print(f"no modes.csv: {summary.get('modes_reason', '')}")
+    return 0
 
 
 def _add_list(sub) -> None:
@@ -379,12 +474,12 @@ def _add_methods(sub) -> None:
         "each parameter's first sentence; with NAME: the whole description.",
         """Examples:
   podbench methods                 # every method and solver, briefly
-  podbench methods ML tls          # the multiple-load method and the TLS solver in full
+  podbench methods ML tls-appendix # the multiple-load method and the appendix TLS in full
 """)
     m.add_argument("names", nargs="*", metavar="NAME",
-                   help="a method as a scenario names it (" + ", ".join(
-                       n for n in entries() if n not in available_solvers())
-                   + ") or a solver (" + ", ".join(available_solvers()) + ")")
+                   help="a method as a scenario names it (ML, SL, MDS, ERA, ML-TC, ...) or a "
+                        "deconvolution solver (block, tls, cgls, ...); podbench methods "
+                        "without NAME lists every one")
     _add_debug(m)
 
 
@@ -392,6 +487,7 @@ def _entry_name(name: str) -> str:
     """The :func:`entries` name ``name`` means (a class name or another letter case is
     accepted when it is unambiguous)."""
     known = entries()
+    name = _deconvolution.RENAMED.get(name.lower(), (name,))[0]  # a former name: its solver
     if name in known:
         return name
     found = [k for k in known if name.lower() == k.lower()] or [
@@ -409,7 +505,7 @@ def cmd_methods(args) -> int:
         print("Parameters of the built-in methods and deconvolution solvers, as a scenario's\n"
               "[[methods]] options give them (podbench methods NAME: the whole description).\n")
     for name in names or entries():
-        print(parameter_help(name, full=bool(names)))
+        print(_paramdocs.parameter_help(name, full=bool(names)))
         print()
     return 0
 
@@ -424,10 +520,13 @@ def _cache(args):
 
 
 def cmd_predict(args) -> int:
+    if args.model is None and (args.method is None or args.train is None):
+        raise InputError("predict: give --method and --train (fit and predict), or --model "
+                         "(a model saved by podbench fit)")
     rows = api.predict(args.method, args.train, args.target, args.out, solver=args.solver,
                        n_modes=args.n_modes, coverage=args.coverage,
                        input_units=args.input_units, output_units=args.output_units,
-                       units=args.units).rows
+                       units=args.units, model=args.model).rows
     for r in rows:
         band = (f", error_estimate {r['error_estimate'] or '(none: ' + r['note'] + ')'}, "
                 f"coverage {r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
@@ -441,13 +540,12 @@ def _claims_line(claims) -> str:
     """The run's last word on the claims, counted as FINDINGS.md's headline counts them: the
     text's claims once each (an entry with its ``part_of`` parts), then how many variants
     were judged besides them (the text's claims apart from podbench's variants)."""
-    verdicts = [v for _, _, v in text_claims(claims)]
-    n_variants = sum(bool(e["claim"].variant) for e in claims)
+    verdicts = [v for _, _, v in _claims.text_claims(claims)]
+    n_variants = sum(bool(e.claim.variant) for e in claims)
     whose = "the text's " if n_variants else ""
-    line = f"claims: {verdicts.count('reproduced')} of {whose}{len(verdicts)} reproduced"
-    line += "".join(f", {verdicts.count(k)} {k}" for k in ("not reproduced", TIE,
-                                                         "not measured", NOT_CHECKABLE)
-                    if verdicts.count(k))
+    rest = _claims.counts_words(verdicts).split(", ", 2)  # reproduced, not reproduced, others
+    line = f"claims: {rest[0].split()[0]} of {whose}{len(verdicts)} reproduced"
+    line += "".join(f", {w}" for w in rest[1:] if not w.startswith("0 "))
     if n_variants:
         line += f"; {_plural(n_variants, 'variant')} also judged"
     return line
@@ -473,8 +571,9 @@ def cmd_run(args) -> int:
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:
         for folder in dict.fromkeys(Path(p).resolve().parent for p in parts):
-            print(f"part of the study in {display_path(folder)}: written to {out}/, "
-                  f"{api.DEFAULT_RESULTS / folder.name}/ left as it was")
+            study_out = api.DEFAULT_RESULTS / folder.name
+            kept = f", {study_out}/ left as it was" if study_out.is_dir() else ""
+            print(f"part of the study in {display_path(folder)}: written to {out}/{kept}")
     if (out / "report.html").is_file():  # the studies with their own runner write none
         print(f"report: {out / 'report.html'}")
     return 0
@@ -507,26 +606,64 @@ def cmd_regress(args) -> int:
     return 1 if got.failed else 0
 
 
-def _list_scenarios(folder: Path, indent: str) -> None:
+MAX_LISTED_METHODS = 6
+"""``podbench list`` names at most this many method labels of a scenario, then counts them."""
 
+
+def _toml_summary(f: Path, depth: int = 0) -> tuple[str, dict]:
+    """``(kind, table)`` of one file as ``podbench list`` shows it, read as TOML only (the
+    listing does not import the methods; ``podbench run`` checks every field): kind
+    ``"own"`` (a ``[study]`` naming its runner), ``"scenario"`` or ``"unreadable"``."""
+    try:
+        _, d = load_toml(f, display_path(f), InputError)
+    except InputError as exc:
+        return "unreadable", {"error": str(exc)}
+    study = d.get("study")
+    if isinstance(study, dict) and isinstance(study.get("runner"), str):
+        return "own", study
+    sc = d.get("scenario")
+    base = sc.get("base") if isinstance(sc, dict) else None
+    if isinstance(base, str) and (f.parent / base).is_file() and depth < 8:
+        kind, parent = _toml_summary(f.parent / base, depth + 1)  # scenario.base: inherited
+        if kind == "scenario":
+            merged = {**parent, **d}
+            merged["scenario"] = {**parent.get("scenario", {}), **sc}
+            return "scenario", merged
+    return "scenario", d
+
+
+def _methods_text(d: dict) -> str:
+    """The method labels of a scenario table, summarised past :data:`MAX_LISTED_METHODS`."""
+    methods = d.get("methods", [])
+    labels = [str(m.get("label", m.get("method", "?"))) for m in methods
+              if isinstance(m, dict)] if isinstance(methods, list) else []
+    if len(labels) <= MAX_LISTED_METHODS:
+        return ", ".join(labels)
+    return f"{len(labels)} methods: {', '.join(labels[:3])}, …"
+
+
+def _list_scenarios(folder: Path, indent: str, runners: dict | None = None) -> None:
+    """One line per scenario of ``folder`` (name, title, structures, methods); a study file
+    with its own runner is named with it (and recorded in ``runners``)."""
     for f in sorted(folder.glob("*.toml")):
-        if f.name in NOT_SCENARIOS:
+        if f.name in ("claims.toml", "experiment.toml"):
             continue
-        try:
-            own = api.own_study([f])
-            if own is not None:  # a study file naming its own runner
-                title = own.title or api.RUNNERS[own.runner].title
-                print(f"{indent}{f.stem}: {title} [its own runner: {own.runner}]")
-                continue
-            sc = load_scenario(f)
-        except PodbenchError as exc:
-            print(f"{indent}{f.stem}: (unreadable: {_one_line(exc, 200)})")
+        kind, d = _toml_summary(f)
+        if kind == "unreadable":
+            print(f"{indent}{f.stem}: (unreadable: {_one_line(d['error'], 200)})")
             continue
-        methods = ", ".join(m.label for m in sc.reported_methods())
-        sweep = "; [sweep]" if getattr(sc, "sweep", None) else ""
-        print(f"{indent}{sc.name}: {sc.title} [{', '.join(sc.structures)}; {methods}{sweep}]")
-    if (folder / CLAIMS_FILE).is_file():
-        print(f"{indent}(claims: {CLAIMS_FILE}, judged into FINDINGS.md)")
+        if kind == "own":
+            print(f"{indent}{f.stem}: {d.get('title', '')} [its own runner: {d['runner']}]")
+            if runners is not None:
+                runners.setdefault(d["runner"], f"{d.get('title', '')} ({f.stem})")
+            continue
+        sc = d.get("scenario", {}) if isinstance(d.get("scenario"), dict) else {}
+        structures = ", ".join(map(str, sc.get("structures", [])))
+        sweep = "; [sweep]" if "sweep" in d else ""
+        print(f"{indent}{sc.get('name', f.stem)}: {sc.get('title', '')} [{structures}; "
+              f"{_methods_text(d)}{sweep}]")
+    if (folder / "claims.toml").is_file():
+        print(f"{indent}(claims: claims.toml, judged into FINDINGS.md)")
 
 
 def _names_in(folder: Path) -> list[str]:
@@ -538,11 +675,13 @@ def _names_in(folder: Path) -> list[str]:
 
 
 def cmd_list(args) -> int:
-
+    """Structures, scenarios, methods, solvers and runners; each structure and study once
+    (in a checkout ./structures and ./scenarios are the bundled folders)."""
     bundled = bundled_structures()
     local = Path("structures")
-    folders = ([local] if local.is_dir() else []) + [
-        d for d in structure_dirs() if d.resolve() != bundled.resolve()]
+    folders = ([local] if local.is_dir() and local.resolve() != bundled.resolve() else []) + [
+        Path(d) for d in os.environ.get("PODBENCH_STRUCTURES", "").split(os.pathsep)
+        if d and Path(d).resolve() not in (bundled.resolve(), local.resolve())]
     shadow = set()
     for d in folders:
         names = _names_in(d)
@@ -557,14 +696,8 @@ def cmd_list(args) -> int:
     for name in _names_in(bundled):
         print(f"  {name}" + ("  (a local file of this name comes first)" if name in shadow
                              else ""))
-    local_sc = Path("scenarios")
-    if local_sc.is_dir():
-        studies = [d for d in sorted(local_sc.iterdir()) if d.is_dir() and any(d.glob("*.toml"))]
-        if any(local_sc.glob("*.toml")):
-            studies.insert(0, local_sc)
-        for d in studies:
-            print(f"scenarios in ./{d.as_posix()} (podbench run {d.as_posix()}):")
-            _list_scenarios(d, "  ")
+    _list_local_scenarios()
+    runners: dict = {}
     for name, d in bundled_studies().items():
         cmd = "sweep" if name == SWEEPS_STUDY else "run"
         if _own_runner(d):
@@ -573,26 +706,38 @@ def cmd_list(args) -> int:
         else:
             print(f"scenarios bundled with podbench: {name} ({display_path(d)}; "
                   f"podbench {cmd} {name}, or {name}/<scenario> for one):")
-        _list_scenarios(d, "  ")
+        _list_scenarios(d, "  ", runners)
     print("methods (podbench methods NAME: the parameters):")
     for e in registry.ENTRIES:
         fixed = ", ".join(f"{k}={v!r}" for k, v in e.params.items())
         print(f"  {e.name}: {e.cls.__name__}{f'({fixed})' if fixed else ''} — {e.summary}")
     print("  module:Class or file.py:Class (your own; see podbench.methods.PODMethod)")
     print("deconvolution solvers: " + ", ".join(available_solvers()))
-    print("study runners (a study file's [study] runner = \"<name>\"):")
-    for name, runner in api.RUNNERS.items():
-        print(f"  {name}: {runner.title}")
+    print("study runners (a study file's [study] runner = \"<name>\"; the bundled study "
+          "using each):")
+    for name, title in runners.items():
+        print(f"  {name}: {title}")
     return 0
+
+
+def _list_local_scenarios() -> None:
+    """The studies of ./scenarios, unless it is the bundled folder (a checkout)."""
+    local_sc = Path("scenarios")
+    if not local_sc.is_dir() or local_sc.resolve() == bundled_scenarios().resolve():
+        return
+    studies = [d for d in sorted(local_sc.iterdir()) if d.is_dir() and any(d.glob("*.toml"))]
+    if any(local_sc.glob("*.toml")):
+        studies.insert(0, local_sc)
+    for d in studies:
+        print(f"scenarios in ./{d.as_posix()} (podbench run {d.as_posix()}):")
+        _list_scenarios(d, "  ")
 
 
 def _own_runner(folder: Path) -> bool:
     """Whether a study folder is one study file with its own runner."""
-    files = [f for f in folder.glob("*.toml") if f.name not in NOT_SCENARIOS]
-    try:
-        return len(files) == 1 and api.own_study(files) is not None
-    except PodbenchError:
-        return False
+    files = [f for f in folder.glob("*.toml") if f.name not in ("claims.toml",
+                                                                "experiment.toml")]
+    return len(files) == 1 and _toml_summary(files[0])[0] == "own"
 
 
 def _list_arg(text, name: str, kind):
@@ -713,7 +858,8 @@ def main(argv=None) -> int:
     try:
         return {"run": cmd_run, "regress": cmd_regress, "sweep": cmd_sweep,
                 "list": cmd_list, "experiment": cmd_experiment,
-                "predict": cmd_predict, "methods": cmd_methods}[args.command](args)
+                "predict": cmd_predict, "methods": cmd_methods,
+                "fit": cmd_fit}[args.command](args)
     except PodbenchError as exc:
         print(f"{prog}: error: {_one_line(_as_flags(str(exc), parser))}", file=sys.stderr)
         return 2

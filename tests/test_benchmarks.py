@@ -77,3 +77,25 @@ def test_robust_script_runs_a_tiny_size_and_reports_ratios_and_errors():
     assert rows[0][5] == 1.0 and rows[0][3] == 0.0 and rows[1][3] == 0.01
     assert all(np.isfinite(r[6]) for r in rows)
     assert rows[0][6] < 0.05
+
+
+def test_bands_heldout_scores_one_design_against_its_truth():
+    """One MDS design of the held-out band evaluation at 1 % noise: every target is scored,
+    the realized error recomputed here from the truth, and the scores are in range."""
+    from benchmarks import bands_heldout as H
+
+    d = H.designs("dev", ("LTI",), ("MDS",), 1)[0]
+    sims = H.simulate_design(d)
+    import pandas as pd
+
+    df = pd.DataFrame(H.run_design(d, 0.01, sims))
+    assert len(df) == H.TARGETS and set(df["status"]) == {"ok"}
+    model = H.make_method(d).fit([H.noisy_record(r, 0.01, d, f"train{j}")
+                                  for j, r in enumerate(sims[0])])
+    rec = H.noisy_record(sims[1][0], 0.01, d, "target0")
+    truth = np.asarray(sims[1][0].W)
+    real = np.linalg.norm(model.predict(rec) - truth) / np.linalg.norm(truth)
+    assert df["total_error"].iloc[0] == pytest.approx(real, rel=1e-12)
+    s = H.scores(df)
+    assert 0 <= s["within_factor_2"] <= 1 and -1 <= s["spearman"] <= 1
+    assert s["interval_score_ratio"] > 0 and s["no_estimate"] == 0

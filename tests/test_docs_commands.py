@@ -64,6 +64,14 @@ _INSTALL = NOT_RUN("installs into the current environment (from the network for 
                    "test_the_extras_named_in_the_docs_exist checks the extra's name")
 
 COMMANDS: dict[str, object] = {
+    "podbench --help": COVERED("tests/harness/test_first_week.py::"
+                               "test_the_command_line_imports_no_heavy_module_until_a_command_"
+                               "needs_it"),
+    "podbench regress chapter4": COVERED("tests/harness/test_first_week.py::"
+                                         "test_regress_of_one_study_judges_only_its_rows"),
+    "python benchmarks/cli_startup.py": NOT_RUN(
+        "a timing benchmark (ratios against the numpy+scipy import in the same process); "
+        "its rows are in results/benchmarks.csv"),
     # set-up and the test suite
     'python3 -m venv .venv && .venv/bin/pip install -e ".[test]" && .venv/bin/podbench run':
         NOT_RUN("creates a virtual environment and installs from the network (minutes); "
@@ -110,6 +118,9 @@ COMMANDS: dict[str, object] = {
     "podbench methods": RUN,
     "podbench methods <name>": SYNOPSIS,
     "podbench predict --method": SYNOPSIS,
+    "podbench fit --method M --train A.npz B.npz ... --out DIR [--solver S] [--n-modes K]":
+        SYNOPSIS,
+    "podbench predict --model DIR/model.npz --target X.npz --out OUT": SYNOPSIS,
     "podbench methods [NAME ...]": SYNOPSIS,
     "podbench predict --method ML --train FILE ... --target FILE ... --out DIR": COVERED(
         "tests/measured_io/test_predict_and_painter_street.py"),
@@ -182,6 +193,21 @@ COMMANDS: dict[str, object] = {
         "times a band against the plain fit for nine method cases at two noise levels "
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
+    "podbench predict --coverage 0.9": SYNOPSIS,
+    "python benchmarks/bands_heldout.py": NOT_RUN(
+        "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
+    "python benchmarks/bands_levels.py --data DIR": NOT_RUN(
+        "reads the F-16 ground-vibration test's measured records, which are not in the "
+        "checkout (the F-16 study's data); fits ML on 16384 samples with a 1600-sample FIR "
+        "(minutes); the level term it measures is tested in "
+        "tests/measured_io/test_io_bands.py"),
+    "python benchmarks/bands_heldout.py --set dev": NOT_RUN(
+        "simulates and fits 48 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
+    "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
+        "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
+        "design of it is run in tests/test_benchmarks.py"),
     "python benchmarks/dense_tls.py": SLOW,
     "python benchmarks/modal.py": NOT_RUN(
         "fits ML and ERA on two structures at two noise levels (minutes; accuracy is measured, "
@@ -252,6 +278,7 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("docs/dynamics.md", "from podbench.dynamics import simulate"): "python",
     ("docs/methods.md", "from podbench import Record"): "python",
     ("docs/models.md", "import numpy as np"): "python",
+    ("docs/models.md", "# podbench fit and podbench predict --model, from Python"): "python",
     ("docs/structures.md", "from podbench.fem import load_structure, list_structures"): "python",
     ("docs/structures.md", "from podbench.fem.files import register_kind"): "python",
     # TOML blocks

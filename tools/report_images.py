@@ -6,10 +6,12 @@ Without ``--report`` it runs ``podbench run chapter4 -q`` in an empty temporary 
 (a few minutes: a cold cache; the checkout's results/ are not touched). From that
 ``report.html`` it writes:
 
-* ``report.png``: the top of the page as a browser shows it at 1280 px (header, the first
-  scenario's table and the start of its error-decomposition figure);
-* ``report_decomposition.png``: the first scenario's table and error-decomposition figure
-  with its caption, cropped from the page;
+* ``report.png``: the top of the page as a browser shows it at 1280 px (header, table of
+  contents and the summary: what was run, the claims, the best and worst method of each
+  scenario);
+* ``report_decomposition.png``: the first scenario's section, its table, the notes on its
+  large errors and its error-decomposition figure (unfolded) with its caption, cropped from
+  the page;
 * ``figure_truss_forced_load38.png``: the study's figure file of the truss under load 38.
 
 Each picture is cropped from a screenshot of the page itself (the element's position is
@@ -35,9 +37,14 @@ WIDTH = 1280
 SHOTS = (  # file, CSS selector of the element (down to the bottom of a second one),
     # padding (px), max height (px)
     ("report.png", "body", None, 0, 1500),
-    ("report_decomposition.png", "main section", "main section figure.decomposition", 8,
-     2400),
+    ("report_decomposition.png", "details.scenario", "details.scenario figure.decomposition",
+     8, 2600),
 )
+OPEN = "details.scenario, details.sub:has(figure.decomposition)"
+"""The folded parts unfolded for the pictures: the scenario sections and the first
+scenario's decomposition figure (the first match of each selector is what is shot)."""
+_UNFOLD = ("<script>document.querySelectorAll(%r).forEach(function (d) { d.open = true; });"
+           "</script>" % OPEN)
 
 
 def _chromium() -> str:
@@ -66,7 +73,7 @@ _PROBE = """<script>window.addEventListener("load", function () {
 
 def _rect(exe: str, work: Path, page: str, selector: str) -> tuple[int, int, int, int]:
     probe = work / "probe.html"
-    probe.write_text(page.replace("</body>", (_PROBE % selector) + "</body>"),
+    probe.write_text(page.replace("</body>", _UNFOLD + (_PROBE % selector) + "</body>"),
                      encoding="utf-8")
     dom = _browser(exe, work, f"--window-size={WIDTH},1000", "--dump-dom",
                    probe.as_uri()).stdout
@@ -91,7 +98,8 @@ def shoot(exe: str, work: Path, page: str, selector: str, until: str | None, pad
     shifted = work / "shot.html"
     shifted.write_text(page.replace(
         "</head>", f"<style>body {{ position: relative; top: -{y0}px; }} "
-        "nav.toc { position: static; }</style></head>"), encoding="utf-8")
+        "nav.toc { position: static; }</style></head>").replace(
+        "</body>", _UNFOLD + "</body>"), encoding="utf-8")
     png = work / "shot.png"
     _browser(exe, work, f"--window-size={WIDTH},{h}", f"--screenshot={png}", shifted.as_uri())
     img = Image.open(png).convert("RGB")

@@ -15,3 +15,16 @@ def did_you_mean(name: object, choices: Iterable) -> str:
         by_lower.setdefault(c.lower(), c)
     close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=1, cutoff=0.6)
     return f"; did you mean {by_lower[close[0]]!r}?" if close else ""
+
+
+def percent_hint(value: object) -> str:
+    """``"; a percentage? 90 % is 0.9"`` when ``value`` looks like a fraction written as a
+    percentage (``5 <= value <= 100``: a value just above 1, such as 1.5, is more likely a
+    fraction out of range than 1.5 %), else ""."""
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return ""
+    if not 5.0 <= v <= 100.0:
+        return ""
+    return f"; a percentage? {v:g} % is {v / 100:g}"

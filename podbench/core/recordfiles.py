@@ -83,6 +83,8 @@ def _npz_vars(path) -> dict:
             return {k: z[k] for k in z.files}
     except ValueError as exc:  # object arrays need pickles: refused
         raise InputError(f"{path}: not a plain .npz ({exc}); podbench reads no pickles") from None
+    except EOFError:  # np.load of an empty file
+        raise InputError(f"{path}: empty file (0 bytes): not a .npz archive") from None
     except (OSError, zipfile.BadZipFile) as exc:
         raise InputError(f"{path}: cannot read as .npz ({exc})") from None
 
@@ -95,8 +97,9 @@ def _mat_vars(path) -> dict:
     except NotImplementedError:
         raise InputError(f"{path}: a MATLAB v7.3 (HDF5) file, which scipy cannot read; re-save "
                          "it with `save(..., '-v7')`") from None
-    except (OSError, ValueError, TypeError) as exc:
-        raise InputError(f"{path}: cannot read as a MATLAB file ({exc})") from None
+    except (OSError, ValueError, TypeError, scipy.io.matlab.MatReadError) as exc:
+        what = "empty file (0 bytes)" if Path(path).stat().st_size == 0 else str(exc)
+        raise InputError(f"{path}: cannot read as a MATLAB file ({what})") from None
     return {k: v for k, v in raw.items() if not k.startswith("__")}
 
 

@@ -18,12 +18,19 @@ from importlib import resources
 from pathlib import Path
 
 __all__ = ["bundled_root", "bundled_structures", "bundled_scenarios", "bundled_studies",
-           "resolve_bundled", "display_path", "unique_paths", "DEFAULT_STUDY", "SWEEPS_STUDY"]
+           "resolve_bundled", "display_path", "unique_paths", "DEFAULT_STUDY", "SWEEPS_STUDY",
+           "DEFAULT_CACHE", "DEFAULT_RESULTS", "DEFAULT_BASELINE"]
 
 DEFAULT_STUDY = "chapter4"
 """The study ``podbench run`` runs without a path."""
 SWEEPS_STUDY = "sweeps"
 """The folder of scenarios with a ``[sweep]`` table that ``podbench sweep`` runs without a path."""
+DEFAULT_CACHE = Path(".podbench_cache")
+"""The truth cache's folder, in the current folder."""
+DEFAULT_RESULTS = Path("results")
+"""Where ``run`` writes without ``out``: ``results/<study>``."""
+DEFAULT_BASELINE = DEFAULT_RESULTS / "baseline.csv"
+"""The committed accuracy baseline ``regress`` compares with."""
 
 _CHECKOUT = Path(__file__).resolve().parents[2]
 """The checkout's top folder when podbench runs from its sources (an editable install)."""

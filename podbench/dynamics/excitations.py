@@ -46,6 +46,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
+from podbench.core.hints import did_you_mean
 from podbench.core.validation import as_finite_array, check_choice, check_positive
 from podbench.dynamics.newmark import newmark
 from podbench.errors import DimensionError, IllConditionedError, InputError, UnknownNameError
@@ -78,6 +79,13 @@ def _describe(location, by) -> str:
     return f"{'position' if by == 'position' else 'DOF'} {location!r}"
 
 
+def _labels_text(labels, most: int = 12) -> str:
+    """``mass0, mass1, …`` (at most ``most``, then how many more)."""
+    labels = list(labels)
+    head = ", ".join(map(str, labels[:most]))
+    return head + (f", … ({len(labels) - most} more)" if len(labels) > most else "")
+
+
 def resolve_sensor(structure: Structure, location, *, by: str = "position") -> int:
     """Row of the sensor at ``location`` (see the module docstring for the forms accepted).
 
@@ -102,6 +110,8 @@ def resolve_sensor(structure: Structure, location, *, by: str = "position") -> i
             )
         raise InputError(
             f"Location {location!r}: no sensor or DOF of structure {s.name!r} has this label"
+            f"{did_you_mean(location, s.sensor_labels)} (sensors: "
+            f"{_labels_text(s.sensor_labels)})"
         )
     if isinstance(location, bool) or not isinstance(location, numbers.Real):
         raise InputError(f"Location {location!r}: expected a number or a label")

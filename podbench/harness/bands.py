@@ -1,4 +1,4 @@
-"""Band columns of the study tables (issue 21): every prediction's ``error_estimate`` and the
+"""Band columns of the study tables: every prediction's ``error_estimate`` and the
 ``coverage`` of its 90 % band (:mod:`podbench.sysid.methods.bands`), scored against the truth.
 
 ``coverage`` is the fraction of the truth's samples (every sensor and time) inside the band;
@@ -34,8 +34,10 @@ def band_prediction(est, record, coverage: float = BAND_COVERAGE):
 
 
 def band_row(prediction, W) -> dict:
-    """The band columns of one table row (NaN without a band)."""
-    if prediction is None or not hasattr(prediction, "lower"):
+    """The band columns of one table row (NaN without a band; a prediction without an
+    error estimate, whose ``note`` says why, has neither)."""
+    if prediction is None or not hasattr(prediction, "lower") or \
+            not np.isfinite(prediction.error_estimate):
         return dict.fromkeys(BAND_COLUMNS, float("nan"))
     return {"error_estimate": float(prediction.error_estimate),
             "coverage": coverage_digits(prediction.covers(W))}
@@ -47,7 +49,8 @@ def band_stats(prediction, W) -> dict:
     (half-width: that quantile of ``|W − Ŵ|``, an oracle that knows the truth) and the mean
     half-width relative to the truth's RMS."""
     nan = float("nan")
-    if prediction is None or not hasattr(prediction, "lower"):
+    if prediction is None or not hasattr(prediction, "lower") or \
+            not np.isfinite(prediction.error_estimate):
         return {"interval_score": nan, "constant_interval_score": nan,
                 "relative_half_width": nan, "source": ""}
     W = np.asarray(W, dtype=float)

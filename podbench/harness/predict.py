@@ -45,13 +45,15 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.core.hints import percent_hint
 from podbench.core.recordfiles import read_record
-from podbench.core.records import Record, check_records
+from podbench.core.records import Record, check_compatible, check_records
 from podbench.core.threads import single_blas_thread
 from podbench.core.version import __version__
 from podbench.errors import InputError, PodbenchWarning
 from podbench.sysid import registry
 from podbench.sysid.methods.bands import check_coverage
+from podbench.sysid.models import load_model
 
 __all__ = ["MIN_BAND_RECORDS", "PredictResult", "read_any", "predict_files"]
 
@@ -96,11 +98,11 @@ def _check_request(train, targets, coverage) -> tuple[list[str], float | None]:
             coverage = check_coverage(coverage)
         except InputError:
             raise InputError(f"Parameter `coverage`: expected a number in (0, 1), got "
-                             f"{coverage!r}") from None
+                             f"{coverage!r}{percent_hint(coverage)}") from None
     return stems, coverage
 
 
-def _entry(method: str) -> registry.Entry:
+def method_entry(method: str) -> registry.Entry:
     try:
         return registry.resolve(method, Path.cwd())
     except InputError as exc:
@@ -114,7 +116,7 @@ def _same_files(train, targets) -> list[str]:
             "prediction" for p in targets if Path(p).resolve() in seen]
 
 
-def _estimator(entry, train: list[Record], *, solver: str, n_modes):
+def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes):
     """The estimator of ``entry`` with the parameters ``--solver`` and ``--n-modes`` mean
     for these training records; the number of training files checked against the
     method's."""
@@ -139,7 +141,7 @@ def _estimator(entry, train: list[Record], *, solver: str, n_modes):
     return est
 
 
-def _min_samples(est, dt: float) -> int:
+def min_samples_of(est, dt: float) -> int:
     """The shortest record the method can take: its shortest lag length, else 2."""
     if getattr(est, "n_lags", None) == "auto" and getattr(est, "lag_grid", None):
         return int(round(min(est.lag_grid) / dt)) + 1
@@ -192,7 +194,7 @@ def _arrays(rec: Record, ref: Record, p, coverage) -> dict:
     return out
 
 
-def _config(entry, est, train, targets) -> dict:
+def fitted_config(entry, est, train, targets) -> dict:
     """config.json: the fitted configuration."""
     def plain(v):
         return v if isinstance(v, (int, float, str, bool, type(None))) else str(v)
@@ -205,19 +207,24 @@ def _config(entry, est, train, targets) -> dict:
             "targets": [str(p) for p in targets], "podbench": __version__}
 
 
-def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_modes=None,
-                  coverage=None, input_units=None, output_units=None,
-                  units=None) -> PredictResult:
+def predict_files(method: str | None, train, targets, out, *, solver: str = "auto",
+                  n_modes=None, coverage=None, input_units=None, output_units=None,
+                  units=None, model=None) -> PredictResult:
     """Fit ``method`` on the ``train`` files, predict the ``targets``, write ``out``
-    (module docstring). Raises InputError (one line naming the file and the field, or the
+    (module docstring); or, with ``model`` (a ``model.npz`` of ``podbench fit``), predict
+    with the saved model. Raises InputError (one line naming the file and the field, or the
     option) before anything is written."""
+    if model is not None:
+        return _predict_saved(model, method, train, targets, out, solver=solver,
+                              n_modes=n_modes, coverage=coverage, input_units=input_units,
+                              output_units=output_units, units=units)
     stems, coverage = _check_request(train, targets, coverage)
-    entry = _entry(method)
+    entry = method_entry(method)
     kw = dict(input_units=input_units, output_units=output_units, system=units)
     tr = [read_any(p, **kw, require_outputs=True) for p in train]
     tg = [read_any(p, **kw, default_output_units=tr[0].output_units) for p in targets]
-    est = _estimator(entry, tr, solver=solver, n_modes=n_modes)
-    check_records(tr, tg, min_samples=_min_samples(est, tr[0].dt))
+    est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes)
+    check_records(tr, tg, min_samples=min_samples_of(est, tr[0].dt))
     if coverage is not None and tr[0].u is not None and not tr[0].collocated and \
             len(tr) < MIN_BAND_RECORDS:
         raise InputError(f"Parameter `coverage`: the band is calibrated by "
@@ -233,10 +240,54 @@ def predict_files(method: str, train, targets, out, *, solver: str = "auto", n_m
     channels = tr[0].output_channels or ()
     rows = [_row(stem, entry.name, rec, channels, p, coverage)
             for stem, rec, p in zip(stems, tg, preds, strict=True)]
-    config = _config(entry, est, train, targets)
+    config = fitted_config(entry, est, train, targets)
     _write(out, rows, {stem: _arrays(rec, tr[0], p, coverage)
                        for stem, rec, p in zip(stems, tg, preds, strict=True)}, config)
     return PredictResult(rows=rows, out=Path(out), config=config, warnings=said)
+
+
+def _saved_reference(est, name: str) -> Record:
+    """The record a saved model's targets are checked against: its first training record
+    (kept in the file), else the reference record of its channels."""
+    recs = getattr(est, "training_records_", None) or []
+    ref = recs[0] if recs else getattr(est, "reference_", None)
+    if ref is None:
+        raise InputError(f"{name}: field `state`: the model keeps no training record to check "
+                         "targets against (saved with include_records=False)")
+    return ref
+
+
+def _predict_saved(model, method, train, targets, out, *, solver, n_modes, coverage,
+                   input_units, output_units, units) -> PredictResult:
+    """``predict --model``: the saved model's prediction of every target (each checked
+    against the model's dt, channels and units first)."""
+    given = [f"--{k}" for k, v in (("method", method), ("train", train),
+                                   ("n-modes", n_modes)) if v]
+    if solver != "auto":
+        given.append("--solver")
+    if given:
+        raise InputError(f"Parameter `model`: a saved model is already fitted; {given[0]} "
+                         "applies to a fit (drop it, or drop --model)")
+    stems, coverage = _check_request(["(model)"], targets, coverage)
+    path = Path(model)
+    est = load_model(path)
+    ref = _saved_reference(est, path.name)
+    kw = dict(input_units=input_units, output_units=output_units, system=units)
+    tg = [read_any(p, **kw, default_output_units=ref.output_units) for p in targets]
+    for rec in tg:
+        check_compatible(ref, rec, min_samples=1)
+    with single_blas_thread():
+        preds = [est.predict(r, coverage=coverage) for r in tg]
+    name = getattr(est, "abbreviation", "") or type(est).__name__
+    channels = ref.output_channels or ()
+    rows = [_row(stem, name, rec, channels, p, coverage)
+            for stem, rec, p in zip(stems, tg, preds, strict=True)]
+    config = fitted_config(registry.Entry(name, type(est)), est, [], targets)
+    config.update(model=str(path), train=[f["name"] for f in
+                                          est.provenance_.get("training_files", [])])
+    _write(out, rows, {stem: _arrays(rec, ref, p, coverage)
+                       for stem, rec, p in zip(stems, tg, preds, strict=True)}, config)
+    return PredictResult(rows=rows, out=Path(out), config=config)
 
 
 def _write(out, rows: list[dict], arrays: dict, config: dict) -> None:

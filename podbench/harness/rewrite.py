@@ -1,15 +1,13 @@
-"""When regenerating a table rewrites the committed file (issue 23: "every committed number
-regenerates").
+"""When regenerating a table rewrites the committed file: every committed number regenerates.
 
 podbench writes each number at the significant digits its computation determines
-(:mod:`podbench.harness.digits`): six for direct solves, three for ERA/OKID and the iterative
-solvers, two for diagnostics. Another BLAS kernel moves a number by its round-off, far below
+(:mod:`podbench.harness.digits`): six for direct solves, fewer for ERA/OKID and the iterative
+solvers, two for diagnostics. Another CPU's round-off moves a number, far below
 its last written digit, and the written digits change only when the number lies within that
-round-off of a rounding boundary. That is rare per number and not rare per study: at three
-digits a number moved by 3.3e-6 (relative) is written differently in 0.12 % of cases, and
-the calibration study writes 4116 such numbers (three flipped between the OpenBLAS Haswell
-and SkylakeX kernels). No number of digits removes those flips; only a comparison with what
-is already written can.
+round-off of a rounding boundary. That is rare per number and not rare per study (at three
+digits a number moved by 3.3e-6, relative, is written differently in 0.12 % of cases;
+docs/noise.md counts the flips of a study). No number of digits removes those flips; only a
+comparison with what is already written can.
 
 The rule: a regenerated text file (a ``.csv`` table, a ``.md`` page) replaces the one already
 on disk unless the two differ only in numbers that each moved by at most **one unit of the

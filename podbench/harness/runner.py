@@ -30,14 +30,11 @@ from podbench.dynamics.excitations import excitation_from_dict
 from podbench.errors import PodbenchError, ScenarioFileError
 from podbench.harness.bands import BAND_COLUMNS, band_prediction, band_row, band_stats
 from podbench.harness.cache import TruthCache, structure_fingerprint
-from podbench.harness.digits import (
-    FLOOR_METHODS,
-    diagnostic_digits,
-    row_writer,
-)
+from podbench.harness.digits import diagnostic_digits, estimator_writer
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
+from podbench.harness.series import prediction_series, truth_series
 from podbench.study.estimators import all_cases, build_estimator, is_user_method, training_records
 from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
 from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
@@ -362,8 +359,13 @@ def run_unit(scenario_path, structure_entry: str, cache_dir=None, engine: str | 
     nonlinear, measured = _simulate_needed(scenario, structure, truth)
 
     for target in scenario.targets:
-        W = truth.get(target).W
-        res.series[target] = {"t": truth.get(target).t, "truth": displacement_norm(W)}
+        r = truth.get(target)
+        res.series[target] = {"t": r.t, "truth": displacement_norm(r.W)}
+        if keep_series:  # the figure's sensors and spectrum (podbench.harness.series)
+            res.series[target].update(truth_series(
+                r.W, r.dt, positions=getattr(structure, "sensor_positions", None),
+                labels=getattr(structure, "sensor_labels", ()),
+                unit=getattr(r, "output_units", None) or "in"))
 
     for spec in scenario.reported_methods():
         _run_method(res, spec, scenario, truth, sweep=overrides is not None,
@@ -413,43 +415,14 @@ class _Comparisons:
     own_lin: dict | None = None
 
 
-def is_floored(spec, scenario: Scenario) -> bool:
-    """Whether the rows of ``spec`` are written at
-    :data:`podbench.harness.digits.FLOOR_DIGITS` (a method of
-    :data:`~podbench.harness.digits.FLOOR_METHODS`, or a superposition of one)."""
-    if spec.method in FLOOR_METHODS:
-        return True
-    parts = [scenario.method(p) for p in spec.parts] if spec.composite else []
-    return any(p.method in FLOOR_METHODS for p in parts)
-
-
 #: Entries of a row that are not estimates: labels, the sweep's coordinates, wall times.
 _NOT_FLOORED = ("scenario", "structure", "method", "target", "solver", "status", "noise",
                 "modes", "seed", "band_seconds", "plain_seconds", "source")
 
 
-def _row_digits(spec, scenario: Scenario):
-    """How the rows of ``spec`` are written (the same bytes whatever the CPU's round-off;
-    :func:`~podbench.harness.digits.row_writer`): for a method of :func:`is_floored`,
-    every estimate at :data:`podbench.harness.digits.FLOOR_DIGITS` significant digits (the
-    digits its round-off floor leaves in place); for an iterative deconvolution solver, every
-    number at the digits its stopping tolerance determines, its residuals at those the
-    tolerance determines of them and its iteration counts not at all; None: as computed."""
-    opts = spec.options.get("solver_options") or {}
-    return row_writer(method_solver(spec, scenario), opts.get("tol"),
-                      floored=is_floored(spec, scenario), keep=_NOT_FLOORED)
-
-
 def _run_method(res: UnitResult, spec, scenario: Scenario, truth: _Truth, **kw) -> None:
-    """Fit one reported method, predict every target and add its rows (and fit) to ``res``,
-    each row, fit and band score written as :func:`_row_digits` says."""
-    start = len(res.rows), len(res.fits), len(res.band_stats)
+    """Fit one reported method, predict every target and add its rows (and fit) to ``res``."""
     _fit_and_score(res, spec, scenario, truth, **kw)
-    written = _row_digits(spec, scenario)
-    if written is None:
-        return
-    for rows, i0 in zip((res.rows, res.fits, res.band_stats), start, strict=True):
-        rows[i0:] = [written(r) for r in rows[i0:]]
 
 
 def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, sweep: bool,
@@ -476,7 +449,9 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
         return
     diag = getattr(est, "diagnostics_", None)
     diag = diag if isinstance(diag, dict) else {}
-    res.fits.append({**base, **diag})
+    # every number at the digits the fit determines, as the estimator declares them
+    written = estimator_writer(est, keep=_NOT_FLOORED) or (lambda row: row)
+    res.fits.append(written({**base, **diag}))
     if sweep:  # a sweep point: what the solver chose, on every row
         base = {**base, **{k: diagnostic_digits(k, diag.get(k, float("nan")))
                            for k in SWEEP_DIAGNOSTICS}}
@@ -500,16 +475,18 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
         row.update(norm_summaries(W, Wh))
         if bands:
             _add_band(res, row, est, truth.get(t), t_fit / len(scenario.targets),
-                      keep_series=keep_series, label=spec.label)
+                      keep_series=keep_series, label=spec.label, written=written)
         row["status"] = status
-        res.rows.append(row)
+        res.rows.append(written(row))
         if keep_series:
             res.series[t][spec.label] = displacement_norm(Wh)
             res.series[t][spec.label + "__pe"] = norm_percent_error(W, Wh)
+            res.series[t].update(prediction_series(spec.label, Wh, truth.get(t).dt,
+                                                   res.series[t]["sensors"]))
 
 
 def _add_band(res: UnitResult, row: dict, est, target, plain_seconds: float, *,
-              keep_series: bool, label: str) -> None:
+              keep_series: bool, label: str, written=lambda r: r) -> None:
     """The 90 % band of one prediction (:mod:`podbench.harness.bands`): its columns into
     ``row``, its interval scores and cost into ``res.band_stats``, its norm into the
     figure's series."""
@@ -518,9 +495,9 @@ def _add_band(res: UnitResult, row: dict, est, target, plain_seconds: float, *,
     band = band_prediction(est, target)
     t_band = time.perf_counter() - t_band
     row.update(band_row(band, W))
-    res.band_stats.append({
+    res.band_stats.append(written({
         **{k: row[k] for k in ("scenario", "structure", "method", "target")},
-        **band_stats(band, W), "band_seconds": t_band, "plain_seconds": plain_seconds})
+        **band_stats(band, W), "band_seconds": t_band, "plain_seconds": plain_seconds}))
     if keep_series and band is not None:
         # |‖w(t)‖ − ‖ŵ(t)‖| ≤ ‖h(t)‖ wherever the truth is inside the band
         res.series[row["target"]][label + "__band"] = np.linalg.norm(

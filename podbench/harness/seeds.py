@@ -1,21 +1,18 @@
-"""The comparisons of a study's claims on other noise seeds (issue 24 item 8: near ties).
+"""A study's claims on other noise seeds: the rows every check reads, refitted on each seed.
 
 A virtual experiment's noisy records are one realization of the noise (the experiment
-file's ``noise_seed``). A claims file with ``noise_seeds = [0, 1, 2, 3, 4]`` has every
-*comparison* ("A more accurate than B", "TLS at or below LS", "e_noisy <= 1.1 × e_clean")
-judged on each seed (:mod:`podbench.study.claims`: holds on all, fails on all, else a
-tie). The first seed's rows are the study's table (the committed records); for the others
-this module regenerates the records the comparisons read from the same experiment file
-with the noise (and any strike scatter) redrawn
-(:func:`podbench.study.experiments.generate_seeds`, in memory: the committed files stay
-one realization) and refits only the methods the comparisons name, predicting only the
-targets they compare: no bands, no coupled or linear twins, no figures. A scenario whose
-records no seed changes (the clean ones) is not refitted: its rows are the same on every
-seed.
+file's ``noise_seed``). A claims file with ``noise_seeds = [0, 1, 2, 3, 4]`` has every check
+judged on each seed (:mod:`podbench.study.claims`: holds on all, fails on all, else a tie).
+The first seed's rows are the study's table (the committed records); for the others this
+module regenerates the records the checks read from the same experiment file with the noise
+(and any strike scatter) redrawn (:func:`podbench.study.experiments.generate_seeds`, in
+memory) and refits only the methods the checks name, predicting only the targets they read,
+with the coupled twin where a check reads the diagonalization error; no bands, no linear
+twins, no figures. A scenario whose records no seed changes is not refitted.
 
-The rows (``seeds.csv`` of the study's output) are those of ``summary.csv`` for the
-comparisons' (scenario, structure, method, target), with a ``seed`` column, on every seed
-(the first seed's copied from the study's table).
+The rows (``seeds.csv`` of the study's output) are those of ``summary.csv`` for the checks'
+(scenario, structure, method, target), with a ``seed`` column, on every seed (the first
+seed's copied from the study's table).
 """
 
 from __future__ import annotations
@@ -28,12 +25,12 @@ import pandas as pd
 
 from podbench.core.response import Response
 from podbench.errors import PodbenchError, ScenarioFileError
-from podbench.harness.digits import row_writer
+from podbench.harness.digits import estimator_writer
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
 from podbench.harness.progress import as_stage
 from podbench.harness.runner import fit_method, read_case
-from podbench.study.claims import SeedRows, comparison_rows, seed_names
+from podbench.study.claims import SeedRows, checked_rows, seed_names
 from podbench.study.estimators import all_cases
 from podbench.study.experiments import (
     generate_seeds,
@@ -42,7 +39,7 @@ from podbench.study.experiments import (
     seed_dependent,
 )
 from podbench.study.resolve import resolve_structure
-from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario, method_solver
+from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
 from podbench.sysid.conditioning import condition
 
 __all__ = ["run_seeds", "plan_seeds", "seed_unit", "SeedPlan", "seed_table", "SEED_COLUMNS"]
@@ -101,10 +98,10 @@ class SeedPlan:
 
 
 def plan_seeds(claims_file, claims, scenarios: dict) -> SeedPlan | None:
-    """The tasks of :func:`run_seeds` (None without ``noise_seeds`` or without a
-    comparison among the claims of ``scenarios``): the records of the other seeds generated
-    from the experiment file beside the claims file (in this process), one task per
-    (scenario, structure, seed)."""
+    """The tasks of :func:`run_seeds` (None without ``noise_seeds`` or without a check
+    among the claims of ``scenarios``): the records of the other seeds generated from the
+    experiment file beside the claims file (in this process), one task per (scenario,
+    structure, seed)."""
     seeds = tuple(claims_file.noise_seeds)
     if not seeds:
         return None
@@ -118,40 +115,44 @@ def plan_seeds(claims_file, claims, scenarios: dict) -> SeedPlan | None:
         raise ScenarioFileError(f"{claims_file.path}: field `noise_seeds`: the first seed must "
                                 f"be the committed records' ({EXPERIMENT_FILE}'s noise_seed "
                                 f"= {exp.noise_seed}), got {seeds[0]}")
-    compared = comparison_rows(claims, set(scenarios))
-    if not compared:  # no comparison judged in this run (a part of the study)
+    checked = checked_rows(claims, set(scenarios))
+    if not checked:  # no check judged in this run (a part of the study)
         return None
     units, wanted, varied = [], set(), set()
-    for (name, structure), (methods, targets) in compared.items():
+    for (name, structure), (methods, targets, twinned) in checked.items():
         sc = scenarios.get(name)
         if sc is None:
             continue
+        methods = tuple(m for m in methods if any(s.label == m for s in sc.methods))
         cases = set(targets)
         for label in methods:
-            if any(m.label == label for m in sc.methods):
-                cases |= all_cases(sc.method(label), sc.method)
+            spec = sc.method(label)
+            cases |= all_cases(spec, sc.method)
+            if label in twinned and spec.twin:
+                cases |= all_cases(sc.method(spec.twin), sc.method)
         keys = _varied(exp, sc, sorted(cases))
-        if keys is None:
+        if keys is None or not methods:
             continue
         varied.add(name)
         wanted |= {k[:2] for k in keys.values() if k is not None}
-        units += [(str(sc.path), structure, k, methods, targets, keys) for k in seeds[1:]]
+        units += [(str(sc.path), structure, k, methods, targets, twinned, keys)
+                  for k in seeds[1:]]
     records = generate_seeds(exp, seeds[1:], wanted) if units else {}
-    args = [(*u, {c: _arrays(records[(u[2], *key)]) for c, key in u[5].items()
+    args = [(*u, {c: _arrays(records[(u[2], *key)]) for c, key in u[6].items()
                   if key is not None}) for u in units]
     return SeedPlan(seeds, args, frozenset(varied))
 
 
 def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
               progress=None) -> SeedRows | None:
-    """The comparisons' rows on every seed of ``claims_file.noise_seeds`` (None without
-    them, or without a comparison among the claims of ``scenarios``): the records of the
-    other seeds generated from the experiment file beside the claims file, the compared
-    methods refitted on them (``jobs`` processes; :func:`plan_seeds`)."""
+    """The checked rows on every seed of ``claims_file.noise_seeds`` (None without them, or
+    without a check among the claims of ``scenarios``): the records of the other seeds
+    generated from the experiment file beside the claims file, the checked methods refitted
+    on them (``jobs`` processes; :func:`plan_seeds`)."""
     sp = plan_seeds(claims_file, claims, scenarios)
     if sp is None:
         return None
-    stage = as_stage(progress, f"comparisons over noise {seed_names(sp.seeds)}",
+    stage = as_stage(progress, f"checks over noise {seed_names(sp.seeds)}",
                      len(sp.tasks), "unit")
     with stage:
         rows = execute(seed_unit, sp.tasks, jobs=jobs,
@@ -173,9 +174,10 @@ def _response(scenario, structure, case: str, arrays) -> Response:
 
 
 def seed_unit(task) -> list[dict]:
-    """One (scenario, structure, seed): fit the compared methods on the seed's records,
-    predict the compared targets; rows of :data:`SEED_COLUMNS`."""
-    path, entry, seed, methods, targets, keys, arrays = task
+    """One (scenario, structure, seed): fit the checked methods on the seed's records (and
+    their coupled twins where a check reads the diagonalization error), predict the checked
+    targets; rows of :data:`SEED_COLUMNS`."""
+    path, entry, seed, methods, targets, twinned, keys, arrays = task
     sc = load_scenario(path)
     structure = resolve_structure(entry, sc)
     recs: dict = {}
@@ -194,7 +196,7 @@ def seed_unit(task) -> list[dict]:
     for label in methods:
         base = {"scenario": sc.name, "structure": structure.name, "method": label,
                 "seed": int(seed)}
-        rows += _method_rows(sc, label, base, targets, get, train)
+        rows += _method_rows(sc, label, base, targets, get, train, label in twinned)
     return rows
 
 
@@ -202,37 +204,54 @@ def _conditioned(sc) -> bool:
     return sc.conditioning is not None and not sc.conditioning.is_identity
 
 
-def _method_rows(sc, label: str, base: dict, targets, get, train) -> list[dict]:
-    """The rows of one method: fitted on ``train``'s records, each target predicted."""
+def _failed(exc: BaseException) -> str:
+    return "failed: " + " ".join(f"{type(exc).__name__}: {exc}".split())[:290]
+
+
+def _twin(sc, spec, est, U, targets, get, train):
+    """``(predictions, status)`` of the coupled twin fitted in the method's basis ``U``
+    (the method's own for a coupled method; None without a twin)."""
+    if bool(getattr(est, "coupled", False)) or not spec.twin or U is None:
+        return None, "ok"
     try:
-        est = fit_method(sc.method(label), sc, train,
-                         sc.conditioning if _conditioned(sc) else None)
+        tw = fit_method(sc.method(spec.twin), sc, train,
+                        sc.conditioning if _conditioned(sc) else None, basis=U)
+        return {t: np.asarray(tw.predict(get(t)), dtype=float) for t in targets}, "ok"
+    except _EXPECTED as exc:
+        return None, "twin " + _failed(exc)
+
+
+def _method_rows(sc, label: str, base: dict, targets, get, train, twinned=False) -> list[dict]:
+    """The rows of one method: fitted on ``train``'s records, each target predicted (with
+    its coupled twin's prediction when ``twinned``)."""
+    try:
+        spec = sc.method(label)
+        est = fit_method(spec, sc, train, sc.conditioning if _conditioned(sc) else None)
         preds = {t: np.asarray(est.predict(get(t)), dtype=float) for t in targets}
     except KeyError:
         status = f"failed: no method {label!r} in the scenario"
         return [{**base, "target": t, "status": status} for t in targets]
     except _EXPECTED as exc:
-        status = "failed: " + " ".join(f"{type(exc).__name__}: {exc}".split())[:290]
-        return [{**base, "target": t, "status": status} for t in targets]
+        return [{**base, "target": t, "status": _failed(exc)} for t in targets]
     U = getattr(est, "modes_", None)
     U = None if U is None else np.asarray(U, dtype=float)
     coupled = bool(getattr(est, "coupled", False))
-    spec = sc.method(label)
-    written = row_writer(method_solver(spec, sc),
-                         (spec.options.get("solver_options") or {}).get("tol"))
+    twin, status = _twin(sc, spec, est, U, targets, get, train) if twinned else (None, "ok")
+    written = estimator_writer(est)
     rows = []
     for t in targets:
         W = get(t).W
         row = {**base, "target": t}
-        row.update(decompose(W, preds[t], U, coupled=coupled, nonlinear=True))
+        row.update(decompose(W, preds[t], U, coupled=coupled, nonlinear=True,
+                             W_twin=None if twin is None else twin[t]))
         row.update(norm_summaries(W, preds[t]))
-        row["status"] = "ok"
+        row["status"] = status
         rows.append(row if written is None else written(row))
     return rows
 
 
 def seed_table(table: pd.DataFrame, seeds: SeedRows | None) -> pd.DataFrame | None:
-    """``seeds.csv``: the compared rows on every seed — the first seed's from the study's
+    """``seeds.csv``: the checked rows on every seed — the first seed's from the study's
     ``table`` (the same (scenario, structure, method, target) as the other seeds' rows),
     then the others' — sorted by scenario, structure, method, target and seed."""
     if seeds is None or seeds.table.empty:

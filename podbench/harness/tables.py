@@ -38,8 +38,7 @@ def summary_table(results) -> pd.DataFrame:
 
 #: Residual columns of ``fits.csv`` (``fit_residual``, ``solver_residual``: relative
 #: ‖AX − B‖/‖B‖ of the fit) below this are round-off and written as 0. An exact solve leaves
-#: 1e-16…1e-15 whose digits differ between CPUs (OpenBLAS picks its kernel per CPU type;
-#: measured: 3.26547e-16 against 3.24243e-16 for the same fit), which would make the table
+#: 1e-16…1e-15 whose digits differ between CPUs (docs/noise.md), which would make the table
 #: machine-dependent.
 ROUNDOFF_RESIDUAL = 1e-12
 

@@ -4,7 +4,7 @@ choices), ``timing.csv`` (wall-clock per fit, not deterministic), ``FINDINGS.md`
 ``figures/``. Renders the runner's rows; computes nothing but formatting.
 
 Errors are written to three significant digits; an error below :data:`ROUNDOFF` is
-round-off (its digits differ between BLAS kernels) and is written ``<1e-08``.
+round-off (its digits differ between CPUs) and is written ``<1e-08``.
 """
 
 from __future__ import annotations

@@ -1,16 +1,19 @@
-"""The study's figures: the displacement norm (Eq. 4.1) of the truth and of every method
-against time, over the percent error of the norm (Eq. 4.2), in the manner of Figs. 4.6–4.58.
+"""The study's figures: per target, the displacement norm (Eq. 4.1) of the truth and of every
+method against time over the percent error of the norm (Eq. 4.2), in the manner of
+Figs. 4.6–4.58, and beside it the response at two sensors and the amplitude spectrum over
+all sensors (:mod:`podbench.harness.series` keeps them; this module computes nothing).
 
 One figure per (scenario, structure, target). The title names the study, the structure and
 the target's excitation in words (:func:`describe_case`, from the scenario file's table);
-the upper panel's y-axis is fitted to the truth with a margin, so a method that leaves it is
+every panel's y-axis is fitted to the truth with a margin, so a method that leaves it is
 drawn clipped, marked by triangles where it leaves and labelled "off scale" with its peak
 in the legend; each method's total error ‖Ŵ − W‖_F / ‖W‖_F is in the legend; the
 structure's events (e.g. the truss's fracture at 3 s) are dashed vertical lines.
 
-Figures render with matplotlib's Agg backend (no display), in PNG (150 dpi, 1200 × 840
-px), SVG or PDF (:data:`FIGURE_FORMATS`); :func:`draw_figure` is a module-level function of
-one picklable :class:`FigureTask`, so the study's executor draws them in worker processes.
+Figures render with matplotlib's Agg backend (no display), in PNG (150 dpi, 1800 px wide;
+1200 px for a series without sensors), SVG or PDF (:data:`FIGURE_FORMATS`);
+:func:`draw_figure` is a module-level function of one picklable :class:`FigureTask`, so the
+study's executor draws them in worker processes.
 """
 
 from __future__ import annotations
@@ -32,6 +35,10 @@ FIGURE_FORMATS = ("png", "svg", "pdf")
 
 DPI = 150
 SIZE = (8.0, 5.6)  # inches: 1200 × 840 px at 150 dpi (the height grows with the header)
+WIDE = 12.0
+"""Width (in) of a figure with the sensor and spectrum panels: 1800 px at 150 dpi."""
+SPECTRUM_FLOOR = 1e-4
+"""The spectrum panel's lower limit, as a fraction of the truth's peak amplitude."""
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9")
 """Okabe–Ito colours (distinguishable with the common colour-vision deficiencies)."""
 STYLES = ("--", "-.", (0, (1, 1.2)), (0, (6, 1.5, 1, 1.5, 1, 1.5)))
@@ -165,12 +172,12 @@ def _exits(y: np.ndarray, top: float, gap: int = 1) -> np.ndarray:
     return np.asarray(kept, dtype=int)
 
 
-def _legend_columns(labels) -> int:
+def _legend_columns(labels, width: float = SIZE[0]) -> int:
     """Columns of the legend row(s) above the axes: as many as fit in the figure's width."""
-    width = [0.7 + 0.09 * len(lab) for lab in labels]  # inches at 11 pt
+    size = [0.7 + 0.09 * len(lab) for lab in labels]  # inches at 11 pt
     for ncol in range(len(labels), 1, -1):
-        cols = [max(width[j::ncol]) for j in range(ncol)]
-        if sum(cols) + 0.25 * (ncol - 1) <= SIZE[0] - 0.4:
+        cols = [max(size[j::ncol]) for j in range(ncol)]
+        if sum(cols) + 0.25 * (ncol - 1) <= width - 0.4:
             return ncol
     return 1
 
@@ -184,14 +191,17 @@ def _y_limits(truth: np.ndarray) -> tuple[float, float]:
 
 def _png(fig) -> bytes:
     """``fig`` as a PNG of 256 colours (lossless to the eye for line art, a quarter of the
-    size of the RGBA file)."""
+    size of the RGBA file), from the Agg canvas at :data:`DPI` (no intermediate PNG), at
+    zlib's default level (``optimize`` would take seven times as long for a 6 % smaller
+    file)."""
     from PIL import Image
 
-    buf = io.BytesIO()
-    fig.savefig(buf, dpi=DPI, format="png", metadata={"Software": None})
-    img = Image.open(io.BytesIO(buf.getvalue())).convert("RGB")
+    fig.set_dpi(DPI)
+    fig.canvas.draw()
+    w, h = fig.canvas.get_width_height(physical=True)
+    img = Image.frombuffer("RGBA", (w, h), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
     out = io.BytesIO()
-    img.quantize(colors=256, method=Image.Quantize.FASTOCTREE).save(out, "png", optimize=True)
+    img.convert("RGB").quantize(colors=256, method=Image.Quantize.FASTOCTREE).save(out, "png")
     return out.getvalue()
 
 
@@ -201,9 +211,33 @@ RC = {"font.size": 12, "axes.labelsize": 12, "legend.fontsize": 11, "xtick.label
 """matplotlib settings of every figure (fonts readable at 150 dpi; reproducible SVG ids)."""
 
 
+def _axes(plt, wide: bool):
+    """The figure and its axes: ``norm`` over ``pe`` (Eq. 4.2), and with ``wide`` beside
+    them the two sensors over the spectrum (``sensors``, ``spectrum``)."""
+    fig = plt.figure(figsize=(WIDE if wide else SIZE[0], SIZE[1]), dpi=DPI)
+    outer = fig.add_gridspec(1, 2 if wide else 1, **({"width_ratios": [1.08, 1],
+                                                        "wspace": 0.2} if wide else {}))
+    left = outer[0].subgridspec(2, 1, height_ratios=[3, 2], hspace=0.07)
+    ax = {"norm": fig.add_subplot(left[0])}
+    ax["pe"] = fig.add_subplot(left[1], sharex=ax["norm"])
+    ax["norm"].tick_params(labelbottom=False)
+    if wide:
+        right = outer[1].subgridspec(2, 1, height_ratios=[2, 1.2], hspace=0.42)
+        pair = right[0].subgridspec(2, 1, hspace=0.08)
+        # the sensors share their time axis with each other only: matplotlib lays out a
+        # shared axis's label against every sibling's ticks, four siblings cost twice two
+        top = fig.add_subplot(pair[0])
+        ax["sensors"] = [top, fig.add_subplot(pair[1], sharex=top)]
+        ax["sensors"][0].tick_params(labelbottom=False)
+        ax["spectrum"] = fig.add_subplot(right[1])
+    return fig, ax
+
+
 def make_figure(task: FigureTask):
     """The matplotlib Figure of ``task`` (Agg backend; the caller closes it). Its axes are
-    ``fig.axes[0]`` (‖w(t)‖) and ``fig.axes[1]`` (Eq. 4.2 error, log scale)."""
+    ``fig.axes[0]`` (‖w(t)‖, Eq. 4.1) and ``fig.axes[1]`` (Eq. 4.2 error, log scale) and,
+    when the series has them (:func:`podbench.harness.series.truth_series`), the two
+    sensors' histories ``fig.axes[2:4]`` and the amplitude spectrum ``fig.axes[4]``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -215,9 +249,11 @@ def make_figure(task: FigureTask):
     truth = np.asarray(s["truth"], dtype=float)
     scale, unit = time_unit(float(t[-1]))
     x = scale * t
+    wide = "sensors" in s and "freq" in s
+    du = s.get("unit", "in")
     with plt.rc_context(RC):
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=SIZE, sharex=True,
-                                     gridspec_kw={"height_ratios": [3, 2]})
+        fig, ax = _axes(plt, wide)
+        a1, a2 = ax["norm"], ax["pe"]
         try:
             bottom, top = _y_limits(truth)
             a1.plot(x, truth, color="black", lw=2.0, zorder=5)
@@ -226,7 +262,7 @@ def make_figure(task: FigureTask):
                               "truth (simulated)")]
             pe_all = _plot_methods(task, x, truth, (bottom, top), a1, a2, handles)
             a1.set_ylim(bottom, top)
-            a1.set_ylabel("Norm ‖w(t)‖, in")
+            a1.set_ylabel(f"‖w(t)‖ (Eq. 4.1), {du}")
             a1.grid(True, alpha=0.3)
             a2.set_yscale("log")
             finite = (np.concatenate([p[np.isfinite(p)] for p in pe_all]) if pe_all
@@ -237,12 +273,96 @@ def make_figure(task: FigureTask):
             a2.set_xlabel(f"Time, {unit}")
             a2.grid(True, which="major", alpha=0.3)
             a1.set_xlim(x[0], x[-1])
-            _mark_events(task.events, x, scale, unit, a1, a2)
-            _lay_out(fig, task, handles, a1, a2)
+            timed = [a1, a2]
+            if wide:
+                for a, k in zip(ax["sensors"], range(len(s["sensors"])), strict=False):
+                    _plot_sensor(task, x, k, a)
+                    timed.append(a)
+                ax["sensors"][-1].set_xlabel(f"Time, {unit}")
+                ax["sensors"][0].set_xlim(x[0], x[-1])
+                _plot_spectrum(task, ax["spectrum"])
+            _mark_events(task.events, x, scale, unit, timed, a2)
+            _lay_out(fig, task, handles, ax)
         except BaseException:
             plt.close(fig)
             raise
     return fig
+
+
+def _off_marks(a, x, y, lo: float, hi: float, color) -> bool:
+    """Triangles where ``y`` leaves ``[lo, hi]`` (up at the top, down at the bottom; at most
+    25 per edge); returns whether it leaves."""
+    gap = max(1, y.size // 25)
+    up, down = _exits(y, hi, gap), _exits(-y, -lo, gap)
+    for idx, edge, mark in ((up, hi, "^"), (down, lo, "v")):
+        if idx.size:
+            a.plot(x[idx], np.full(idx.size, edge), ls="none", marker=mark, ms=7,
+                   color=color, clip_on=False, zorder=6)
+    return bool(up.size or down.size)
+
+
+def _panel_label(a, text: str, right: bool = False) -> None:
+    a.text(0.99 if right else 0.01, 0.96, text, transform=a.transAxes,
+           ha="right" if right else "left", va="top", fontsize=10.5,
+           zorder=8, bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.75",
+                           "alpha": 0.9})
+
+
+def _plot_sensor(task: FigureTask, x, k: int, a) -> None:
+    """The truth and every method at the ``k``-th chosen sensor, on ``a`` (the y-axis
+    fitted to the truth; a method that leaves it is clipped and marked)."""
+    s = task.series
+    sensor = s["sensors"][k]
+    truth = np.asarray(s["sensor_truth"][k], dtype=float)
+    lo, hi = float(np.min(truth)), float(np.max(truth))
+    span = hi - lo if hi > lo else (abs(hi) or 1.0)
+    lo, hi = lo - MARGIN * span, hi + MARGIN * span
+    a.plot(x, truth, color="black", lw=1.6, zorder=5)
+    for i, (label, _) in enumerate(task.methods):
+        y = s.get(label + "__sensors")
+        if y is None:
+            continue
+        y = np.asarray(y[k], dtype=float)
+        color, ls = PALETTE[i % len(PALETTE)], STYLES[i % len(STYLES)]
+        a.plot(x, np.clip(y, lo - span, hi + span), color=color, ls=ls, lw=1.3,
+               zorder=4 - 0.1 * i)
+        _off_marks(a, x, y, lo, hi, color)
+    a.set_ylim(lo, hi)
+    pos = sensor.get("position")
+    where = "" if pos is None or _num(pos) in sensor["label"] else f" (x = {_num(pos)} in)"
+    _panel_label(a, f"{sensor['role']}: {sensor['label']}{where}")
+    a.set_ylabel(f"w, {s.get('unit', 'in')}")
+    a.grid(True, alpha=0.3)
+
+
+def _plot_spectrum(task: FigureTask, a) -> None:
+    """The amplitude spectrum over all sensors of the truth and every method
+    (:func:`podbench.harness.series.amplitude_spectrum`), log scale, on ``a``: up to the
+    frequency where the truth falls below 1e-3 of its peak for good (×1.3), down to
+    :data:`SPECTRUM_FLOOR` of the peak."""
+    s = task.series
+    f = np.asarray(s["freq"], dtype=float)
+    truth = np.asarray(s["spectrum"], dtype=float)
+    peak = float(np.max(truth)) if truth.size and np.max(truth) > 0 else 1.0
+    lo, hi = SPECTRUM_FLOOR * peak, 3.0 * peak
+    strong = np.flatnonzero(truth >= 1e-3 * peak)
+    f_hi = min(float(f[-1]), 1.3 * float(f[strong[-1]])) if strong.size else float(f[-1])
+    a.semilogy(f, np.maximum(truth, lo / 10), color="black", lw=1.6, zorder=5)
+    for i, (label, _) in enumerate(task.methods):
+        y = s.get(label + "__spectrum")
+        if y is None:
+            continue
+        y = np.asarray(y, dtype=float)
+        color, ls = PALETTE[i % len(PALETTE)], STYLES[i % len(STYLES)]
+        a.semilogy(f, np.clip(y, lo / 10, hi * 10), color=color, ls=ls, lw=1.3,
+                   zorder=4 - 0.1 * i)
+        _off_marks(a, f, y, -np.inf, hi, color)
+    a.set_xlim(0.0, f_hi if f_hi > 0 else 1.0)
+    a.set_ylim(lo, hi)
+    a.set_xlabel("Frequency, Hz")
+    a.set_ylabel(f"Amplitude, {s.get('unit', 'in')}")
+    _panel_label(a, "amplitude spectrum over all sensors (Hann window)", right=True)
+    a.grid(True, which="major", alpha=0.3)
 
 
 def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> list:
@@ -268,8 +388,14 @@ def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> 
         band = s.get(label + "__band")
         if band is not None:  # the norm of the 90 % band's half-width per time
             h = np.asarray(band, dtype=float)
-            a1.fill_between(x, np.maximum(y - h, 0), y + h, color=color, alpha=0.15, lw=0,
-                            zorder=1)
+            # shaded only where it stays on the axis: a band wider than the truth's scale
+            # would cover the whole plot; the legend says where it was left out
+            fits = np.isfinite(h) & (y + h <= top)
+            a1.fill_between(x, np.maximum(y - h, 0), y + h, where=fits, color=color,
+                            alpha=0.15, lw=0, zorder=1)
+            if not np.all(fits):
+                name += (f", 90 % band off scale at {100 * np.mean(~fits):.0f} % of the "
+                         "samples")
         ex = _exits(y, top, gap=max(1, y.size // 25))
         if ex.size:
             a1.plot(x[ex], np.full(ex.size, top), ls="none", marker="^", ms=9,
@@ -283,32 +409,35 @@ def _plot_methods(task: FigureTask, x, truth, limits, a1, a2, handles: list) -> 
     return pe_all
 
 
-def _mark_events(events, x, scale: float, unit: str, a1, a2) -> None:
-    """A dashed line on both axes and a label on ``a2`` at each structure event in view."""
+def _mark_events(events, x, scale: float, unit: str, axes, labelled) -> None:
+    """A dashed line on every time axis of ``axes`` and a label on ``labelled`` at each
+    structure event in view."""
     for te, desc in events:
         if not x[0] <= scale * te <= x[-1]:
             continue
-        for ax in (a1, a2):
+        for ax in axes:
             ax.axvline(scale * te, color="0.3", ls=(0, (4, 3)), lw=1.2, zorder=1)
         what = desc.split(":")[0].strip() or "event"
-        a2.annotate(f"{what} (t = {_num(te * scale)} {unit})",
-                    xy=(scale * te, 0.0), xycoords=("data", "axes fraction"),
-                    xytext=(5, 5), textcoords="offset points", ha="left",
-                    va="bottom", fontsize=10.5, color="0.2", zorder=7,
-                    bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7",
-                          "alpha": 0.9})
+        labelled.annotate(f"{what} (t = {_num(te * scale)} {unit})",
+                          xy=(scale * te, 0.0), xycoords=("data", "axes fraction"),
+                          xytext=(5, 5), textcoords="offset points", ha="left",
+                          va="bottom", fontsize=10.5, color="0.2", zorder=7,
+                          bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7",
+                                "alpha": 0.9})
 
 
-def _lay_out(fig, task: FigureTask, handles: list, a1, a2) -> None:
+def _lay_out(fig, task: FigureTask, handles: list, ax: dict) -> None:
     """Title, subtitle and legend above the axes; the figure grows by their height."""
-    sub = textwrap.wrap(task.subtitle, 92) if task.subtitle else []
-    title = textwrap.wrap(task.title, 68) or [""]
-    ncol = _legend_columns([h.get_label() for h in handles])
+    width = fig.get_size_inches()[0]
+    chars = int(92 * width / SIZE[0])
+    sub = textwrap.wrap(task.subtitle, chars) if task.subtitle else []
+    title = textwrap.wrap(task.title, int(68 * width / SIZE[0])) or [""]
+    ncol = _legend_columns([h.get_label() for h in handles], width)
     rows = -(-len(handles) // ncol)
     head = 0.14 + 0.3 * len(title) + 0.06 + 0.25 * len(sub) + 0.29 * rows + 0.1
     # (inches above the axes: margin, title, subtitle, legend rows)
     height = 4.9 + head
-    fig.set_size_inches(SIZE[0], height)
+    fig.set_size_inches(width, height)
     y = 1 - 0.14 / height
     fig.suptitle("\n".join(title), fontsize=14, fontweight="bold", y=y, va="top",
                  linespacing=1.2)
@@ -320,9 +449,11 @@ def _lay_out(fig, task: FigureTask, handles: list, a1, a2) -> None:
     fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, y),
                ncol=ncol, frameon=False, handlelength=2.6, columnspacing=1.6,
                borderaxespad=0.0)
-    fig.align_ylabels([a1, a2])
-    fig.subplots_adjust(left=0.11, right=0.975, top=1 - head / height,
-                        bottom=0.6 / height, hspace=0.07)
+    fig.align_ylabels([ax["norm"], ax["pe"]])
+    if "sensors" in ax:
+        fig.align_ylabels([*ax["sensors"], ax["spectrum"]])
+    fig.subplots_adjust(left=0.88 / width, right=1 - 0.2 / width, top=1 - head / height,
+                        bottom=0.6 / height)
 
 
 def draw_figure(task: FigureTask) -> str | None:

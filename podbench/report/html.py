@@ -31,8 +31,16 @@ from podbench.core.version import __version__
 from podbench.harness import metrics
 from podbench.report.decomposition import CAPTION
 from podbench.report.figures import percent
+from podbench.report.glossary import glossary_html, term_link
 from podbench.report.markdown import inline_html, markdown_to_html
-from podbench.study.claims import NOT_CHECKABLE, TIE, TIE_CHECK, text_claims
+from podbench.report.overview import (
+    OFF_SCALE,
+    best_worst_html,
+    large_error_html,
+    ranking,
+    run_words,
+)
+from podbench.study.claims import Outcome, Verdict, counts_words, text_claims
 
 __all__ = ["as_percent", "provenance", "render_report", "text_to_html"]
 
@@ -145,6 +153,36 @@ dl.prov { display: grid; grid-template-columns: max-content 1fr; gap: 4px 18px;
 dl.prov dt { font-weight: 600; } dl.prov dd { margin: 0; word-break: break-all; }
 table.verdicts td, table.verdicts th { text-align: left; white-space: normal; }
 details > summary { cursor: pointer; color: var(--accent); margin: 8px 0; }
+details.scenario { border-top: 1px solid var(--line); margin: 6px 0; }
+details.scenario > summary { list-style-position: outside; margin: 0; padding: 10px 0 6px;
+  color: var(--fg); }
+details.scenario > summary h3 { display: inline; margin: 0; }
+details.scenario > summary .gist { display: block; font-size: .88rem; color: var(--muted);
+  margin-left: 2px; }
+details.sub { margin: 10px 0; border: 1px solid var(--line); border-radius: 6px;
+  padding: 0 10px; background: #fcfdfe; }
+details.sub > summary { font-weight: 600; }
+details.sub[open] { padding-bottom: 8px; }
+.toc button { font: inherit; font-size: .82rem; color: var(--accent); background: none;
+  border: 1px solid var(--line); border-radius: 4px; padding: 0 6px; cursor: pointer; }
+th .u { display: block; font-weight: 400; color: var(--muted); font-size: .75rem; }
+th a.term, a.term { color: inherit; text-decoration: underline dotted; }
+a.off { color: #8a1c1c; text-decoration: none; font-size: .8em; margin-left: 2px; }
+.why { font-size: .88rem; background: #fff7f6; border-left: 4px solid #d9534f;
+  padding: 4px 12px; margin: 8px 0; border-radius: 0 4px 4px 0; }
+.why ul { margin: 4px 0; padding-left: 18px; } .why li { margin: 3px 0; max-width: none; }
+.figs.wide { grid-template-columns: 1fr; }
+figure.wide img { max-width: 1180px; margin: 0 auto; }
+dl.glossary { display: grid; grid-template-columns: 1fr; gap: 2px; margin: 8px 0; }
+dl.glossary .gl { display: grid; grid-template-columns: 15rem 1fr; gap: 12px;
+  padding: 5px 0; border-bottom: 1px solid var(--line); }
+dl.glossary dt { font-weight: 600; } dl.glossary dd { margin: 0; max-width: 62rem; }
+dl.glossary :target, dl.glossary .gl:target { background: #fff6d6; }
+.formula { display: block; font-family: ui-monospace, "DejaVu Sans Mono", monospace;
+  font-size: .85rem; color: #34404c; margin-top: 2px; }
+.lead { font-size: 1.02rem; max-width: 62rem; }
+table.overview td, table.overview th { white-space: normal; }
+@media print { nav.toc { position: static; } details > summary { list-style: none; } }
 """
 
 _SCRIPT = """
@@ -167,6 +205,29 @@ window.addEventListener("load", function () {
   document.body.setAttribute("data-tables-unframed", String(loose));
   document.body.setAttribute("data-page-overflow", String(
     Math.max(0, document.documentElement.scrollWidth - document.documentElement.clientWidth)));
+  if (location.hash) { reveal(decodeURIComponent(location.hash.slice(1)), true); }
+});
+// a link into a folded section unfolds it (and every section around it)
+function reveal(id, scroll) {
+  var el = document.getElementById(id);
+  if (!el) { return; }
+  for (var p = el; p; p = p.parentElement) { if (p.tagName === "DETAILS") { p.open = true; } }
+  if (scroll) { el.scrollIntoView(); }
+}
+document.addEventListener("click", function (ev) {
+  var a = ev.target.closest ? ev.target.closest("a[href^='#']") : null;
+  if (a) { reveal(decodeURIComponent(a.getAttribute("href").slice(1)), false); }
+  var b = ev.target.closest ? ev.target.closest("button[data-fold]") : null;
+  if (b) {
+    var open = b.getAttribute("data-fold") === "open";
+    document.querySelectorAll("details").forEach(function (d) { d.open = open; });
+  }
+});
+window.addEventListener("hashchange", function () {
+  reveal(decodeURIComponent(location.hash.slice(1)), true);
+});
+window.addEventListener("beforeprint", function () {
+  document.querySelectorAll("details").forEach(function (d) { d.open = true; });
 });
 """
 
@@ -254,20 +315,39 @@ def _cell(value, kind) -> str:
     return f"<td>{_num(value)}</td>"
 
 
+UNITS = {"frac": "%", "pct": "%", "ratio": "ratio"}
+"""The unit line of a column head by its kind (errors in % of ‖W‖_F or Eq. 4.2's %)."""
+
+
 def _legend() -> str:
     chips = "".join(f'<span class="chip {c}">{_e(t)}</span>' for _, c, t in ERROR_BINS)
     return f'<div class="legend"><span class="muted"><a href="#decomposition">error</a>, % of ' \
            f'‖W‖<sub>F</sub>:</span>{chips}' \
-           '<span class="chip" style="color:#8a949e">— undefined</span></div>'
+           '<span class="chip" style="color:#8a949e"><a class="term" href="#g-undefined">' \
+           '—</a> undefined</span><span class="chip"><span style="color:#8a1c1c">▲</span> ' \
+           'total ≥ 100 %: worse than no motion, explained under the table</span></div>'
 
 
-def _summary_table(sub) -> str:
+def _head(c: str, h: str, k) -> str:
+    unit = "POMs" if c == "n_modes" else UNITS.get(k, "")
+    u = f'<span class="u">{unit}</span>' if unit else ""
+    return f'<th class="{"l" if k is None else ""}" title="{_e(c)}">{term_link(c, h)}{u}</th>'
+
+
+def _summary_table(sub, name: str = "") -> str:
     cols = [(c, h, k) for c, h, k in SUMMARY_COLUMNS if c in sub.columns]
-    head = "".join(f'<th class="{"l" if k is None else ""}" title="{_e(c)}">{h}</th>'
-                   for c, h, k in cols)
+    head = "".join(_head(c, h, k) for c, h, k in cols)
     body = []
     for r in sub.to_dict("records"):
-        body.append("<tr>" + "".join(_cell(r[c], k) for c, _, k in cols) + "</tr>")
+        cells = [_cell(r[c], k) for c, _, k in cols]
+        tot = r.get("total_error")
+        if "total_error" in sub.columns and isinstance(tot, float) and tot >= OFF_SCALE:
+            i = [c for c, _, _ in cols].index("total_error")
+            why = _slug(f"why-{name}-{r['structure']}-{r['method']}")
+            cells[i] = cells[i].replace(
+                "</td>", f'<a class="off" href="#{why}" title="worse than predicting no '
+                'motion: why, under the table">▲</a></td>')
+        body.append("<tr>" + "".join(cells) + "</tr>")
     notes = [f'<li>{_e(r["structure"])} / {_e(r["method"])} / {_e(r["target"])}: '
              f'{_e(r["status"])}</li>' for r in sub.to_dict("records") if r["status"] != "ok"]
     out = (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
@@ -331,72 +411,73 @@ def _verdict_badge(verdict: str) -> str:
     return f'<span class="badge {_slug(verdict)}">{_e(verdict)}</span>'
 
 
+def _headline(evaluated) -> str:
+    """The claims' count, as FINDINGS.md gives it (the text's claims once each when the
+    claims file marks variants or parts), as an HTML paragraph."""
+    n = len(evaluated)
+    out = (f"<p><strong>{n} claims: {_e(counts_words(e.verdict for e in evaluated))}."
+           "</strong></p>")
+    if any(e.claim.variant or e.claim.part_of or not e.claim.checkable
+           for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
+        texts = text_claims(evaluated)
+        out = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
+               f"{_e(counts_words(v for _, _, v in texts))}.</strong> The table lists "
+               f"every entry, the variants ({sum(1 for e in evaluated if e.claim.variant)}"
+               " entries: other readings, solvers, units, targets; see FINDINGS.md) "
+               "among them.</p>")
+    return out
+
+
 def _findings(evaluated, remarks, claims_path) -> str:
     if evaluated is None:
         return ('<p class="muted">No claims file (<code>claims.toml</code>) beside the '
                 "scenarios: nothing to check.</p>")
-    n = len(evaluated)
-    counts = {k: sum(e["verdict"] == k for e in evaluated)
-              for k in ("reproduced", "not reproduced", "not measured", TIE)}
-    ties = f", {counts[TIE]} {TIE}" if counts[TIE] else ""
     out = [f"<p>Each claim of <code>{_e(claims_path)}</code> checked against this run's "
            "summary table (the same evaluation as <code>FINDINGS.md</code>). The words were "
            "translated into thresholds before any run; the structures and methods were not "
            "adjusted to the dissertation. Checks are shown in percent (the claims file's "
            "literal check is the tooltip); the notes are the claims file's text, as in "
            "<code>FINDINGS.md</code>, where an error written as a bare number is a fraction "
-           "of ‖W‖<sub>F</sub> (0.05 = 5 %).</p>",
-           f"<p><strong>{counts['reproduced']} of {n} claims reproduced, "
-           f"{counts['not reproduced']} not reproduced{ties}, {counts['not measured']} not "
-           "measured.</strong></p>"]
-    if any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
-           for e in evaluated):  # the text's claims once each, as FINDINGS.md counts them
-        texts = text_claims(evaluated)
-        tc = {k: sum(v == k for _, _, v in texts)
-              for k in ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE, TIE)}
-        tties = f", {tc[TIE]} {TIE}" if tc[TIE] else ""
-        out[-1] = (f"<p><strong>The text's claims: {len(texts)}, each counted once: "
-                   f"{tc['reproduced']} reproduced, {tc['not reproduced']} not reproduced"
-                   f"{tties}, "
-                   f"{tc['not measured']} not measured, {tc[NOT_CHECKABLE]} "
-                   f"{NOT_CHECKABLE}.</strong> The table lists every entry, the variants "
-                   f"({sum(1 for e in evaluated if e['claim'].variant)} entries: other "
-                   "readings, solvers, units, targets; "
-                   "see FINDINGS.md) among them.</p>")
+           "of ‖W‖<sub>F</sub> (0.05 = 5 %).</p>", _headline(evaluated)]
     rows = "".join(
-        f'<tr><td class="l"><a href="#claim-{_slug(e["claim"].id)}">{_e(e["claim"].id)}</a>'
-        f'</td><td class="l">{_e(e["claim"].source)}</td><td class="l">'
-        f'{_e(e["claim"].scenario)}</td><td class="l">{_verdict_badge(e["verdict"])}</td></tr>'
+        f'<tr><td class="l"><a href="#claim-{_slug(e.claim.id)}">{_e(e.claim.id)}</a>'
+        f'</td><td class="l">{_e(e.claim.source)}</td><td class="l">'
+        f'{_e(e.claim.scenario)}</td><td class="l">{_verdict_badge(e.verdict)}</td></tr>'
         for e in evaluated)
     out.append('<div class="scroll"><table class="verdicts"><thead><tr><th>claim</th>'
                "<th>source</th><th>scenario</th><th>verdict</th></tr></thead>"
                f"<tbody>{rows}</tbody></table></div>")
+    out.append(f'<details class="sub" id="claims-all"><summary>Every claim: its quote, '
+               f"checks and notes ({len(evaluated)})</summary>")
     for e in evaluated:
-        c = e["claim"]
-        cls = _slug(e["verdict"])
+        c = e.claim
+        cls = _slug(e.verdict)
         out.append(f'<article class="claim {cls}" id="claim-{_slug(c.id)}">')
-        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e['verdict'])}</h4>")
+        out.append(f"<h4>{_e(c.id)} {_verdict_badge(e.verdict)}</h4>")
         out.append(f'<p class="source">{_e(c.source)}, {_e(c.scenario)}</p>')
         out.append(f"<blockquote>“{_inline(c.quote)}”</blockquote>")
         if c.criterion:
             out.append(f"<p><strong>Criterion:</strong> {_inline(c.criterion)}.</p>")
         items = []
-        for d in e["details"]:
-            mark = {True: ("holds", "holds"), False: ("fails", "fails"),
-                    None: ("unmeasured", "not measured"), TIE_CHECK: ("tie", "tie")}[d["holds"]]
-            items.append(f'<li class="{mark[0]}">{_e(d["structure"])}, {_e(d["target"])}: '
-                         f'<code title="{_e(d["check"])}">{_e(as_percent(d["check"]))}</code>'
-                         f' → {_e(as_percent(d["shown"]))}: {mark[1]}</li>')
+        for d in e.details:
+            css = "unmeasured" if d.outcome == Outcome.NOT_MEASURED else d.outcome.value
+            items.append(f'<li class="{css}">{_e(d.structure)}, {_e(d.target)}: '
+                         f'<code title="{_e(str(d.check))}">{_e(as_percent(str(d.check)))}'
+                         f'</code> → {_e(as_percent(d.shown))}: {d.outcome}</li>')
         out.append(f'<ul class="checks">{"".join(items)}</ul>')
         if getattr(c, "finding", ""):
             out.append(f"<p><strong>In one line:</strong> {_inline(c.finding)}</p>")
         if c.note:
             out.append(text_to_html(c.note))
         out.append("</article>")
+    out.append("</details>")
     if remarks:
-        out.append('<h3 id="other-findings">Other findings</h3>')
+        out.append(f'<details class="sub" id="other-findings"><summary>Other findings '
+                   f"({len(remarks)}): {_e('; '.join(r['title'] for r in remarks))}"
+                   "</summary>")
         for r in remarks:
             out.append(f"<h4>{_e(r['title'])}</h4>{text_to_html(r['text'], 4)}")
+        out.append("</details>")
     return "\n".join(out)
 
 
@@ -405,18 +486,34 @@ def _figures(figs, figure_format: str | None) -> str:
         return '<p class="muted">Figures not drawn (<code>--no-figures</code>).</p>'
     if not figs:
         return ""
-    out = ['<div class="figs">']
+    wide = all(f.get("wide") for f in figs)
+    out = [f'<div class="figs{" wide" if wide else ""}">']
     for f in figs:
-        out.append(f'<figure><img src="{f["uri"]}" alt="{_e(f["alt"])}" loading="eager">'
+        out.append(f'<figure class="{"wide" if f.get("wide") else ""}"><img src="{f["uri"]}" '
+                   f'alt="{_e(f["alt"])}" loading="eager">'
                    f'<figcaption>{_e(f["caption"])}</figcaption></figure>')
     out.append("</div>")
     return "\n".join(out)
 
 
+FIGURE_NOTE = (
+    "Each figure: left, the displacement norm ‖w(t)‖ over the sensors (Eq. 4.1) of the truth "
+    "and of every method, over the percent error of the norm (Eq. 4.2, log scale); right, "
+    "the displacement at two sensors chosen from the truth alone (the one that moves most, "
+    "the tip of a cantilever, and the one nearest mid-span, or the quarter span when the "
+    "first is there) and the amplitude spectrum over all sensors (Hann window; the amplitude "
+    "of a sinusoid at that frequency). Every y-axis is fitted to the truth; a method that "
+    "leaves it is clipped, marked ▲/▼ where it leaves and labelled “off scale” in the "
+    "legend with its total error.")
+"""What the prediction figures show (the page's text above them)."""
+
+
 def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, remarks=(),
                   claims_path=None, figures: dict | None = None,
                   figure_format: str | None = "png", command: str | None = None,
-                  calibration: str = "", decompositions: dict | None = None) -> str:
+                  calibration: str = "", decompositions: dict | None = None,
+                  modes: str = "", seconds: float | None = None,
+                  figure_seconds: float | None = None, responses=None) -> str:
     """The HTML text of a study's ``report.html``.
 
     Parameters
@@ -431,7 +528,8 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
         The claims' evaluation (:func:`podbench.study.claims.evaluate_claims`), the
         claims file's remarks and its path, or None without a claims file.
     figures : dict
-        Scenario name → list of ``{"uri", "alt", "caption"}`` (figures as ``data:`` URIs).
+        Scenario name → list of ``{"uri", "alt", "caption"}`` (figures as ``data:`` URIs;
+        ``"wide": True`` for a figure with the sensor and spectrum panels).
     figure_format : str or None
         The format of the figure files, None when no figures were drawn.
     command : str, optional
@@ -442,36 +540,96 @@ def render_report(*, study: str, df, fits, scenarios: dict, evaluated=None, rema
     decompositions : dict, optional
         Scenario name → ``data:`` URI of its error-decomposition figure
         (:mod:`podbench.report.decomposition`).
+    modes : str, optional
+        The modes section's HTML (identified modes against the structure's, their figures);
+        empty: no section.
+    seconds, figure_seconds : float, optional
+        Wall time (s) of simulating and fitting, and of drawing the figures, for the
+        summary.
+    responses : (int, int), optional
+        Truth responses simulated and read from the cache.
     """
     figures = figures or {}
     prov = provenance(command)
-    n_figs = sum(len(v) for v in figures.values()) + len(decompositions or {})
     decompositions = decompositions or {}
-    toc, sections = _scenario_sections(df, scenarios, figures, figure_format, decompositions)
-    cal_html = ""
+    toc, sections = _scenario_sections(df, scenarios, figures, figure_format, decompositions,
+                                       evaluated)
+    extra = []
+    if modes:
+        extra.append(("modes", "Modes", modes))
     if calibration:
-        toc.insert(-4, '<a href="#calibration">Calibration</a>')
-        cal_html = ('<h2 id="calibration">Calibration of the prediction bands</h2>\n'
-                    + calibration)
+        extra.append(("calibration", "Calibration of the prediction bands", calibration))
+    toc += [f'<a href="#{i}">{"Calibration" if i == "calibration" else t}</a>'
+            for i, t, _ in extra]
+    toc += ['<a href="#findings">Findings</a>', '<a href="#glossary">Glossary</a>',
+            '<a href="#decomposition">Error decomposition</a>',
+            '<a href="#fits">Fit diagnostics</a>', '<a href="#provenance">Provenance</a>']
+    body = "\n".join(sections)
+    after = "".join(f'\n<section id="{i}"><h2>{t}</h2>\n{h}</section>' for i, t, h in extra)
+    n_figs = body.count("<img ") + after.count("<img ")
+    summary = _summary(df, evaluated, seconds=seconds, figure_seconds=figure_seconds,
+                       n_figures=n_figs, responses=responses)
     fmt_note = ("" if figure_format is None else
                 f" The figure files are in <code>figures/*.{_e(figure_format)}</code> beside "
                 "this page; the page embeds them.")
-    return _page(study=study, prov=prov, stat_html=_stats(df, evaluated, n_figs), toc=toc,
-                 sections=sections, fmt_note=fmt_note, cal_html=cal_html,
-                 findings=_findings(evaluated, remarks, claims_path), fits=_fits_table(fits))
+    return _page(study=study, prov=prov, stat_html=_stats(df, evaluated, n_figs, seconds),
+                 toc=toc, summary=summary, body=body, after=after, fmt_note=fmt_note,
+                 findings=_findings(evaluated, remarks, claims_path), fits=_fits_table(fits),
+                 units=_units(figures))
 
 
-def _stats(df, evaluated, n_figs: int) -> str:
-    """The counts at the top of the page (scenarios, rows, figures, claims, failures)."""
-    n_ok = None if evaluated is None else sum(e["verdict"] == "reproduced" for e in evaluated)
+def _units(figures: dict) -> str:
+    """The header's units sentence: the displacement unit of the figures' series (the
+    dissertation's inch, lbf, second without figures)."""
+    units = {f["unit"] for v in figures.values() for f in v if f.get("unit")} or {"in"}
+    if units == {"in"}:
+        return "Units: inch, lbf, second (displacements in in, forces in lbf)."
+    return f"Units: displacements in {', '.join(sorted(units))}, time in seconds."
+
+
+def _not_reproduced(evaluated) -> str:
+    """Links to the claims not reproduced (the text's claims when the file marks them)."""
+    if not evaluated:
+        return ""
+    if any(e.claim.variant or e.claim.part_of or not e.claim.checkable for e in evaluated):
+        ids = [e.claim.id for e, _, v in text_claims(evaluated)
+               if v == Verdict.NOT_REPRODUCED]
+    else:
+        ids = [e.claim.id for e in evaluated if e.verdict == Verdict.NOT_REPRODUCED]
+    if not ids:
+        return ""
+    links = ", ".join(f'<a href="#claim-{_slug(i)}">{_e(i)}</a>' for i in ids)
+    return f"<p>Not reproduced: {links} (each explained under <a href=\"#findings\">" \
+           "Findings</a>).</p>"
+
+
+def _summary(df, evaluated, **timing) -> str:
+    """The summary at the top: what was run and how long it took, the claims' headline,
+    the best and worst method of each scenario and structure."""
+    out = [run_words(df, **timing)]
+    if evaluated is not None:
+        out += [_headline(evaluated), _not_reproduced(evaluated)]
+    out.append("<p>Best and worst method of each scenario and structure, by the median of "
+               "their <a class=\"term\" href=\"#g-total\">total error</a> over the targets "
+               "(100 % is what a prediction of no motion scores):</p>")
+    out.append(best_worst_html(df))
+    return "\n".join(out)
+
+
+def _stats(df, evaluated, n_figs: int, seconds: float | None = None) -> str:
+    """The counts at the top of the page (scenarios, rows, figures drawn on the page,
+    claims, failures, time)."""
+    n_ok = None if evaluated is None else sum(e.verdict == Verdict.REPRODUCED for e in evaluated)
     stats: list[tuple[object, str]] = [
         (len(df["scenario"].unique()) if len(df) else 0, "scenarios"),
-        (len(df), "rows (structure × method × target)"), (n_figs, "figures")]
+        (len(df), "rows (structure × method × target)"), (n_figs, "figures on this page")]
     if evaluated is not None:
         stats.append((f"{n_ok} / {len(evaluated)}", "claims reproduced"))
     n_failed = int((df["status"] != "ok").sum()) if len(df) else 0
     if n_failed:
         stats.append((n_failed, "rows with a failed method or twin"))
+    if seconds is not None:
+        stats.append((f"{seconds:.0f} s", "simulating and fitting"))
     return "".join(f'<div class="stat"><b>{_e(v)}</b><span>{_e(t)}</span></div>'
                    for v, t in stats)
 
@@ -479,44 +637,76 @@ def _stats(df, evaluated, n_figs: int) -> str:
 def _decomposition(name: str, uri: str | None) -> str:
     if not uri:
         return ""
-    return (f'<figure class="decomposition"><img src="{uri}" alt="{_e(name)}: error '
-            'decomposition per method and target (stacked bars)" loading="eager">'
+    return ('<details class="sub"><summary>Where the errors come from: the error '
+            f'decomposition of these rows (figure)</summary><figure class="decomposition">'
+            f'<img src="{uri}" alt="{_e(name)}: error decomposition per method and target '
+            '(stacked bars)" loading="eager">'
             f"<figcaption>{CAPTION} (figures/{_e(name)}__decomposition.*)</figcaption>"
-            "</figure>")
+            "</figure></details>")
+
+
+def _gist(sub, n_figs: int) -> str:
+    """A scenario's line under its folded heading: best and worst method, rows, figures."""
+    r = [x for x in ranking(sub) if math.isfinite(x[1])]
+    parts = []
+    if r:
+        parts.append(f"best {_e(r[0][0])} {percent(100 * r[0][1])} %")
+    if len(r) > 1:
+        parts.append(f"worst {_e(r[-1][0])} {percent(100 * r[-1][1])} %")
+    parts.append(f"{len(sub)} rows")
+    if n_figs:
+        parts.append(f"{n_figs} figure{'s' if n_figs != 1 else ''}")
+    return " · ".join(parts) + " (total error, median over the rows of a method)"
 
 
 def _scenario_sections(df, scenarios: dict, figures: dict, figure_format: str | None,
-                       decompositions: dict) -> tuple[list[str], list[str]]:
-    """The table of contents' links and one section per scenario (title, source,
-    description, its rows, its figures)."""
-    toc = ['<a href="#results">Results</a>']
+                       decompositions: dict, evaluated=None) -> tuple[list[str], list[str]]:
+    """The table of contents' links and one foldable section per scenario (title, source,
+    description, its rows and what their large errors mean, its figures); the sections
+    are unfolded when the study has at most :data:`UNFOLDED` scenarios."""
+    toc = ['<a href="#summary">Summary</a>', '<a href="#results">Results</a>']
     sections = []
-    for name, sub in df.groupby("scenario", sort=False):
+    groups = list(df.groupby("scenario", sort=False))
+    unfold = " open" if len(groups) <= UNFOLDED else ""
+    for name, sub in groups:
         sc = scenarios.get(name)
+        figs = figures.get(name, [])
         toc.append(f'<a href="#sc-{_slug(name)}">{_e(name)}</a>')
-        part = [f'<section id="sc-{_slug(name)}"><h3>{_e(name)}'
-                + (f": {_e(sc.title)}" if sc is not None else "") + "</h3>"]
+        part = [f'<details class="scenario" id="sc-{_slug(name)}"{unfold}><summary><h3>'
+                f'{_e(name)}' + (f": {_e(sc.title)}" if sc is not None else "") + "</h3>"
+                f'<span class="gist">{_gist(sub, len(figs))}</span></summary>']
         if sc is not None and sc.source:
             part.append(f'<p class="source">{_e(sc.source)}</p>')
         if sc is not None and sc.description:
             part.append(text_to_html(sc.description))
-        part.append(_summary_table(sub))
+        part.append(_summary_table(sub, name))
+        part.append(large_error_html(name, sub, sc, evaluated))
         part.append(_decomposition(name, decompositions.get(name)))
-        part.append(_figures(figures.get(name, []), figure_format))
-        part.append("</section>")
-        sections.append("\n".join(part))
-    toc += ['<a href="#findings">Findings</a>', '<a href="#fits">Fit diagnostics</a>',
-            '<a href="#decomposition">Error decomposition</a>',
-            '<a href="#provenance">Provenance</a>']
+        if figs:
+            part.append(f'<details class="sub"><summary>Figures: {len(figs)} target'
+                        f'{"s" if len(figs) != 1 else ""}, truth against every method'
+                        "</summary>")
+        part.append(_figures(figs, figure_format))
+        if figs:
+            part.append("</details>")
+        part.append("</details>")
+        sections.append("\n".join(p for p in part if p))
     return toc, sections
 
 
-def _page(*, study: str, prov: dict, stat_html: str, toc: list[str], sections: list[str],
-          fmt_note: str, cal_html: str, findings: str, fits: str) -> str:
+UNFOLDED = 8
+"""Scenario sections shown unfolded when a study has at most this many (Chapter 4's 7);
+a larger study (Chapter 5's) opens folded on its summary."""
+
+
+def _page(*, study: str, prov: dict, stat_html: str, toc: list[str], summary: str, body: str,
+          after: str, fmt_note: str, findings: str, fits: str, units: str) -> str:
     """The whole page around its parts."""
 
     prov_html = "".join(f"<dt>{_e(k)}</dt><dd>{'<code>' + _e(v) + '</code>' if k in ('commit', 'command') else _e(v)}</dd>"  # noqa: E501
                         for k, v in prov.items())
+    folds = ('<button type="button" data-fold="open">unfold all</button>'
+             '<button type="button" data-fold="close">fold all</button>')
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -530,40 +720,54 @@ def _page(*, study: str, prov: dict, stat_html: str, toc: list[str], sections: l
 <header class="top"><div class="wrap">
 <h1>podbench study report: {_e(study)}</h1>
 <p>POD-based system identification after Allison (2007), <em>System Identification via the
-Proper Orthogonal Decomposition</em>. Units: inch, lbf, second. Every error on this page is in
-percent: of the target's ‖W‖<sub>F</sub> (<a href="#decomposition">definitions</a>), or Eq. 4.2's
-percent error of the displacement norm.</p>
+Proper Orthogonal Decomposition</em>. {units} Every error on this page is in
+percent: of the target's ‖W‖<sub>F</sub> (<a href="#glossary">glossary</a>,
+<a href="#decomposition">definitions</a>), or Eq. 4.2's percent error of the displacement
+norm.</p>
 <div class="stats">{stat_html}</div>
 <p class="prov-line">commit <code>{_e(prov['commit'])}</code> · {_e(prov['date'])} ·
 <code>{_e(prov['command'])}</code></p>
 </div></header>
-<nav class="toc"><div class="wrap">{''.join(toc)}</div></nav>
+<nav class="toc"><div class="wrap">{''.join(toc)} {folds}</div></nav>
 <main class="wrap">
-<h2 id="results">Results</h2>
-<p>One table per scenario: one row per structure × method × target (the rows of
-<code>summary.csv</code>; column names in the header's tooltip). Error columns are in percent
-of ‖W‖<sub>F</sub> of the target; "—" marks a component that is undefined (see
-<a href="#decomposition">Error decomposition</a>). Each figure shows the displacement norm
-‖w(t)‖ (Eq. 4.1) of the truth and of every method, over the percent error of the norm
-(Eq. 4.2); the y-axis is fitted to the truth, and a method that leaves it is marked ▲ and
-“off scale”.{fmt_note}</p>
+<section id="summary"><h2>Summary</h2>
+{summary}
+</section>
+<section id="results"><h2>Results</h2>
+<p>One section per scenario (click a heading to fold or unfold it): one row per structure ×
+method × target (the rows of <code>summary.csv</code>; a column head links to its entry in the
+<a href="#glossary">glossary</a>, its tooltip names the column). Error columns are in percent
+of ‖W‖<sub>F</sub> of the target; "—" marks a component that is undefined. Under each table,
+the errors of 100 % or more are read against the decomposition; then the decomposition's
+figure and the scenario's figures, folded. {FIGURE_NOTE}{fmt_note}</p>
 {_legend()}
-{''.join(sections)}
-{cal_html}
-<h2 id="findings">Findings</h2>
+{body}
+</section>{after}
+<section id="findings"><h2>Findings</h2>
 {findings}
-<h2 id="fits">Fit diagnostics</h2>
-<p>What each reported method's fit measured about itself (<code>fits.csv</code>): mode count,
-fit residual, condition numbers and the deconvolution solver's amplification, growth,
-regularization and iterations.</p>
-{fits}
-<h2 id="decomposition">Error decomposition</h2>
+</section>
+<section id="glossary"><h2>Glossary</h2>
+{glossary_html()}
+</section>
+<section id="decomposition"><h2>Error decomposition</h2>
 <p>The definitions below write each error as a fraction of N = ‖W‖<sub>F</sub>, as
 <code>summary.csv</code> stores it; this page shows every one of them multiplied by 100, in
 percent.</p>
+<details class="sub"><summary>The definitions (podbench.harness.metrics)</summary>
 {text_to_html(metrics.__doc__ or "")}
-<h2 id="provenance">Provenance</h2>
+</details>
+</section>
+<section id="fits"><h2>Fit diagnostics</h2>
+<p>What each reported method's fit measured about itself (<code>fits.csv</code>): mode count,
+fit residual, condition numbers and the deconvolution solver's amplification, growth,
+regularization and iterations.</p>
+<details class="sub"><summary>The table</summary>
+{fits}
+</details>
+</section>
+<section id="provenance"><h2>Provenance</h2>
 <dl class="prov">{prov_html}</dl>
+</section>
 </main>
 <script>{_SCRIPT}</script>
 </body>

@@ -29,9 +29,9 @@ def markdown_table(rows) -> str:
     """The table of :func:`nonlinearity_table` in markdown (scaled values in in/(lbf·s)).
 
     Round-off is not printed: a deviation below
-    :data:`~podbench.study.nonlinearity.ROUNDOFF_METRIC` (a homogeneous band's, 1e-13…1e-12,
-    whose digits differ between OpenBLAS kernels: 4.09e-13 / 5.89e-13 for the undamped band)
-    is written 0, as in ``nonlinearity.csv``, and a lag that rounds to 0.00 % as +0.00
+    :data:`~podbench.study.nonlinearity.ROUNDOFF_METRIC` (a homogeneous band's deviation is
+    round-off, whose digits differ between CPUs; docs/noise.md has the measurement) is
+    written 0, as in ``nonlinearity.csv``, and a lag that rounds to 0.00 % as +0.00
     (its sign, at 1e-11 %, is round-off too)."""
     times = rows[0]["times"]
     head = ("| ζ | band | offset (in) | offset / A | away peak, 0.36 → 1.8 lbf | toward peak "

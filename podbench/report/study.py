@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import base64
 import math
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -23,6 +24,7 @@ from podbench.harness.digits import iterative_note
 from podbench.harness.executor import execute
 from podbench.harness.progress import as_stage
 from podbench.harness.rewrite import unmoved
+from podbench.harness.runner import response_counts
 from podbench.harness.seeds import seed_table
 from podbench.harness.tables import fits_table, summary_table, table_csv
 from podbench.report.calibration import (
@@ -37,11 +39,10 @@ from podbench.report.figures import FIGURE_FORMATS, FigureTask, describe_case, d
 from podbench.report.html import render_report
 from podbench.report.nonlinearity import write_outputs
 from podbench.study.claims import (
-    NOT_CHECKABLE,
-    TIE,
-    TIE_CHECK,
+    Verdict,
+    counts_words,
     evaluate_claims,
-    load_claims,
+    headline,
     load_claims_file,
     seed_names,
     text_claims,
@@ -51,6 +52,7 @@ from podbench.study.scenarios import method_solver
 from podbench.study.sensitivity import (
     base_claims_path,
     linked_verdicts,
+    noise_verdicts,
     sensitivity_markdown,
     sensitivity_verdicts,
     swept_verdicts,
@@ -106,10 +108,10 @@ def summary_markdown(df: pd.DataFrame, scenarios: dict, seeds=None) -> str:
     return "".join(out)
 
 
-def _over_parameter(e, linked) -> str:
-    """The FINDINGS table's last column: for a claim the sensitivity study varies, how it
-    fares over the values of the unstated parameter the text admits; else "—"."""
-    runs = (linked or {}).get(e["claim"].id)
+def _over_parameter(entries, linked) -> str:
+    """The FINDINGS table's last column: for a claim (and its parts) judged over a parameter
+    the text does not state, how it fares over the values studied; else "—"."""
+    runs = [r for e in entries for r in (linked or {}).get(e.claim.id, ())]
     if not runs:
         return "—"
     return "; ".join(f"{kind}: {text}" for kind, text, _ in runs)
@@ -119,59 +121,66 @@ def _claims_table(rows, why: bool, linked) -> list[str]:
     head = ["claim", "source", "verdict"] + (["explained by (measured)"] if why else []) \
         + (["over the unstated parameter"] if linked is not None else [])
     out = ["| " + " | ".join(head) + " |\n" + "|---" * len(head) + "|\n"]
-    for e, label, verdict in rows:
-        c = e["claim"]
-        cells = [label, c.source, verdict]
+    for entries, label, verdict in rows:
+        c = entries[0].claim
+        cells = [label, c.source, str(verdict)]
         if why:
             cells.append(c.finding.strip() or "—")
         if linked is not None:
-            cells.append(_over_parameter(e, linked))
+            cells.append(_over_parameter(entries, linked))
         out.append("| " + " | ".join(cells) + " |\n")
     return out
 
 
-def _ties(counts: dict) -> str:
-    return f", {counts[TIE]} {TIE}" if counts.get(TIE) else ""
-
-
 def _seeds_note(seeds) -> list[str]:
-    """How the comparisons were judged over the noise seeds (nothing without seeds)."""
+    """How the checks were judged over the noise seeds (nothing without seeds)."""
     if seeds is None:
         return []
-    return [f"Every comparison (a check with a measured quantity on each side: \"A more "
-            f"accurate than B\", \"TLS at or below LS\", \"e_noisy <= 1.1 × e_clean\") is "
-            f"judged over noise {seed_names(seeds.seeds)} (the tables are seed "
-            f"{seeds.seeds[0]}'s, the committed records; the rows of every seed are in "
-            "`seeds.csv`): it holds or fails when it does so on every seed, and is a *tie* "
-            "when the seeds disagree — its mean difference is then within the seeds' spread, "
-            "given on the check's line (the paired sign test; "
-            "`podbench/study/claims.py` says why not a standard-error rule). Thresholds "
-            f"(\"< 20\") are judged on seed {seeds.seeds[0]}.\n\n"]
+    return [f"Every check that reads a noisy record (a threshold such as \"< 20\" as a "
+            f"comparison such as \"A more accurate than B\") is judged over noise "
+            f"{seed_names(seeds.seeds)} (the tables are seed {seeds.seeds[0]}'s, the "
+            "committed records; the rows of every seed are in `seeds.csv`): it holds or "
+            "fails when it does so on every seed, and is a *tie* when the seeds disagree "
+            "(the paired sign test; `podbench/study/claims.py` says why not a "
+            "standard-error rule); the check's line gives left − right over the seeds.\n\n"]
 
 
-def _text_first(evaluated, linked, why, linked_note=(), seeds=None) -> list[str]:
+def _levels_note(levels) -> list[str]:
+    """How a claim judged over the noise series is counted (nothing without the table)."""
+    if levels is None:
+        return []
+    pct = f"{100.0 * levels.suggested:g} %"
+    each = ", ".join(f"{100.0 * v:g}" for v in sorted(set(levels.levels.values())))
+    return [f"The text states no noise level. A claim judged at several levels of the "
+            f"per-channel noise ({each} %) is counted at {pct}, the level of the "
+            f"{levels.source}'s “{levels.quote}” "
+            f"({levels.reading.strip()}); the last column gives its verdicts over every "
+            "level and where it stops holding, as for any other parameter the text does "
+            "not state.\n\n"]
+
+
+def _text_first(evaluated, linked, why, linked_note=(), seeds=None, levels=None) -> list[str]:
     """The headline and the two tables of a claims file that marks its variants: the text's
     claims counted once each, then the entries judged besides them."""
     texts = text_claims(evaluated)
-    kinds = ("reproduced", "not reproduced", "not measured", NOT_CHECKABLE, TIE)
-    counts = {k: sum(v == k for _, _, v in texts) for k in kinds}
-    variants = [e for e in evaluated if e["claim"].variant]
-    vcounts = {k: sum(e["verdict"] == k for e in variants) for k in kinds}
+    variants = [e for e in evaluated if e.claim.variant]
     out = [f"**The text's claims: {len(texts)}, each counted once under its best-supported "
-           f"reading: {counts['reproduced']} reproduced, {counts['not reproduced']} not "
-           f"reproduced{_ties(counts)}, {counts['not measured']} not measured"
-           + (f", {counts[NOT_CHECKABLE]} {NOT_CHECKABLE}" if counts[NOT_CHECKABLE] else "")
-           + ".**\n\n",
+           f"reading: {counts_words(v for _, _, v in texts)}.**\n\n",
            "A claim judged on two structures (or targets) is one claim: it is reproduced "
-           "when every part is. A claim judged at several noise levels is reproduced when "
-           "it holds at every level (each claim's section says at which it holds).\n\n",
-           *_seeds_note(seeds)]
+           "when every part is. A sentence that asserts what an earlier one did is judged "
+           "once, with that claim (its section quotes it).\n\n",
+           *_levels_note(levels)]
+    if levels is not None:
+        every = text_claims(evaluated, every_level=True)
+        out.append("Counted instead at every noise level (a claim reproduced only when it "
+                   f"holds at each): {counts_words(v for _, _, v in every)}.\n\n")
+    out += _seeds_note(seeds)
     rows = []
     for e, parts, v in texts:
-        c = e["claim"]
-        label = f"[{c.id}](#{c.id})" + "".join(f" + [{p['claim'].id}](#{p['claim'].id})"
+        c = e.claim
+        label = f"[{c.id}](#{c.id})" + "".join(f" + [{p.claim.id}](#{p.claim.id})"
                                                for p in parts)
-        rows.append((e, label, v))
+        rows.append(([e, *parts], label, v))
     out += _claims_table(rows, why, linked)
     if linked_note:
         out += ["\n", *linked_note]
@@ -179,26 +188,78 @@ def _text_first(evaluated, linked, why, linked_note=(), seeds=None) -> list[str]
         out.append(f"\n## Also judged: variants and sensitivities (not counted above)\n\n"
                    f"{len(variants)} entries judge the same sentences under another reading, "
                    "solver, target, unit scale or strike scatter: "
-                   f"{vcounts['reproduced']} reproduced, {vcounts['not reproduced']} not "
-                   f"reproduced{_ties(vcounts)}, {vcounts['not measured']} not measured."
-                   "\n\n")
-        vrows = [(e, f"[{e['claim'].id}](#{e['claim'].id}) — {e['claim'].variant}",
-                  e["verdict"]) for e in variants]
+                   f"{counts_words(e.verdict for e in variants)}.\n\n")
+        vrows = [([e], f"[{e.claim.id}](#{e.claim.id}) — {e.claim.variant}", e.verdict)
+                 for e in variants]
         out += _claims_table(vrows, why, linked)
     out.append("\n## Every entry\n")
     return out
 
 
+def _linked_note(evaluated, linked, linked_from: str, *, structures_only: bool) -> list[str]:
+    """The sentence before the claims' table on the entries judged over an unstated parameter
+    (``structures_only``: every such parameter is a structure's, as in Chapter 4)."""
+    if linked is None:
+        return []
+    kinds = {e.claim.id: [k for k, _, _ in linked.get(e.claim.id, ())] for e in evaluated}
+    n_linked = sum(1 for ks in kinds.values() if ks)
+    n_dep = sum(1 for ks in kinds.values() if any(k.startswith("depends") for k in ks))
+    n_held = sum(1 for ks in kinds.values() if ks and all(k.startswith("holds") for k in ks))
+    subject = (f"{n_linked} claims name a structure whose parameter the text does not state; "
+               f"{linked_from} judges them again" if structures_only else
+               f"{n_linked} entries are judged over a parameter the text does not state; "
+               f"{linked_from} judges them")
+    return [f"{subject} at every value of it (the same checks), and the last "
+            "column says how each fares over the values the text's words admit (the claims "
+            "file's `[[bounds]]`; without one, over the whole studied range). Over those "
+            f"values {n_held} hold throughout, {n_dep} depend on the parameter and "
+            f"{n_linked - n_held - n_dep} fail throughout.\n\n"]
+
+
+def _entry(e, linked) -> list[str]:
+    """One entry's section of FINDINGS.md."""
+    c = e.claim
+    out = [f"\n### {c.id}\n\n"]
+    if c.variant:
+        out.append(f"*Also judged (not counted in the headline): {c.variant}.*\n\n")
+    elif c.part_of:
+        out.append(f"*Part of [{c.part_of}](#{c.part_of}): the same sentence on "
+                   "another structure (counted once with it).*\n\n")
+    by = e.by_scenario
+    out.append(f"*{c.source}*, {', '.join(by) or c.scenario}: “{c.quote}”\n\n")
+    out += [f"*Restated ({src})*: “{quote}”\n\n" for src, quote in c.restated]
+    if c.criterion:
+        out.append(f"Criterion: {c.criterion}.\n\n")
+    out.append(f"**Verdict: {e.verdict}.**\n\n" if c.checkable else
+               f"**Verdict: {Verdict.NOT_CHECKABLE}** (the literal point: {e.verdict}; not "
+               "counted; see the verdict over the unstated parameter).\n\n")
+    for kind, text, scenario in (linked or {}).get(c.id, ()):
+        out.append(f"*Over the unstated parameter* ({scenario}): {kind}; {text}.\n\n")
+    if len(by) > 1:
+        held = [k for k, v in by.items() if v == Verdict.REPRODUCED]
+        out.append(f"Holds in {len(held)} of {len(by)} scenarios: "
+                   f"{', '.join(held) or 'none'}.\n\n")
+        out.append("| scenario | verdict |\n|---|---|\n")
+        out.extend(f"| {k} | {v} |\n" for k, v in by.items())
+        out.append("\n")
+    for d in e.details:
+        where = f"{d.scenario}, " if len(by) > 1 else ""
+        out.append(f"- {where}{d.structure}, {d.target}: `{d.check}` → {d.shown}: "
+                   f"{d.outcome}\n")
+    if c.finding:
+        out.append(f"\n*In one line:* {c.finding.strip()}\n")
+    if c.note:
+        out.append(f"\n{c.note.strip()}\n")
+    return out
+
+
 def findings_markdown(evaluated, remarks, claims_path, linked=None,
                       linked_from: str = "the claims file's sensitivity study",
-                      seeds=None) -> str:
+                      seeds=None, levels=None) -> str:
     """FINDINGS.md: the headline, the claims' table(s) and every claim's checks
-    (``seeds``: the :class:`~podbench.study.claims.SeedRows` the comparisons were judged
-    over, or None)."""
-    n = len(evaluated)
-    counts = {k: sum(e["verdict"] == k for e in evaluated)
-              for k in ("reproduced", "not reproduced", "not measured", TIE)}
-    text_first = any(e["claim"].variant or e["claim"].part_of or not e["claim"].checkable
+    (``seeds``: the :class:`~podbench.study.claims.SeedRows` the checks were judged over,
+    ``levels``: the claims file's :class:`~podbench.study.claims.NoiseLevels`, or None)."""
+    text_first = any(e.claim.variant or e.claim.part_of or not e.claim.checkable
                      for e in evaluated)
     out = ["# Findings: the dissertation's claims beside podbench's measurements\n\n",
            f"Generated by `podbench run` from `{claims_path}` and the measured "
@@ -206,65 +267,20 @@ def findings_markdown(evaluated, remarks, claims_path, linked=None,
            "translated into thresholds *before* any run (see the claims file's header); the "
            "study's structures and methods were not adjusted to the dissertation.\n\n"]
     if not text_first:
-        out.append(f"**{counts['reproduced']} of {n} claims reproduced, "
-                   f"{counts['not reproduced']} not reproduced{_ties(counts)}, "
-                   f"{counts['not measured']} not measured.**\n\n")
+        n = headline(e.verdict for e in evaluated)
+        out.append(f"**{n[Verdict.REPRODUCED]} of {len(evaluated)} claims reproduced, "
+                   f"{counts_words(e.verdict for e in evaluated).split(', ', 1)[1]}.**\n\n")
         out += _seeds_note(seeds)
-    linked_note = []
-    if linked is not None:
-        n_dep = sum(1 for e in evaluated if any(k == "depends on an unstated parameter"
-                                                for k, _, _ in linked.get(e["claim"].id, ())))
-        n_held = sum(1 for e in evaluated if (r := linked.get(e["claim"].id))
-                     and all(k.startswith("holds") for k, _, _ in r))
-        n_linked = sum(1 for e in evaluated if e["claim"].id in linked)
-        linked_note.append(f"{n_linked} claims name a structure whose parameter the text does not "
-                   f"state; {linked_from} judges them again at every "
-                   "value of it (the same checks), and the last column says how each fares "
-                   "over the values the text's words admit (the claims file's `[[bounds]]`; "
-                   "without one, over the whole studied range). Over those values "
-                   f"{n_held} hold throughout, {n_dep} depend on the parameter and "
-                   f"{n_linked - n_held - n_dep} fail throughout.\n\n")
-    why = any(e["claim"].finding for e in evaluated)
+    linked_note = _linked_note(evaluated, linked, linked_from, structures_only=levels is None)
+    why = any(e.claim.finding for e in evaluated)
     if text_first:  # the text's claims first, the parameter sweep's note after their table
-        out += _text_first(evaluated, linked, why, linked_note, seeds)
+        out += _text_first(evaluated, linked, why, linked_note, seeds, levels)
     else:
         out += linked_note
-        out += _claims_table([(e, f"[{e['claim'].id}](#{e['claim'].id})", e["verdict"])
+        out += _claims_table([([e], f"[{e.claim.id}](#{e.claim.id})", e.verdict)
                               for e in evaluated], why, linked)
     for e in evaluated:
-        c = e["claim"]
-        out.append(f"\n### {c.id}\n\n")
-        if c.variant:
-            out.append(f"*Also judged (not counted in the headline): {c.variant}.*\n\n")
-        elif c.part_of:
-            out.append(f"*Part of [{c.part_of}](#{c.part_of}): the same sentence on "
-                       "another structure (counted once with it).*\n\n")
-        by = e.get("by_scenario", {})
-        out.append(f"*{c.source}*, {', '.join(by) or c.scenario}: “{c.quote}”\n\n")
-        if c.criterion:
-            out.append(f"Criterion: {c.criterion}.\n\n")
-        out.append(f"**Verdict: {e['verdict']}.**\n\n" if c.checkable else
-                   f"**Verdict: {NOT_CHECKABLE}** (the literal point: {e['verdict']}; not "
-                   "counted; see the verdict over the unstated parameter).\n\n")
-        for kind, text, scenario in (linked or {}).get(c.id, ()):
-            out.append(f"*Over the unstated parameter* ({scenario}): {kind}; {text}.\n\n")
-        if len(by) > 1:
-            held = [k for k, v in by.items() if v == "reproduced"]
-            out.append(f"Holds in {len(held)} of {len(by)} scenarios: "
-                       f"{', '.join(held) or 'none'}.\n\n")
-            out.append("| scenario | verdict |\n|---|---|\n")
-            out.extend(f"| {k} | {v} |\n" for k, v in by.items())
-            out.append("\n")
-        for d in e["details"]:
-            mark = {True: "holds", False: "fails", None: "not measured",
-                    TIE_CHECK: "tie"}[d["holds"]]
-            where = f"{d['scenario']}, " if len(by) > 1 else ""
-            out.append(f"- {where}{d['structure']}, {d['target']}: `{d['check']}` → "
-                       f"{d['shown']}: {mark}\n")
-        if c.finding:
-            out.append(f"\n*In one line:* {c.finding.strip()}\n")
-        if c.note:
-            out.append(f"\n{c.note.strip()}\n")
+        out += _entry(e, linked)
     if remarks:
         out.append("\n## Other findings\n")
         for r in remarks:
@@ -310,15 +326,36 @@ def _draw_all(tasks, jobs: int, progress=None) -> list:
                        progress=lambda *_: stage.advance())
 
 
+def _linked(cf, evaluated, mine, sensitivity, nl_table, nl_spec) -> tuple:
+    """``(linked, linked_from)``: every claim's verdicts over the parameters the text does
+    not state (the sensitivity study, the noise series, the nonlinearity sweep) and the
+    words naming where they come from."""
+    linked: dict = {}
+    sources = []
+    found = [(linked_verdicts(sensitivity) if sensitivity else None,
+              "the claims file's sensitivity study"),
+             (noise_verdicts(evaluated, cf.noise_levels) if cf.noise_levels else None,
+              "the noise series (`[noise_levels]`)"),
+             (swept_verdicts(mine, nl_table, nl_spec) if nl_table is not None else None,
+              "the nonlinearity sweep (nonlinearity.md)")]
+    for runs, words in found:
+        if runs:
+            for cid, r in runs.items():
+                linked.setdefault(cid, []).extend(r)
+            sources.append(words)
+    if not sources:
+        return ({} if sensitivity else None), "the claims file's sensitivity study"
+    return linked, " or ".join(sources)
+
+
 def _write_findings(tmp: Path, df, scenarios: dict, claims_path, *, figures: bool,
                     figure_format: str, sensitivity, nonlinearity, cal_rows, seeds=None):
     """The nonlinearity checks' outputs and ``FINDINGS.md`` (the claims judged, or a derived
     study's verdicts over its parameters) in ``tmp``; returns ``(evaluated, remarks)``."""
     evaluated = None
     remarks: list = []
-    judged, nl_table, linked_from = df, None, "the claims file's sensitivity study"
+    judged, nl_table = df, None
     if nonlinearity is not None:
-
         spec, nl_rows = nonlinearity
         nl_table = claim_rows(nl_rows, spec)
         write_outputs(nl_rows, nl_table, tmp, figures=figures,
@@ -327,22 +364,20 @@ def _write_findings(tmp: Path, df, scenarios: dict, claims_path, *, figures: boo
                                           if c not in ("kind", "fraction")]]],
                            ignore_index=True)
     if claims_path is not None:
-        claims, remarks = load_claims(claims_path)
+        cf = load_claims_file(claims_path)
+        remarks = cf.remarks
         names = set(scenarios) | ({nonlinearity[0].name} if nonlinearity else set())
-        mine = [c for c in claims if any(x in names for x in c.all_scenarios())]
-        evaluated = evaluate_claims(mine, judged, scenarios=names, seeds=seeds)
-        linked = linked_verdicts(sensitivity) if sensitivity else None
-        if nl_table is not None:
-            swept = swept_verdicts(mine, nl_table, nonlinearity[0])
-            if swept:
-                linked = {**(linked or {}), **swept}
-                linked_from = ("the nonlinearity sweep (nonlinearity.md)" if not sensitivity
-                               else linked_from + " or the nonlinearity sweep")
+        mine = [c for c in cf.claims if any(x in names for x in c.all_scenarios())]
+        evaluated = evaluate_claims(mine, judged, scenarios=names, seeds=seeds,
+                                    noise_levels=cf.noise_levels)
+        linked, linked_from = _linked(cf, evaluated, mine, sensitivity, nl_table,
+                                      nonlinearity[0] if nonlinearity else None)
         (tmp / "FINDINGS.md").write_text(findings_markdown(evaluated, remarks,
                                                            display_path(claims_path),
                                                            linked=linked,
                                                            linked_from=linked_from,
-                                                           seeds=seeds)
+                                                           seeds=seeds,
+                                                           levels=cf.noise_levels)
                                          + findings_calibration(cal_rows),
                                          encoding="utf-8", newline="\n")
     elif (base_claims := base_claims_path(scenarios)) is not None:  # a sensitivity study
@@ -384,7 +419,8 @@ def _decomposition_figures(df, scenarios: dict, fdir: Path, fmt: str) -> dict:
 
 def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures: bool = True,
                 jobs: int = 1, figure_format: str = "png", command: str | None = None,
-                progress=None, sensitivity=None, nonlinearity=None, seeds=None):
+                progress=None, sensitivity=None, nonlinearity=None, seeds=None,
+                seconds: float | None = None):
     """Write every output of a study into ``out_dir`` (replaced as a whole, atomically):
     the tables, ``FINDINGS.md`` (with a claims file), ``figures/*.<figure_format>`` and the
     self-contained ``report.html`` (:mod:`podbench.report.html`; ``command`` is
@@ -399,7 +435,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
     (and figures), their claims judged and swept in FINDINGS.md.
     ``seeds``: the comparisons' rows on every noise seed
     (:func:`podbench.harness.seeds.run_seeds`): written to ``seeds.csv``, the comparisons
-    judged over them.
+    judged over them. ``seconds``: the wall time of simulating and fitting, for the
+    report's summary.
     Returns the summary DataFrame and the claim verdicts (or None).
     """
     if figure_format not in FIGURE_FORMATS:
@@ -428,6 +465,7 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                                              nonlinearity=nonlinearity, cal_rows=cal_rows,
                                              seeds=seeds)
         embedded: dict = {}
+        t_figures = time.perf_counter()
         if figures:
             fdir = tmp / "figures"
             fdir.mkdir(exist_ok=True)  # the nonlinearity figures may be there
@@ -437,7 +475,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                 embedded.setdefault(m["scenario"], []).append({
                     "uri": uri, "alt": f"{task.title}. {task.subtitle}",
                     "caption": f"{m['structure']}, target {m['target']}: {m['words']} "
-                               f"(figures/{task.path.name})"})
+                               f"(figures/{task.path.name})",
+                    "wide": "sensors" in task.series, "unit": task.series.get("unit")})
         decompositions = (_decomposition_figures(df, scenarios, tmp / "figures", figure_format)
                           if figures else {})
         cal_section = _calibration_section(cal_rows, cal_md, tmp, figures, figure_format,
@@ -446,6 +485,8 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                              evaluated=evaluated, remarks=remarks, claims_path=claims_path,
                              figures=embedded, figure_format=figure_format if figures else None,
                              command=command, calibration=cal_section,
-                             decompositions=decompositions)
+                             decompositions=decompositions, seconds=seconds,
+                             figure_seconds=time.perf_counter() - t_figures if figures else None,
+                             responses=response_counts(results))
         (tmp / "report.html").write_text(page, encoding="utf-8", newline="\n")
     return df, evaluated

@@ -1,4 +1,4 @@
-"""Bounds from the text on a parameter the text does not state (issue 11 item 4).
+"""Bounds from the text on a parameter the text does not state.
 
 Where the dissertation does not give a parameter (Fig. 4.3's tip-mass law) but describes its
 consequence in words, a ``[[bounds]]`` table of a claims file turns the words into a

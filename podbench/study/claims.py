@@ -1,4 +1,9 @@
-"""Claims of a study (``claims.toml`` beside its scenarios), checked on the measured table.
+"""Claims of a study (``claims.toml`` beside its scenarios), judged on the measured table.
+
+A claim is a sentence of the dissertation turned into checks on the study's table; this
+module reads the claims file (every check parsed once, into :class:`Check`), judges each
+claim (:func:`evaluate_claims`: :class:`ClaimResult` with a :class:`Verdict`) and counts the
+text's claims once each (:func:`text_claims`, :func:`headline`).
 
 Format::
 
@@ -6,6 +11,8 @@ Format::
     id = "lti-free-disp-mds-accurate"      # unique
     source = "§4.1.1, Fig. 4.8"
     quote = "..."                          # the dissertation's words
+    restated = [{ source = "§5.3", quote = "..." }]   # optional: later sentences that
+                                           # assert the same (judged once, by this entry)
     scenario = "beam_free_displacement"    # or a list: judged in each (e.g. one per noise
                                            # level); FINDINGS gives the verdict in each
     structure = "lti_beam"                 # or a list: the checks must hold for each
@@ -25,53 +32,65 @@ Format::
 
 With any of ``variant``, ``part_of``, ``checkable`` in the file, FINDINGS.md opens with the
 text's claims counted once each (a claim and its ``part_of`` entries together) and lists
-the variants below, under "also judged".
+the variants below, under "also judged"; there two counted entries (claims of the text and
+their ``part_of`` parts) may not run the same checks on the same (scenario, structure,
+target): a sentence that asserts what another already did is that claim's ``restated``.
 
     [[remarks]]                            # optional free-text findings that are not claims
     title = "..."
     text = "..."
 
-    noise_seeds = [0, 1, 2, 3, 4]          # optional (top level): judge every comparison
-                                           # over these noise seeds (below)
+    noise_seeds = [0, 1, 2, 3, 4]          # optional (top level): judge every check over
+                                           # these noise seeds (below)
     sensitivity = "../sensitivity"         # optional (top level): the folder of the study
                                            # that varies the unstated parameters; its
                                            # verdicts are linked from FINDINGS.md
+    [noise_levels]                         # optional: the unstated noise level (below)
     [[bounds]]                             # optional: see podbench.study.bounds
     [nonlinearity]                         # optional: see podbench.study.nonlinearity
 
-A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and each operand a
-number or ``METHOD.metric`` (a method label and a column of the summary table). A metric
-operand may name another scenario's row of the same structure and target,
+**Checks.** A check is ``<operand> <op> <operand>`` with ``op`` one of ``< <= > >=`` and
+each operand a number or ``METHOD.metric`` (a method label and a column of the summary
+table). A metric operand may name another scenario's row of the same structure and target,
 ``SCENARIO:METHOD.metric``, and carry a positive factor, ``1.1*SCENARIO:METHOD.metric`` (how
 Chapter 5 compares a noisy run with the clean one), and an added or subtracted number,
-``SCENARIO:METHOD.metric + 10`` (an absolute margin: §5.3's "5-10%" read as percentage
-points; with a factor, ``f*REF + c`` is ``f × REF + c``).
-``SCENARIO/STRUCTURE/TARGET:METHOD.metric`` names a row of another structure and target
-too (how §5.2's rubber-band beam is compared with Chapter 4's NL beam, a scenario of the
-same study: the value is measured in the same run, never written into the check). A
-claim is *reproduced* when every check holds on every (scenario, structure, target) row,
-*not reproduced* when one fails, and *not measured* when a value is missing or NaN.
+``SCENARIO:METHOD.metric + 10`` (an absolute margin; with a factor, ``f*REF + c`` is
+``f × REF + c``). ``SCENARIO/STRUCTURE/TARGET:METHOD.metric`` names a row of another
+structure and target too (how §5.2's rubber-band beam is compared with Chapter 4's NL beam,
+a scenario of the same study: the value is measured in the same run, never written into the
+check). A claim is *reproduced* when every check holds on every (scenario, structure,
+target) row, *not reproduced* when one fails, and *not measured* when a value is missing or
+NaN (the one precedence rule, :func:`combine`: a failure outranks a missing value, which
+outranks a tie).
 
-**Comparisons over noise seeds** (``noise_seeds``; issue 24 item 8). A *comparison* is a
-check with a measured quantity on both sides ("ML-tls.total_error < SL-tls.total_error",
-"TLS at or below LS", "e_noisy <= 1.1 × e_clean"); a check against a plain number is a
-threshold. With ``noise_seeds`` every comparison is judged on each seed's realization of
-the noisy records (the study's table is the first seed's, the committed records; the
-others come from the same experiment file with the noise redrawn, :mod:`podbench.harness.
-seeds`), as the paired difference ``d_k = A_k − B_k`` of its two sides on seed ``k``. The
-rule: the comparison **holds** when it holds on every seed, **fails** when it fails on
-every seed, and is a **tie** (:data:`TIE`) when the seeds disagree — its mean difference is
-then smaller than the seeds' spread of ``d`` (their range straddles 0), so the seeds'
-run-to-run scatter, not the methods, decides it; the check's line gives ``d``'s range,
-mean and standard deviation over the seeds. Why the sign on every seed and not
-``|mean d| < 2 SE``: it is the paired sign test (the same sign on all of 5 seeds happens by
-chance with probability 2/2⁵ = 6 % when the two sides are exchangeable), it needs no
-normal distribution of ``d``, and one realization's outlier cannot turn a comparison won
-on every seed into a tie (SL-tls at 5 % noise on the linear beam: 1.28 on seed 0, 0.31
-on the others, which makes ``2 SE`` larger than ML's lead on every seed). A claim with a
-failing check is *not reproduced*; otherwise one with a tie is a :data:`TIE`. Records the
-seeds do not change (the clean ones) have one value, judged as before. Thresholds
-("< 20") are judged on the first seed only.
+**Noise seeds** (``noise_seeds``). A virtual experiment's noisy records are one realization
+of the noise; with ``noise_seeds`` every check that reads a row the seeds change (a
+threshold, "< 20", as a comparison, "A more accurate than B", "e_noisy <= 1.1 × e_clean") is
+judged on each seed's realization (the study's table is the first seed's, the committed
+records; the others come from the same experiment file with the noise redrawn,
+:mod:`podbench.harness.seeds`). One rule for every check: it **holds** when it holds on
+every seed, **fails** when it fails on every seed, and is a **tie** (:attr:`Outcome.TIE`)
+when the seeds disagree; the check's line gives the range, mean and standard deviation of
+``left − right`` over the seeds. Why the sign on every seed and not ``|mean| < 2 SE``: it is
+the paired sign test (the same sign on all of 5 seeds happens by chance with probability
+2/2⁵ = 6 % when the two sides are exchangeable), it needs no normal distribution, and one
+realization's outlier cannot turn a check that holds on every other seed into a failure.
+Rows the seeds do not change (clean records) have one value, judged once.
+
+**The unstated noise level** (``[noise_levels]``)::
+
+    [noise_levels]
+    levels = { beam_noise_0pct = 0.0, beam_noise_0p1pct = 0.001, ... }   # one or more
+                                           # series (a scenario per level)
+    suggested = 0.001                      # the level the text points to
+    source = "appendix, tlsdeconv"
+    quote = "tol = 1000; %based on SNR of data"
+    reading = "how the words give the level"
+
+A claim judged at several of these scenarios is counted at the ``suggested`` level (its
+other scenarios, not in the table, as usual); its verdicts over all the levels, and the
+level where it stops holding, are reported beside it (:func:`noise_points`), as the verdicts
+over any other parameter the text does not state.
 """
 
 from __future__ import annotations
@@ -80,8 +99,11 @@ import math
 import operator
 import re
 import sys
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -95,17 +117,224 @@ from podbench.structures.spec import Table
 from podbench.study.bounds import parse_bounds
 from podbench.study.nonlinearity import parse_spec
 
-__all__ = ["Claim", "ClaimsFile", "load_claims", "load_claims_file", "evaluate_claims",
-           "CHECK_RE", "SeedRows", "TIE", "TIE_CHECK", "is_comparison", "operand_rows",
-           "seed_names", "comparison_rows"]
+__all__ = ["Verdict", "Outcome", "combine", "Operand", "Check", "Claim", "ClaimsFile",
+           "NoiseLevels", "CheckResult", "ClaimResult", "TextClaim", "SeedRows",
+           "load_claims", "load_claims_file", "evaluate_claims", "text_claims", "headline",
+           "counts_words",
+           "check", "checked_rows", "noise_points", "seed_names", "is_comparison",
+           "operand_rows", "CHECK_RE", "TIE", "TIE_CHECK", "NOT_CHECKABLE", "MIN_SEEDS"]
 
+
+class Verdict(str, Enum):
+    """A claim's verdict (its value is the words FINDINGS.md writes)."""
+
+    REPRODUCED = "reproduced"
+    NOT_REPRODUCED = "not reproduced"
+    NOT_MEASURED = "not measured"
+    TIE = "tie within the noise seeds' spread"
+    NOT_CHECKABLE = "not checkable under the literal reading"
+
+    def __str__(self) -> str:
+        return self.value
+
+    def __format__(self, spec: str) -> str:
+        return format(self.value, spec)
+
+
+class Outcome(str, Enum):
+    """What one check gave on one row (over the noise seeds where they apply)."""
+
+    HOLDS = "holds"
+    FAILS = "fails"
+    TIE = "tie"
+    NOT_MEASURED = "not measured"
+
+    def __str__(self) -> str:
+        return self.value
+
+    def __format__(self, spec: str) -> str:
+        return format(self.value, spec)
+
+    @property
+    def verdict(self) -> Verdict:
+        return _OF_OUTCOME[self]
+
+
+_OF_OUTCOME = {Outcome.HOLDS: Verdict.REPRODUCED, Outcome.FAILS: Verdict.NOT_REPRODUCED,
+               Outcome.TIE: Verdict.TIE, Outcome.NOT_MEASURED: Verdict.NOT_MEASURED}
+
+_PRECEDENCE = (Verdict.NOT_REPRODUCED, Verdict.NOT_MEASURED, Verdict.TIE, Verdict.REPRODUCED)
+"""The one precedence rule: a failing part makes a claim not reproduced; otherwise a part
+not measured makes it not measured; otherwise a tie makes it a tie."""
+
+
+def combine(parts: Iterable) -> Verdict:
+    """The verdict of several parts (:class:`Verdict` or :class:`Outcome` values, e.g. a
+    claim's checks, its scenarios, a claim and its ``part_of`` entries), by
+    :data:`_PRECEDENCE`; reproduced when there is none."""
+    got = {p.verdict if isinstance(p, Outcome) else Verdict(p) for p in parts}
+    return next((v for v in _PRECEDENCE if v in got), Verdict.REPRODUCED)
+
+
+TIE = Verdict.TIE
+"""A claim's verdict when nothing fails and a check is a tie over the noise seeds."""
+TIE_CHECK = Outcome.TIE
+"""A check's outcome when the noise seeds disagree."""
+NOT_CHECKABLE = Verdict.NOT_CHECKABLE
+
+# --------------------------------------------------------------------------- the grammar
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _OPERAND = (rf"(?:[-+]?{_NUMBER}|[^\s<>=.][^<>=]*?\.[a-z_0-9]+"
             rf"(?:\s*[-+]\s*{_NUMBER})?)")
 CHECK_RE = re.compile(rf"^\s*({_OPERAND})\s*(<=|>=|<|>)\s*({_OPERAND})\s*$")
+_FACTOR_RE = re.compile(rf"^\s*({_NUMBER})\s*\*\s*(.+)$")
+_OFFSET_RE = re.compile(rf"^(.*?\.[a-z_0-9]+)\s*([-+])\s*({_NUMBER})\s*$")
 
 
+@dataclass(frozen=True)
+class Operand:
+    """One side of a check: a plain number, or ``factor × METHOD.metric + offset`` of a row
+    (of another scenario, structure and target where ``scenario`` etc. are given)."""
+
+    text: str
+    number: float | None = None
+    label: str = ""
+    metric: str = ""
+    scenario: str = ""
+    structure: str = ""
+    target: str = ""
+    factor: float = 1.0
+    offset: float = 0.0
+    error: str = ""
+    """Why the operand names no row (a malformed ``SCENARIO/…`` part), else empty."""
+
+    @classmethod
+    def parse(cls, text: str) -> Operand:
+        text = text.strip()
+        try:
+            return cls(text, number=float(text))
+        except ValueError:
+            pass
+        ref, factor, offset = text, 1.0, 0.0
+        if (om := _OFFSET_RE.match(ref)) is not None:
+            ref = om.group(1)
+            offset = float(om.group(3)) * (1.0 if om.group(2) == "+" else -1.0)
+        if (fm := _FACTOR_RE.match(ref)) is not None:
+            factor, ref = float(fm.group(1)), fm.group(2)
+        label, _, metric = ref.rpartition(".")
+        scen, sep, label = label.rpartition(":")
+        where, error = ["", "", ""], ""
+        if sep:
+            first, *rest = scen.split("/")
+            if len(rest) not in (0, 2) or not all([first, *rest]):
+                error = "expected SCENARIO or SCENARIO/STRUCTURE/TARGET"
+            where = [first, *(rest if len(rest) == 2 else ("", ""))]
+        return cls(text, label=label.strip(), metric=metric, scenario=where[0],
+                   structure=where[1], target=where[2], factor=factor, offset=offset,
+                   error=error)
+
+    @property
+    def is_number(self) -> bool:
+        return self.number is not None
+
+    def row(self, scenario: str, structure: str, target: str) -> tuple:
+        """``(scenario, structure, target, method, metric)`` this operand reads when the
+        check is judged on the given row."""
+        return (self.scenario or scenario, self.structure or structure,
+                self.target or target, self.label, self.metric)
+
+    def value(self, rows_of, scenario: str, structure: str, target: str) -> tuple:
+        """``(value, shown)``: NaN with the reason where the row or column is missing
+        (``rows_of(scenario, structure, target)``: method label → row dict)."""
+        if self.number is not None:
+            return self.number, self.text
+        if self.error:
+            return math.nan, f"{self.text} ({self.error})"
+        sc, st, tg, label, metric = self.row(scenario, structure, target)
+        row = rows_of(sc, st, tg).get(label)
+        if row is None or metric not in row:
+            return math.nan, f"{self.text} (no such row/column)"
+        v = self.factor * float(row[metric]) + self.offset
+        return v, f"{self.text} = {v:.4g}"
+
+
+@dataclass(frozen=True)
+class Check:
+    """A check ``left op right``, parsed once (:meth:`parse`)."""
+
+    text: str
+    left: Operand
+    op: str
+    right: Operand
+
+    @classmethod
+    def parse(cls, text) -> Check:
+        if isinstance(text, Check):
+            return text
+        m = CHECK_RE.match(str(text))
+        if m is None:
+            raise ValueError(f'"{text}" is not `<operand> <op> <operand>` (op one of < <= > '
+                             ">=, operand a number or METHOD.metric)")
+        return cls(str(text), Operand.parse(m.group(1)), m.group(2), Operand.parse(m.group(3)))
+
+    def __str__(self) -> str:
+        return self.text
+
+    @property
+    def is_comparison(self) -> bool:
+        """A measured quantity on both sides (not a quantity against a plain number)."""
+        return not self.left.is_number and not self.right.is_number
+
+    def rows(self, scenario: str, structure: str, target: str) -> list[tuple]:
+        """The rows the check reads on ``(scenario, structure, target)``:
+        ``(scenario, structure, target, method, metric)`` of each measured operand."""
+        return [o.row(scenario, structure, target) for o in (self.left, self.right)
+                if not o.is_number]
+
+    def values(self, rows_of, scenario: str, structure: str, target: str) -> tuple:
+        """``(a, b, shown)``: both sides' values (NaN when not measurable) and the check
+        as FINDINGS shows it."""
+        a, sa = self.left.value(rows_of, scenario, structure, target)
+        b, sb = self.right.value(rows_of, scenario, structure, target)
+        shown = f"{sa} {self.op} {sb}" if not self.right.is_number else f"{sa} {self.op} {b:g}"
+        return a, b, shown
+
+    def holds(self, a: float, b: float) -> bool:
+        return bool(_OPS[self.op](a, b))
+
+
+def is_comparison(expr) -> bool:
+    """Whether a check compares two measured quantities (a str or :class:`Check`)."""
+    try:
+        return Check.parse(expr).is_comparison
+    except ValueError:
+        return False
+
+
+def operand_rows(expr, scenario: str, structure: str, target: str) -> list[tuple]:
+    """The rows a check reads (:meth:`Check.rows`)."""
+    return Check.parse(expr).rows(scenario, structure, target)
+
+
+def check(expr, rows: dict, other=None) -> tuple[bool | None, str]:
+    """One check on ``rows`` (method label → row dict): ``(holds, shown)``, ``holds`` None
+    when not measurable. ``other(scenario, structure=None, target=None)`` gives the rows of
+    another scenario (by default of the same structure and target)."""
+    c = Check.parse(expr)
+
+    def rows_of(sc, st, tg):
+        if sc == "":
+            return rows
+        return other(sc, st or None, tg or None) if other is not None else {}
+
+    a, b, shown = c.values(rows_of, "", "", "")
+    if math.isnan(a) or math.isnan(b):
+        return None, shown
+    return c.holds(a, b), shown
+
+
+# ------------------------------------------------------------------------- the claims
 @dataclass(frozen=True)
 class Claim:
     id: str
@@ -115,7 +344,8 @@ class Claim:
     """The first (or only) scenario the claim is judged in."""
     structures: tuple[str, ...]
     targets: tuple[str, ...]
-    checks: tuple[str, ...]
+    checks: tuple
+    """The checks, each a :class:`Check` (strings given to the constructor are parsed)."""
     criterion: str
     note: str
     finding: str = ""
@@ -129,19 +359,35 @@ class Claim:
     """The id of the text claim this entry completes (counted once with it)."""
     checkable: bool = True
     """False: the literal reading cannot test the claim (not counted either way)."""
+    restated: tuple = ()
+    """``(source, quote)`` of later sentences asserting the same (judged by this entry)."""
+
+    def __post_init__(self):
+        object.__setattr__(self, "checks", tuple(Check.parse(c) for c in self.checks))
 
     def all_scenarios(self) -> tuple[str, ...]:
         return self.scenarios or (self.scenario,)
 
+    @property
+    def counted(self) -> bool:
+        """Whether the entry is one of the text's claims or a part of one."""
+        return not self.variant
 
-def _listify(t: Table, key: str) -> tuple[str, ...]:
-    v = t.raw(key)
-    if isinstance(v, str):
-        return (v,)
-    if isinstance(v, list) and v and all(isinstance(x, str) for x in v):
-        return tuple(v)
-    t.fail(key, f"expected a string or a non-empty array of strings, got {v!r}")
-    return ()  # pragma: no cover
+
+@dataclass(frozen=True)
+class NoiseLevels:
+    """The ``[noise_levels]`` table: the per-channel noise level of each scenario of the
+    noise series and the level the text points to."""
+
+    levels: dict
+    suggested: float
+    source: str
+    quote: str
+    reading: str
+
+    def suggested_scenarios(self) -> set:
+        """The scenarios at the suggested level (one per series)."""
+        return {s for s, v in self.levels.items() if v == self.suggested}
 
 
 @dataclass(frozen=True)
@@ -157,7 +403,99 @@ class ClaimsFile:
     """The ``[nonlinearity]`` table (:class:`~podbench.study.nonlinearity.
     NonlinearitySpec`) or None."""
     noise_seeds: tuple[int, ...] = ()
-    """The noise seeds every comparison is judged over (empty: the study's records only)."""
+    """The noise seeds every check is judged over (empty: the study's records only)."""
+    noise_levels: NoiseLevels | None = None
+
+
+def _listify(t: Table, key: str) -> tuple[str, ...]:
+    v = t.raw(key)
+    if isinstance(v, str):
+        return (v,)
+    if isinstance(v, list) and v and all(isinstance(x, str) for x in v):
+        return tuple(v)
+    t.fail(key, f"expected a string or a non-empty array of strings, got {v!r}")
+    return ()  # pragma: no cover
+
+
+def _boolean(t: Table, key: str) -> bool:
+    v = t.raw(key, True)
+    if not isinstance(v, bool):
+        t.fail(key, f"expected true or false, got {v!r}")
+    return v
+
+
+def _restated(t: Table) -> tuple:
+    out = []
+    for i, r in enumerate(t.raw("restated", [])):
+        if not (isinstance(r, dict) and set(r) == {"source", "quote"}
+                and all(isinstance(x, str) and x for x in r.values())):
+            t.fail(f"restated[{i}]", "expected { source = \"…\", quote = \"…\" }")
+        out.append((r["source"], r["quote"]))
+    return tuple(out)
+
+
+def _claim(t: Table) -> Claim:
+    scens = _listify(t, "scenario")
+    checks = tuple(t.strings("checks"))
+    parsed = []
+    for i, chk in enumerate(checks):
+        try:
+            parsed.append(Check.parse(chk))
+        except ValueError as exc:
+            t.fail(f"checks[{i}]", str(exc))
+    c = Claim(id=t.string("id"), source=t.string("source"), quote=t.string("quote"),
+              scenario=scens[0], scenarios=scens if len(scens) > 1 else (),
+              structures=_listify(t, "structure"), targets=_listify(t, "target"),
+              checks=tuple(parsed), criterion=t.string("criterion", ""),
+              note=t.string("note", ""), finding=t.string("finding", ""),
+              variant=t.string("variant", ""), part_of=t.string("part_of", ""),
+              checkable=_boolean(t, "checkable"), restated=_restated(t))
+    t.close()
+    return c
+
+
+def _check_links(top: Table, claims: list) -> None:
+    """``part_of`` names a claim of the text; in a file that counts the text's claims apart
+    from its variants, no two counted entries run the same checks on the same rows (a
+    restatement is its claim's ``restated``)."""
+    main = {c.id for c in claims if not c.variant and not c.part_of}
+    text_first = any(c.variant or c.part_of or not c.checkable for c in claims)
+    seen: dict = {}
+    for i, c in enumerate(claims):
+        t = top.tables("claims", [])[i]
+        if c.part_of and c.part_of not in main:
+            t.fail("part_of", f'"{c.part_of}" is not the id of a claim of the text (one '
+                              "without `variant` or `part_of`)")
+        if c.variant and c.part_of:
+            t.fail("part_of", "give `variant` or `part_of`, not both")
+        if not c.counted or not text_first:
+            continue
+        key = (frozenset(str(k) for k in c.checks), frozenset(
+            (s, st, tg) for s in c.all_scenarios() for st in c.structures for tg in c.targets))
+        if key in seen:
+            t.fail("checks", f'the same checks on the same rows as claim "{seen[key]}": a '
+                             "sentence that asserts the same is that claim's `restated`")
+        seen[key] = c.id
+
+
+def _noise_levels(top: Table) -> NoiseLevels | None:
+    if not top.has("noise_levels"):
+        return None
+    t = top.table("noise_levels")
+    raw = t.raw("levels")
+    if not (isinstance(raw, dict) and len(raw) >= 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < 1
+            for v in raw.values())):
+        t.fail("levels", "expected a table of at least two `scenario = level` (a fraction "
+                         "in [0, 1))")
+    levels = {str(k): float(v) for k, v in sorted(raw.items(), key=lambda kv: kv[1])}
+    suggested = t.number("suggested")
+    if suggested not in levels.values():
+        t.fail("suggested", f"{suggested!r} is not one of the levels {sorted(levels.values())}")
+    out = NoiseLevels(levels, suggested, t.string("source"), t.string("quote"),
+                      t.string("reading"))
+    t.close()
+    return out
 
 
 def load_claims(path) -> tuple[list[Claim], list[dict]]:
@@ -167,8 +505,7 @@ def load_claims(path) -> tuple[list[Claim], list[dict]]:
 
 
 def load_claims_file(path) -> ClaimsFile:
-    """The claims, remarks, bounds and sensitivity folder of a claims file (clear errors
-    naming the file and field)."""
+    """Everything a claims file declares (clear errors naming the file and field)."""
     path = Path(path)
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -178,36 +515,12 @@ def load_claims_file(path) -> ClaimsFile:
         top = Table(doc, file=str(path))
         claims, ids = [], set()
         for t in top.tables("claims", []):
-            scens = _listify(t, "scenario")
-            c = Claim(
-                id=t.string("id"), source=t.string("source"), quote=t.string("quote"),
-                scenario=scens[0], scenarios=scens if len(scens) > 1 else (),
-                structures=_listify(t, "structure"),
-                targets=_listify(t, "target"), checks=tuple(t.strings("checks")),
-                criterion=t.string("criterion", ""), note=t.string("note", ""),
-                finding=t.string("finding", ""),
-                variant=t.string("variant", ""), part_of=t.string("part_of", ""),
-                checkable=_boolean(t, "checkable"),
-            )
+            c = _claim(t)
             if c.id in ids:
                 t.fail("id", f'"{c.id}" is used twice')
             ids.add(c.id)
-            for i, chk in enumerate(c.checks):
-                if not CHECK_RE.match(chk):
-                    t.fail(f"checks[{i}]", f'"{chk}" is not `<operand> <op> <operand>` '
-                                           "(op one of < <= > >=, operand a number or "
-                                           "METHOD.metric)")
-            t.close()
             claims.append(c)
-        main = {c.id for c in claims if not c.variant and not c.part_of}
-        for i, c in enumerate(claims):
-            if c.part_of and c.part_of not in main:
-                top.tables("claims", [])[i].fail(
-                    "part_of", f'"{c.part_of}" is not the id of a claim of the text (one '
-                               "without `variant` or `part_of`)")
-            if c.variant and c.part_of:
-                top.tables("claims", [])[i].fail(
-                    "part_of", "give `variant` or `part_of`, not both")
+        _check_links(top, claims)
         remarks = []
         for t in top.tables("remarks", []):
             remarks.append({"title": t.string("title"), "text": t.string("text")})
@@ -218,19 +531,18 @@ def load_claims_file(path) -> ClaimsFile:
             sensitivity = (path.parent / top.string("sensitivity")).resolve()
             if not sensitivity.is_dir():
                 top.fail("sensitivity", f"{sensitivity} is not a folder of scenarios")
-        nonlinearity = None
-        if top.has("nonlinearity"):
-            nonlinearity = parse_spec(top.table("nonlinearity"))
+        nonlinearity = parse_spec(top.table("nonlinearity")) if top.has("nonlinearity") \
+            else None
         seeds = _noise_seeds(top)
+        levels = _noise_levels(top)
         top.close()
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
-    return ClaimsFile(path, claims, remarks, bounds, sensitivity, nonlinearity, seeds)
+    return ClaimsFile(path, claims, remarks, bounds, sensitivity, nonlinearity, seeds, levels)
 
 
 MIN_SEEDS = 5
-"""The fewest noise seeds a comparison is judged over (issue 24: "measured over ≥ 5
-seeds")."""
+"""The fewest noise seeds a check is judged over (a spread needs them)."""
 
 
 def _noise_seeds(top: Table) -> tuple[int, ...]:
@@ -243,99 +555,7 @@ def _noise_seeds(top: Table) -> tuple[int, ...]:
     return seeds
 
 
-def _boolean(t: Table, key: str) -> bool:
-    v = t.raw(key, True)
-    if not isinstance(v, bool):
-        t.fail(key, f"expected true or false, got {v!r}")
-    return v
-
-
-_FACTOR_RE = re.compile(r"^\s*((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\*\s*(.+)$")
-_OFFSET_RE = re.compile(rf"^(.*?\.[a-z_0-9]+)\s*([-+])\s*({_NUMBER})\s*$")
-
-
-def _value(operand: str, rows: dict, other=None):
-    try:
-        return float(operand), operand
-    except ValueError:
-        pass
-    factor, offset, ref = 1.0, 0.0, operand
-    if (om := _OFFSET_RE.match(ref)) is not None:
-        ref = om.group(1)
-        offset = float(om.group(3)) * (1.0 if om.group(2) == "+" else -1.0)
-    if (fm := _FACTOR_RE.match(ref)) is not None:
-        factor, ref = float(fm.group(1)), fm.group(2)
-    label, _, metric = ref.rpartition(".")
-    scen, sep, label = label.rpartition(":")
-    if sep:
-        scen, *where = scen.split("/")
-        if len(where) not in (0, 2) or not all(where):
-            return math.nan, f"{operand} (expected SCENARIO or SCENARIO/STRUCTURE/TARGET)"
-        rows = other(scen, *where) if other is not None else {}
-    row = rows.get(label)
-    if row is None or metric not in row:
-        return math.nan, f"{operand} (no such row/column)"
-    v = factor * float(row[metric]) + offset
-    return v, f"{operand} = {v:.4g}"
-
-
-def _values(expr: str, rows: dict, other=None):
-    """``(a, op, b, shown)`` of one check: both operands' values (NaN when not measurable),
-    the operator and the check as FINDINGS shows it."""
-    m = CHECK_RE.match(expr)
-    a, sa = _value(m.group(1), rows, other)
-    b, sb = _value(m.group(3), rows, other)
-    shown = f"{sa} {m.group(2)} {sb}" if not _is_num(m.group(3)) else f"{sa} {m.group(2)} {b:g}"
-    return a, m.group(2), b, shown
-
-
-def check(expr: str, rows: dict, other=None) -> tuple[bool | None, str]:
-    """Evaluate one check on ``rows`` (method label -> row dict). None when not measurable.
-
-    ``other(scenario, structure=None, target=None)`` gives the rows of another scenario (by
-    default of the same structure and target) for ``SCENARIO:METHOD.metric`` and
-    ``SCENARIO/STRUCTURE/TARGET:METHOD.metric`` operands."""
-    a, op, b, shown = _values(expr, rows, other)
-    if math.isnan(a) or math.isnan(b):
-        return None, shown
-    return bool(_OPS[op](a, b)), shown
-
-
-def is_comparison(expr: str) -> bool:
-    """Whether a check compares two measured quantities (both operands ``METHOD.metric``),
-    not a quantity with a plain number (a threshold)."""
-    m = CHECK_RE.match(expr)
-    return m is not None and not _is_num(m.group(1)) and not _is_num(m.group(3))
-
-
-def operand_rows(expr: str, scenario: str, structure: str, target: str) -> list[tuple]:
-    """The rows a check reads: ``(scenario, structure, target, method, metric)`` of each
-    measured operand (another scenario's, structure's or target's where the operand names
-    it)."""
-    m = CHECK_RE.match(expr)
-    out = []
-    for operand in (m.group(1), m.group(3)):
-        if _is_num(operand):
-            continue
-        ref = operand
-        if (om := _OFFSET_RE.match(ref)) is not None:
-            ref = om.group(1)
-        if (fm := _FACTOR_RE.match(ref)) is not None:
-            ref = fm.group(2)
-        label, _, metric = ref.rpartition(".")
-        scen, sep, label = label.rpartition(":")
-        where = [scenario, structure, target]
-        if sep:
-            first, *rest = scen.split("/")
-            where = [first, *(rest if len(rest) == 2 else (structure, target))]
-        out.append((*where, label.strip(), metric))
-    return out
-
-
-TIE_CHECK = "tie"
-"""A comparison's value in ``details[...]["holds"]`` when the noise seeds disagree."""
-
-
+# ------------------------------------------------------------------------ the verdicts
 def seed_names(seeds) -> str:
     """``seeds 0–4`` for consecutive seeds, else ``seeds 0, 3, 7``."""
     seeds = list(seeds)
@@ -345,34 +565,9 @@ def seed_names(seeds) -> str:
         "seeds " + ", ".join(str(k) for k in seeds)
 
 
-def _over_seeds(expr: str, rows_at, other_at, seeds) -> tuple[bool | str | None, str]:
-    """A comparison judged on every seed (module docstring: holds on all, fails on all,
-    else a tie), shown as the first seed's check and the paired difference over the
-    seeds."""
-    diffs, holds, shown0 = [], [], ""
-    for i, k in enumerate(seeds):
-        a, op, b, shown = _values(expr, rows_at(k), other_at(k))
-        if i == 0:
-            shown0 = shown
-        if math.isnan(a) or math.isnan(b):
-            return None, f"{shown} (seed {k})"
-        diffs.append(a - b)
-        holds.append(bool(_OPS[op](a, b)))
-    d = np.asarray(diffs)
-    n_hold = sum(holds)
-    verdict: bool | str = True if n_hold == len(seeds) else False if n_hold == 0 \
-        else TIE_CHECK
-    sd = float(d.std(ddof=1))
-    if sd <= d.size * np.finfo(float).eps * float(np.abs(d).max()):
-        sd = 0.0  # equal differences: what is left is the mean's round-off (sd 7.8e-18 / 0)
-    spread = (f"; over {seed_names(seeds)}: holds on {n_hold} of {len(seeds)}, left − right "
-              f"from {d.min():+.3g} to {d.max():+.3g} (mean {d.mean():+.3g}, sd {sd:.2g})")
-    return verdict, shown0 + spread
-
-
 @dataclass(frozen=True)
 class SeedRows:
-    """The comparisons' rows on every noise seed (:mod:`podbench.harness.seeds`).
+    """The checked rows on every noise seed (:mod:`podbench.harness.seeds`).
 
     ``table`` holds the rows of the scenarios in ``varied`` (those whose records the seed
     changes) with a ``seed`` column, for every seed but the first; the first seed's rows
@@ -383,26 +578,63 @@ class SeedRows:
     varied: frozenset = frozenset()
 
 
-def _is_num(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
+@dataclass(frozen=True)
+class CheckResult:
+    """One check judged on one (scenario, structure, target)."""
+
+    scenario: str
+    structure: str
+    target: str
+    check: Check
+    shown: str
+    outcome: Outcome
 
 
-TIE = "tie within the noise seeds' spread"
-"""A claim's verdict when no check fails and a comparison is a tie over the seeds."""
+@dataclass(frozen=True)
+class ClaimResult:
+    """A claim judged: its counted ``verdict``, the verdict in each scenario and every
+    check's result. ``verdict`` combines the scenarios, the noise series counted at its
+    suggested level (``noise_levels``); ``verdict_all`` combines every scenario."""
+
+    claim: Claim
+    verdict: Verdict
+    details: tuple = ()
+    by_scenario: dict = field(default_factory=dict)
+    verdict_all: Verdict = Verdict.REPRODUCED
+
+    def __getitem__(self, key: str):
+        """The former dict form (``result["verdict"]``)."""
+        if key not in ("claim", "verdict", "details", "by_scenario", "verdict_all"):
+            raise KeyError(key)
+        return getattr(self, key)
 
 
-def _verdict(oks) -> str:
-    if any(v is False for v in oks):
-        return "not reproduced"
-    if any(v is None for v in oks):
-        return "not measured"
-    if any(v == TIE_CHECK for v in oks):
-        return TIE
-    return "reproduced"
+def _spread(k_hold: int, seeds, d: np.ndarray) -> str:
+    sd = float(d.std(ddof=1)) if d.size > 1 else 0.0
+    if sd <= d.size * np.finfo(float).eps * float(np.abs(d).max()):
+        sd = 0.0  # equal differences: what is left is the mean's round-off (sd 7.8e-18 / 0)
+    return (f"; over {seed_names(seeds)}: holds on {k_hold} of {len(seeds)}, left − right "
+            f"from {d.min():+.3g} to {d.max():+.3g} (mean {d.mean():+.3g}, sd {sd:.2g})")
+
+
+def _judge(c: Check, rows_at, seeds, where) -> tuple[Outcome, str]:
+    """One check on one row: on the study's table, or on every seed (one rule: holds on
+    all, fails on all, else a tie) when ``seeds`` is given."""
+    diffs, holds, shown0 = [], [], ""
+    for i, k in enumerate(seeds or (None,)):
+        a, b, shown = c.values(rows_at(k), *where)
+        if i == 0:
+            shown0 = shown
+        if math.isnan(a) or math.isnan(b):
+            return Outcome.NOT_MEASURED, shown if k is None else f"{shown} (seed {k})"
+        diffs.append(a - b)
+        holds.append(c.holds(a, b))
+    n_hold = sum(holds)
+    outcome = (Outcome.HOLDS if n_hold == len(holds) else Outcome.FAILS if n_hold == 0
+               else Outcome.TIE)
+    if not seeds:
+        return outcome, shown0
+    return outcome, shown0 + _spread(n_hold, seeds, np.asarray(diffs))
 
 
 def _rows_of(table, scen, s, t) -> dict:
@@ -410,85 +642,108 @@ def _rows_of(table, scen, s, t) -> dict:
     return {r["method"]: r for r in sub.to_dict("records")}
 
 
-def evaluate_claims(claims, table, *, scenarios=None, seeds: SeedRows | None = None
-                    ) -> list[dict]:
-    """Verdicts of every claim on the summary table (a pandas DataFrame).
+def _counted(claim: Claim, by: dict, levels: NoiseLevels | None) -> Verdict:
+    """The counted verdict: every scenario's, the noise series at its suggested level."""
+    if levels is not None:
+        noise = [s for s in by if s in levels.levels]
+        at = levels.suggested_scenarios() & set(noise)
+        if len(noise) > 1 and at:
+            return combine(v for s, v in by.items() if s not in levels.levels or s in at)
+    return combine(by.values())
+
+
+def evaluate_claims(claims, table, *, scenarios=None, seeds: SeedRows | None = None,
+                    noise_levels: NoiseLevels | None = None) -> list[ClaimResult]:
+    """Every claim judged on the summary table (a pandas DataFrame).
 
     A claim over several scenarios is judged in those of ``scenarios`` (default: all it
-    names); ``by_scenario`` maps each to its own verdict, the overall verdict combines them.
-    With ``seeds`` every comparison is judged over the noise seeds (module docstring).
+    names); ``by_scenario`` maps each to its own verdict. With ``seeds`` every check that
+    reads a row the seeds change is judged over the noise seeds (module docstring); with
+    ``noise_levels`` a claim judged over the noise series is counted at its suggested level.
     """
+    memo: dict = {}
 
     def rows_of(scen, s, t, k=None):
-        if seeds is None or k is None or k == seeds.seeds[0] or scen not in seeds.varied:
-            return _rows_of(table, scen, s, t)
-        sub = seeds.table
-        return _rows_of(sub[sub.seed == k], scen, s, t)
+        key = (scen, s, t, k)
+        if key not in memo:
+            if seeds is None or k is None or k == seeds.seeds[0] or scen not in seeds.varied:
+                memo[key] = _rows_of(table, scen, s, t)
+            else:
+                sub = seeds.table
+                memo[key] = _rows_of(sub[sub.seed == k], scen, s, t)
+        return memo[key]
 
     out = []
     for c in claims:
-        details, verdicts, by_scenario = [], [], {}
+        details, by_scenario = [], {}
         for scen in c.all_scenarios():
             if scenarios is not None and scen not in scenarios:
                 continue
             mine = []
             for s in c.structures:
                 for t in c.targets:
-                    for expr in c.checks:
-                        if seeds is not None and is_comparison(expr):
-                            ok, shown = _over_seeds(
-                                expr, lambda k, sc=scen, s=s, t=t: rows_of(sc, s, t, k),
-                                lambda k, s=s, t=t: (lambda o, s2=None, t2=None:
-                                                     rows_of(o, s2 or s, t2 or t, k)),
-                                seeds.seeds)
-                        else:
-                            ok, shown = check(
-                                expr, rows_of(scen, s, t),
-                                lambda o, s2=None, t2=None, s=s, t=t: rows_of(o, s2 or s,
-                                                                              t2 or t))
-                        mine.append(ok)
-                        details.append({"scenario": scen, "structure": s, "target": t,
-                                        "check": expr, "shown": shown, "holds": ok})
-            by_scenario[scen] = _verdict(mine)
-            verdicts.extend(mine)
-        out.append({"claim": c, "verdict": _verdict(verdicts), "details": details,
-                    "by_scenario": by_scenario})
+                    for chk in c.checks:
+                        varied = seeds is not None and any(
+                            r[0] in seeds.varied for r in chk.rows(scen, s, t))
+                        outcome, shown = _judge(
+                            chk, lambda k: (lambda sc, st, tg, k=k: rows_of(sc, st, tg, k)),
+                            seeds.seeds if varied else None, (scen, s, t))
+                        mine.append(outcome)
+                        details.append(CheckResult(scen, s, t, chk, shown, outcome))
+            by_scenario[scen] = combine(mine)
+        out.append(ClaimResult(c, _counted(c, by_scenario, noise_levels), tuple(details),
+                               by_scenario, combine(by_scenario.values())))
     return out
 
 
-NOT_CHECKABLE = "not checkable under the literal reading"
+class TextClaim(NamedTuple):
+    """One of the text's claims with the entries that are ``part_of`` it, and the verdict
+    over all of them."""
+
+    entry: ClaimResult
+    parts: list
+    verdict: Verdict
 
 
-def text_claims(evaluated) -> list[tuple[dict, list[dict], str]]:
-    """The text's claims, each once: ``(entry, parts, verdict)`` with the entries that are
-    ``part_of`` it and the verdict over all of them (not reproduced if one is, not measured
-    if one is and none fails, a :data:`TIE` if one is and none fails or is not measured;
-    :data:`NOT_CHECKABLE` for a claim marked ``checkable =
-    false``)."""
+def text_claims(evaluated, *, every_level: bool = False) -> list[TextClaim]:
+    """The text's claims, each once, with the verdict over the claim and its ``part_of``
+    entries (:func:`combine`; :attr:`Verdict.NOT_CHECKABLE` for a claim marked
+    ``checkable = false``). ``every_level``: judged at every noise level instead of the
+    suggested one (``verdict_all``)."""
     out = []
     for e in evaluated:
-        c = e["claim"]
+        c = e.claim
         if c.variant or c.part_of:
             continue
-        parts = [p for p in evaluated if p["claim"].part_of == c.id]
-        verdicts = [x["verdict"] for x in [e, *parts]]
-        if not c.checkable:
-            v = NOT_CHECKABLE
-        elif "not reproduced" in verdicts:
-            v = "not reproduced"
-        elif "not measured" in verdicts:
-            v = "not measured"
-        elif TIE in verdicts:
-            v = TIE
-        else:
-            v = "reproduced"
-        out.append((e, parts, v))
+        parts = [p for p in evaluated if p.claim.part_of == c.id]
+        pick = (lambda x: x.verdict_all) if every_level else (lambda x: x.verdict)
+        v = Verdict.NOT_CHECKABLE if not c.checkable else combine(pick(x) for x in [e, *parts])
+        out.append(TextClaim(e, parts, v))
     return out
 
 
-def comparison_rows(claims, scenarios=None) -> dict:
-    """``(scenario, structure) → (methods, targets)``: the rows every comparison of
-    ``claims`` reads (in the ``scenarios`` judged, default all), as sorted tuples — what
+def headline(verdicts) -> dict:
+    """How many of each :class:`Verdict` (every kind present, zero or not)."""
+    verdicts = list(verdicts)
+    return {v: sum(x == v for x in verdicts) for v in Verdict}
+
+
+_ORDER = (Verdict.REPRODUCED, Verdict.NOT_REPRODUCED, Verdict.TIE, Verdict.NOT_MEASURED,
+          Verdict.NOT_CHECKABLE)
+
+
+def counts_words(verdicts) -> str:
+    """"5 reproduced, 3 not reproduced, …": the kinds present, reproduced and not reproduced
+    always (the one way FINDINGS.md, the report and the command line count verdicts)."""
+    n = headline(verdicts)
+    return ", ".join(f"{n[k]} {k}" for k in _ORDER
+                     if n[k] or k in (Verdict.REPRODUCED, Verdict.NOT_REPRODUCED))
+
+
+def checked_rows(claims, scenarios=None) -> dict:
+    """``(scenario, structure) → (methods, targets, twinned)``: the rows every check of
+    ``claims`` reads (in the ``scenarios`` judged, default all), as sorted tuples, with the
+    methods whose ``diagonalization_error`` is read (it needs the coupled twin) — what
     :mod:`podbench.harness.seeds` refits on the other noise seeds."""
     need: dict = {}
     for c in claims:
@@ -497,11 +752,21 @@ def comparison_rows(claims, scenarios=None) -> dict:
                 continue
             for s in c.structures:
                 for t in c.targets:
-                    for expr in c.checks:
-                        if not is_comparison(expr):
-                            continue
-                        for sc, st, tg, label, _ in operand_rows(expr, scen, s, t):
-                            m, ts = need.setdefault((sc, st), (set(), set()))
+                    for chk in c.checks:
+                        for sc, st, tg, label, metric in chk.rows(scen, s, t):
+                            m, ts, tw = need.setdefault((sc, st), (set(), set(), set()))
                             m.add(label)
                             ts.add(tg)
-    return {k: (tuple(sorted(m)), tuple(sorted(ts))) for k, (m, ts) in sorted(need.items())}
+                            if metric == "diagonalization_error":
+                                tw.add(label)
+    return {k: (tuple(sorted(m)), tuple(sorted(ts)), tuple(sorted(tw)))
+            for k, (m, ts, tw) in sorted(need.items())}
+
+
+def noise_points(result: ClaimResult, levels: NoiseLevels) -> list[dict]:
+    """The claim's verdict at each level of the noise series it is judged at, in increasing
+    level: ``{"value": level, "verdict": Verdict, "scenario": name}`` (empty when it is
+    judged at fewer than two)."""
+    pts = [{"value": lv, "verdict": result.by_scenario[s], "scenario": s}
+           for s, lv in levels.levels.items() if s in result.by_scenario]
+    return pts if len(pts) > 1 else []

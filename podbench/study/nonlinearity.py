@@ -93,10 +93,10 @@ def row_label(r: dict) -> str:
 
 ROUNDOFF_METRIC = 1e-9
 """Metrics below this in magnitude are round-off of a positively homogeneous (linear) band and
-written as 0: their digits (1e-14…1e-11) differ between OpenBLAS kernels."""
+written as 0: their digits (1e-14…1e-11) differ between CPUs."""
 
 METRIC_DIGITS = 4
-"""Significant digits of the metrics: a phase lag's sixth digit moved between OpenBLAS kernels
+"""Significant digits of the metrics: a phase lag's sixth digit moved between CPUs
 (−0.000196977 against −0.000196976 % of the period)."""
 
 

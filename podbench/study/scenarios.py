@@ -470,13 +470,14 @@ def _parse_methods(top: Table, base: Scenario | None, cases: dict) -> list[Metho
 def _parse_method(mt: Table, cases: dict) -> MethodSpec:
     label = mt.string("label")
     method = mt.string("method")
-    composite = False
+    composite, per_mode = False, False
     if not registry.is_user_method(method):
         try:
             entry = registry.lookup(method)
         except InputError as exc:
             mt.fail("method", str(exc))
         method, composite = entry.name, bool(entry.cls.composite)
+        per_mode = bool(getattr(entry.cls, "records_per_mode", False))
     parts: tuple[str, ...] = ()
     if composite:
         parts = tuple(mt.strings("parts"))
@@ -488,6 +489,10 @@ def _parse_method(mt: Table, cases: dict) -> MethodSpec:
         for j, c in enumerate(train):
             _check_case(mt, f"train[{j}]", c, cases)
     n_modes = mt.integer("n_modes", None, minimum=1)
+    if per_mode and n_modes is not None and n_modes > len(train):  # known before any fit
+        mt.fail("n_modes", f"{n_modes} modes from {len(train)} training cases: {method} "
+                "identifies a k × k matrix from its training cases (Eqs. 3.26, 3.48), so "
+                f"k ≤ {len(train)}")
     options = mt.raw("options", {})
     if not isinstance(options, dict):
         mt.fail("options", f"expected a table of keyword arguments, got {options!r}")

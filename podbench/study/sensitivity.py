@@ -4,9 +4,10 @@ A *derived* scenario (``scenario.base``) runs the cases and methods of a study's
 *variants* of its structures (``[variants.<name>]``: a structure file with some fields
 replaced). When every scenario of a run is derived from scenarios of one folder that has a
 ``claims.toml``, each of those claims that names a varied structure is judged again on every
-variant, and ``FINDINGS.md`` says over which values of the parameter it holds (the rule of
-issue 11: where the text is silent, report the verdict as a function of the parameter over a
-stated range instead of one pick).
+variant, and ``FINDINGS.md`` says over which values of the parameter it holds (where the
+text is silent, the verdict as a function of the parameter over a stated range, not one
+pick). The unstated noise level of a virtual experiment is judged the same way
+(:func:`noise_verdicts`).
 
 ``scenarios/sensitivity`` applies this to Chapter 4: the LTV beam over the mean tip mass
 (Fig. 4.3 is not in the text) and the NL beam over the cubic spring's calibration (Fig. 4.2).
@@ -26,12 +27,12 @@ from pathlib import Path
 import pandas as pd
 
 from podbench.study.bounds import bound_for, evaluate_bounds
-from podbench.study.claims import check, evaluate_claims
+from podbench.study.claims import Verdict, check, combine, evaluate_claims, noise_points
 from podbench.study.nonlinearity import NonlinearitySpec, zeta_words
 from podbench.study.scenarios import CLAIMS_FILE
 
 __all__ = ["base_claims_path", "sensitivity_verdicts", "sensitivity_markdown",
-           "bounded_summary", "linked_verdicts"]
+           "bounded_summary", "linked_verdicts", "noise_verdicts", "swept_verdicts"]
 
 
 def base_claims_path(scenarios: dict) -> Path | None:
@@ -77,7 +78,7 @@ def sensitivity_verdicts(claims, scenarios: dict, table, bounds=()) -> list[dict
                 e = evaluate_claims([derived], table)[0]
                 key, value = _parameter(v)
                 points.append({"variant": v.name, "value": value, "set": dict(v.set),
-                               "verdict": e["verdict"], "details": e["details"]})
+                               "verdict": e.verdict, "details": e.details})
             structure = variants[0].structure
             bound = bound_for(bounds, structure)
             if bound is not None:
@@ -217,7 +218,7 @@ def sensitivity_markdown(verdicts, claims_path) -> str:
         out.append(f"| `{v['parameter']}` | variant | verdict |{extra} checks |\n"
                    f"|---|---|---|{'---|' if bounded else ''}---|\n")
         for p in v["points"]:
-            checks = "; ".join(f"{d['target']}: {d['shown']}" for d in p["details"])
+            checks = "; ".join(f"{d.target}: {d.shown}" for d in p["details"])
             adm = (f" {'yes' if p['measure']['admitted'] else 'no'} |" if bounded else "")
             out.append(f"| {p['value']:g} | {p['variant']} | {p['verdict']} |{adm} {checks} |\n")
     return "".join(out)
@@ -243,11 +244,49 @@ def swept_verdicts(claims, table: pd.DataFrame, spec: NonlinearitySpec) -> dict:
                     if r["kind"] not in ("none", kind):
                         continue
                     oks = [check(expr, {**rows, "band": r})[0] for expr in c.checks]
-                    verdict = ("not reproduced" if any(v is False for v in oks) else
-                               "not measured" if any(v is None for v in oks) else "reproduced")
+                    verdict = combine(Verdict.NOT_MEASURED if ok is None else
+                                      Verdict.REPRODUCED if ok else Verdict.NOT_REPRODUCED
+                                      for ok in oks)
                     pts.append({"value": r["fraction"], "verdict": verdict})
                 v = {"points": pts, "structure": f"{spec.structure} ({zeta_words(target)})",
                      "parameter": f"tip_band.{kind} / A"}
                 k, text = bounded_summary(v)
                 out.setdefault(c.id, []).append((k, text, f"{spec.name}, {target}, {kind}"))
+    return out
+
+
+def _pct(level: float) -> str:
+    return f"{100.0 * level:g} %"
+
+
+def noise_verdicts(evaluated, levels) -> dict:
+    """``claim id -> [(kind, text, where)]`` for the claims judged over the noise series of
+    ``levels`` (:class:`~podbench.study.claims.NoiseLevels`): the verdict at each level, the
+    level where the claim stops holding, and the verdict at the level the text suggests."""
+    out: dict = {}
+    for e in evaluated:
+        pts = noise_points(e, levels)
+        if not pts:
+            continue
+        held = [p["verdict"] == Verdict.REPRODUCED for p in pts]
+        span = f"{_pct(pts[0]['value'])}–{_pct(pts[-1]['value'])}"
+        at = next((p["verdict"] for p in pts if p["value"] == levels.suggested), None)
+        there = ("" if at is None else
+                 f"; at {_pct(levels.suggested)}, the level of the {levels.source}'s "
+                 f"“{levels.quote}”: {at}")
+        if all(held):
+            kind, text = "holds over the studied range", f"holds at every level {span}"
+        elif not any(held):
+            kind, text = "fails over the studied range", f"fails at every level {span}"
+        else:
+            first = next(i for i, h in enumerate(held) if not h)
+            below = (f"holds at {_pct(pts[0]['value'])}–{_pct(pts[first - 1]['value'])}, "
+                     if first > 0 else "")
+            rest = ", ".join(f"{_pct(p['value'])} {p['verdict']}" for p in pts[first:])
+            kind = "depends on the unstated noise level"
+            text = (f"{below}stops holding at {_pct(pts[first]['value'])} (over {span}: "
+                    f"{rest})")
+        scope = ", ".join(e.claim.structures)
+        out.setdefault(e.claim.id, []).append((kind, text + there,
+                                               f"per-channel noise level, {scope}"))
     return out

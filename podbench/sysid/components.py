@@ -129,15 +129,11 @@ def _holdout_basis(forces, responses, dt, solver, options, candidates, n_lags):
 
 #: Relative singular-value cut of :func:`kernel_realization`'s Hankel matrix: directions with
 #: ``σ_i ≤ KERNEL_RANK_TOL·σ_1`` are round-off of the kernel, not dynamics, and the order is
-#: capped below them. Measured on the substructuring study (light chain, acceleration records,
-#: 1 % noise, seed 1; ``realization`` solver at order 10, 500 lags, 100 block rows): the
-#: Hankel singular values fall 1, 0.25, 6.7e-3, 1.6e-4, 1.1e-6, 3.9e-9, 7.5e-12, 9.5e-15,
-#: then 8.9e-17 (round-off); the identified kernel itself moves by 3.6e-13 (relative) between
-#: the OpenBLAS Haswell and SkylakeX kernels, so singular values below about 1e-12 are set by
-#: round-off. Realized at order 10 regardless, the two kernels gave spurious poles (|λ| 0.0079
-#: and 0.029 against 0.59 and 0.053) and coupled errors 3.37e-4 against 2.89e-4; at order 8,
-#: 3.20e-4 against 2.89e-4. With the cut (order 6 there) both give 2.44858e-4. The cut sits
-#: 300× above the measured movement and 39× below the smallest singular value kept there.
+#: capped below them: the identified kernel moves by about 1e-13 (relative) between CPUs'
+#: round-off, so singular values below about 1e-12 are set by round-off and realizing them
+#: gives spurious poles that differ from CPU to CPU. The cut sits well above that movement and
+#: below the smallest singular value the substructuring study keeps (its measurement:
+#: docs/noise.md, "Measurements moved from the source").
 #: Its price: real modes whose Hankel singular values a short window at fine sampling puts
 #: below the cut are dropped too (the chain's exact kernel: 6 of 8 states, 0.37 % coupled),
 #: so :func:`identify_kernel` realizes a pole solver's own model instead and keeps this cut
@@ -215,7 +211,7 @@ def identify_kernel(forces: Sequence, responses: Sequence, dt: float, *, n_lags:
         modes: the 5-DOF chain's exact acceleration kernel at Δt = 1e-4 s has Hankel
         singular values 1 … 6.7e-12, 1.3e-14 over 100 block rows; capped at 1e-10 its ERA
         model keeps 6 of 8 states and couples to the beam 3.7e-3 off the assembled truth,
-        against 1.9e-7 to 2.2e-6 with 8, by BLAS kernel).
+        against 1.9e-7 to 2.2e-6 with 8, by CPU).
     """
     F, Y = _check_records(forces, responses)
     p, n = F[0].shape

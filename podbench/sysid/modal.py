@@ -38,7 +38,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import pandas as pd
-import scipy.optimize
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 
 from podbench.core.modeshapes import ModeSet, frequency_damping, mac
 from podbench.errors import DimensionError, InputError

@@ -49,7 +49,7 @@ from podbench.core.version import __version__
 from podbench.errors import InputError
 from podbench.sysid.realize import to_statespace
 
-__all__ = ["save_model", "load_model", "read_header", "file_sha256", "FORMAT",
+__all__ = ["Model", "save_model", "load_model", "read_header", "file_sha256", "FORMAT",
            "FORMAT_VERSION"]
 
 FORMAT = "podbench-model"
@@ -229,21 +229,27 @@ def _readable(v):
     return {k: _readable(x) for k, x in v.items()}
 
 
-def _realization_summary(method) -> dict:
-    """The state-space realization and modes of ``method`` for ``model.json`` (or why not)."""
+def realization_summary(method):
+    """``(summary, table)``: the state-space realization and modes of ``method`` for
+    ``model.json`` and the modes table; ``table`` None (and the summary's ``reason``) where
+    the method has no state-space form."""
     try:
         ss = to_statespace(method)
         modes = ss.modes()
     except InputError as exc:
-        return {"realization": None, "reason": str(exc)}
+        return {"realization": None, "reason": str(exc)}, None
     table = modes.table()
     return {"realization": ss.realization, "order": ss.order,
             "form": "free (A, C, x0_map)" if ss.is_free else "forced (A, B, C, D)",
-            "modes_rule": list(modes.notes), "modes": table.to_dict(orient="records")}
+            "modes_rule": list(modes.notes), "modes": table.to_dict(orient="records")}, table
+
+
+def _realization_summary(method) -> dict:
+    return realization_summary(method)[0]
 
 
 def save_model(method, path, *, training_files: Sequence = (), include_records: bool = True,
-               summary: bool = True) -> Path:
+               summary: bool = True, extra: dict | None = None) -> Path:
     """Save a fitted method to ``path`` (``.npz``) and its summary beside it (``.json``).
 
     Parameters
@@ -258,6 +264,9 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
         Keep the training records (what a prediction band refits on; default True).
     summary : bool
         Write ``<stem>.json`` beside the archive (default True).
+    extra : dict, optional
+        More entries for the summary (JSON values: e.g. what the fit chose); with a
+        ``realization`` entry, the realization summary the caller made (not made again).
 
     Returns
     -------
@@ -286,7 +295,10 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
     if summary:
         readable = _readable(header)
         readable["arrays"] = {k: f"{a.dtype} {list(a.shape)}" for k, a in enc.arrays.items()}
-        readable.update(_realization_summary(method))
+        extra = dict(extra or {})
+        if "realization" not in extra:  # a caller that realized already passes its summary
+            readable.update(_realization_summary(method))
+        readable.update(extra)
         atomic_write_text(path.with_suffix(".json"),
                           json.dumps(readable, indent=1, ensure_ascii=False, default=str) + "\n")
     return path
@@ -356,3 +368,75 @@ def load_model(path):
         raise InputError(f"{path.name}: the model holds no fitted state (`modes_` missing)")
     obj.provenance_ = header.get("provenance", {})
     return obj
+
+
+class Model:
+    """A fitted method as a model you keep: predict with it, read its modes, export its
+    state-space form, save it (``pb.fit`` returns one; ``pb.load_model`` reads one back).
+
+    Every other attribute is the fitted method's own (``model.kernel_``, ``model.n_lags_``).
+
+    Parameters
+    ----------
+    method : fitted estimator
+        A podbench method after ``fit``.
+    training_files : sequence of path-like
+        The files it was trained on (their SHA-256 go to the saved provenance).
+    """
+
+    def __init__(self, method, *, training_files: Sequence = ()):
+        if not hasattr(method, "modes_"):
+            raise InputError(f"{type(method).__name__}: not fitted; fit before making a Model")
+        self.method = method
+        self.training_files = tuple(str(p) for p in training_files)
+
+    def __getattr__(self, name: str):
+        if name == "method":  # not set yet (unpickling, copying): no recursion
+            raise AttributeError(name)
+        return getattr(self.method, name)
+
+    def __repr__(self) -> str:
+        return f"Model({self.method!r})"
+
+    @property
+    def provenance(self) -> dict:
+        """Where the model came from: read from the file for a loaded model, else the
+        training files, ``dt``, channels and units of this fit."""
+        saved = getattr(self.method, "provenance_", None)
+        return dict(saved) if saved else _provenance(self.method, self.training_files)
+
+    def predict(self, record=None, *, coverage=None, **fields):
+        """The method's prediction (:meth:`podbench.sysid.methods.PODMethod.predict`)."""
+        return self.method.predict(record, coverage=coverage, **fields)
+
+    def to_statespace(self, *, order: int | None = None, dt: float | None = None):
+        """The discrete state-space model (:func:`podbench.sysid.realize.to_statespace`):
+        ``A, B, C, D, dt``; ``.to_dlti()``, ``.to_control()`` export it."""
+        return to_statespace(self.method, order=order, dt=dt)
+
+    def modes(self, criteria: dict | None = None):
+        """The identified physical modes as a DataFrame: ``mode, frequency_hz,
+        damping_ratio, shape:<output channel>…`` sorted by frequency
+        (:meth:`podbench.sysid.realize.StateSpaceModel.modes`: the hard criteria and the
+        stabilization rule of :func:`podbench.sysid.modal.physical_modes`)."""
+        return self.to_statespace().modes(criteria).table()
+
+    def to_dlti(self):
+        """The model as :class:`scipy.signal.dlti` (forced models)."""
+        return self.to_statespace().to_dlti()
+
+    def to_control(self):
+        """The model as python-control's ``StateSpace`` (forced models; the ``control``
+        package)."""
+        return self.to_statespace().to_control()
+
+    def save(self, path, *, include_records: bool = True, extra: dict | None = None) -> Path:
+        """Write the model file ``path`` (``.npz``) and its summary ``<stem>.json``
+        (:func:`save_model`)."""
+        return save_model(self.method, path, training_files=self.training_files,
+                          include_records=include_records, extra=extra)
+
+    @classmethod
+    def load(cls, path) -> Model:
+        """The model saved in ``path`` (:func:`load_model`'s refusals)."""
+        return cls(load_model(path))

@@ -80,7 +80,8 @@ def _usage(name: str, cls) -> str:
 def parameter_help(name: str, *, full: bool = True, width: int = 88) -> str:
     """The help on one method or solver of :func:`entries`: its heading (what it is, how a
     scenario file names it) and, per parameter, its name, default, what it admits and its
-    description (``full``: all of it, else its first sentence), wrapped to ``width``."""
+    description (``full``: all of it, else its first sentence), wrapped to ``width`` (in
+    full, each parameter's first line whole)."""
     cls = entries()[name]
     summary = plain_text(" ".join((inspect.getdoc(cls) or "").split("\n\n")[0].split()))
     usage = _usage(name, cls)
@@ -89,7 +90,8 @@ def parameter_help(name: str, *, full: bool = True, width: int = 88) -> str:
                  subsequent_indent="  ")
     lines += wrap(f"({usage})", initial_indent="  ", subsequent_indent="   ")
     for p in parameters(cls):
-        lines.append(f"  {p.name} (default {p.default}): {p.admits}")
+        head = f"  {p.name} (default {p.default}): {p.admits}"  # whole when full
+        lines += [head] if full else wrap(head, subsequent_indent="      ")
         doc = p.doc if full else _first_sentence(p.doc)
         lines += wrap(doc, initial_indent="      ", subsequent_indent="      ")
     if not parameters(cls):

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from podbench.core.hints import percent_hint
 from podbench.errors import InvalidParameterError
 
 __all__ = [
@@ -204,8 +205,13 @@ def check_param(value, name: str, constraints) -> Any:
         if c.accepts(value):
             return c.coerce(value)
     near = [c for c in cons if c.same_type(value)]
+    # a fraction given as a percentage (holdout = 25, coverage = 90): value/100 would do
+    fraction = (isinstance(value, numbers.Real) and not isinstance(value, bool) and value > 1
+                and any(isinstance(c, Interval) and c.hi is not None and c.hi <= 1
+                        and c.accepts(value / 100) for c in near))
     raise InvalidParameterError(
-        f"Parameter `{name}`: expected {describe(near or cons)}, got {value!r}", param=name)
+        f"Parameter `{name}`: expected {describe(near or cons)}, got {value!r}"
+        f"{percent_hint(value) if fraction else ''}", param=name)
 
 
 def validate_params(obj) -> dict:

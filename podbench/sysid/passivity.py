@@ -52,7 +52,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.optimize
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 
 from podbench.errors import DimensionError, InputError
 

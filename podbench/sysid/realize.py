@@ -52,7 +52,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 
 from podbench.core.modeshapes import ModeSet
 from podbench.errors import InputError
@@ -365,7 +365,8 @@ def _realize_era(method) -> StateSpaceModel:
                                realization=how, notes=notes, realize_at=at,
                                **_io_sides(method, U.shape[0], free))
     sides = _io_sides(method, U.shape[0])
-    if hasattr(method, "C_"):  # inputs are the modal forces Uᵀ F
+    if hasattr(method, "C_") and getattr(method, "inputs_", "modal") != "measured":
+        # inputs are the modal forces Uᵀ F
         return StateSpaceModel(A, B @ U.T, U @ C, U @ D @ U.T, dt, None, method=name,
                                realization=how, notes=notes, realize_at=at, **sides)
     return StateSpaceModel(A, B, U @ C, U @ D, dt, None, method=name, realization=how,

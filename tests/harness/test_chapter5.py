@@ -118,7 +118,7 @@ def test_noise_is_per_measured_channel(tmp_path):
 def test_bundled_records_are_what_the_experiment_generates():
     assert check_experiment(CH5) == []
     exp = load_experiment(CH5)
-    assert exp.noise_levels == (0.0, 0.01, 0.02, 0.05)
+    assert exp.noise_levels == (0.0, 0.001, 0.01, 0.02, 0.05)
     W = read_record(CH5 / "data/linear_beam/noise_0pct/load8.npz").W
     assert W.shape == (6, 1024)
     s = np.linalg.svd(W, compute_uv=False)
@@ -184,15 +184,15 @@ checks = ["A.total_error <= 1.1*clean:A.total_error", "A.total_error < B.total_e
     assert claims[0].all_scenarios() == ("n1", "n5")
     e = evaluate_claims(claims, TABLE)[0]
     # n1: 0.21 <= 0.22 and 0.21 < 0.25; n5: 0.40 > 0.22
-    assert e["by_scenario"] == {"n1": "reproduced", "n5": "not reproduced"}
-    assert e["verdict"] == "not reproduced"
-    assert "1.1*clean:A.total_error = 0.22" in e["details"][0]["shown"]
+    assert e.by_scenario == {"n1": "reproduced", "n5": "not reproduced"}
+    assert e.verdict == "not reproduced"
+    assert "1.1*clean:A.total_error = 0.22" in e.details[0].shown
     only = evaluate_claims(claims, TABLE, scenarios={"n1"})[0]
-    assert only["verdict"] == "reproduced" and list(only["by_scenario"]) == ["n1"]
+    assert only.verdict == "reproduced" and list(only.by_scenario) == ["n1"]
     p.write_text(p.read_text().replace("clean:A", "nowhere:A"))
     e = evaluate_claims(load_claims(p)[0], TABLE)[0]
-    assert e["verdict"] == "not reproduced"  # n5 fails its second check; n1 unmeasurable
-    assert e["by_scenario"]["n1"] == "not measured"
+    assert e.verdict == "not reproduced"  # n5 fails its second check; n1 unmeasurable
+    assert e.by_scenario["n1"] == "not measured"
 
 
 def test_bundled_chapter5_claims_quote_the_seed():

@@ -29,9 +29,9 @@ def _series(sub, method: str, column: str) -> str:
 def test_the_seed_table_of_the_chapter5_doc_is_seeds_csv():
     df = pd.read_csv(SEEDS)
     rows = _rows()
-    assert len(rows) == 6  # two beams, three noise levels
+    assert len(rows) == 8  # two beams, four noise levels
     for beam, noise, seeds, ml, sl, ahead, sl_med, ml_med in rows:
-        scenario = f"{beam}_noise_{noise.replace(' %', '')}pct"
+        scenario = f"{beam}_noise_{noise.replace(' %', '').replace('.', 'p')}pct"
         sub = df[(df.scenario == scenario) & (df.target == "load4")]
         assert seeds == ",".join(str(k) for k in sorted(sub.seed.unique())), scenario
         assert ml == _series(sub, "ML-tls", "total_error"), scenario

@@ -90,7 +90,7 @@ def test_names_are_checked_before_printing(capsys):
                        "mean 'ML'? (podbench methods lists them)\n")
     assert cli.main(["methods", "multipleload", "TLS"]) == 0  # a class name, another case
     out = capsys.readouterr().out
-    assert out.startswith("ML: MultipleLoad") and "\ntls: TruncatedTLS" in out
+    assert out.startswith("ML: MultipleLoad") and "\ntls-dt: TruncatedTLS" in out
 
 
 class _Doc:

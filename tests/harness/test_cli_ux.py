@@ -322,12 +322,12 @@ def test_the_runs_claims_line_counts_the_texts_claims_apart_from_variants():
     """`podbench run`'s last line on the claims counts as FINDINGS.md's headline: a claim
     with its part_of entries once, an uncheckable claim apart, variants only as a number
     (Chapter 5 once printed "20 of 45 reproduced", mixing both)."""
-    from podbench.study.claims import NOT_CHECKABLE, TIE, Claim
+    from podbench.study.claims import NOT_CHECKABLE, TIE, Claim, ClaimResult, Verdict
 
     def entry(cid, verdict, **kw):
         c = Claim(id=cid, source="§5", quote="q", scenario="s", structures=("b",),
-                  targets=("t",), checks=("x < 1",), criterion="c", note="", **kw)
-        return {"claim": c, "verdict": verdict}
+                  targets=("t",), checks=("A.x < 1",), criterion="c", note="", **kw)
+        return ClaimResult(c, Verdict(verdict))
 
     claims = [entry("a", "reproduced"), entry("a2", "not reproduced", part_of="a"),
               entry("b", "reproduced"), entry("c", TIE), entry("d", "reproduced",

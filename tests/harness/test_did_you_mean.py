@@ -11,7 +11,7 @@ from podbench.core.resources import resolve_bundled
 def test_did_you_mean_finds_the_closest_name_letter_case_aside():
     assert did_you_mean("SLL", ["POVR", "SL", "ML"]) == "; did you mean 'SL'?"
     assert did_you_mean("sl", ["POVR", "SL", "ML"]) == "; did you mean 'SL'?"
-    assert did_you_mean("wiener", ["ls", "tls"]) == ""
+    assert did_you_mean("wiener", ["ls", "tls-dt"]) == ""
 
 
 @pytest.fixture
@@ -27,7 +27,7 @@ def beam_forced():
      "unknown option 'maxiter' for solver 'cgls' (its options: reg, tol, max_iter); "
      "did you mean 'max_iter'?"),
     ("", "", '[sweep]\nsolvers = ["lss"]', "sweep", "did you mean 'ls'?"),
-    ("", "", '[sweep]\nsolvers = [{solver = "tls", options = {rcnd = 1e-2}}]', "sweep",
+    ("", "", '[sweep]\nsolvers = [{solver = "tls-dt", options = {rcnd = 1e-2}}]', "sweep",
      "did you mean 'rcond'?"),
     ('"lti_beam", "ltv_beam"', '"stiff", "ltv_beam"',
      '[variants.stiff]\nstructure = "lti_bem"\nset = { "E" = 1.0 }', "run",

@@ -14,15 +14,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from podbench.deconvolution import CGLS, STLS
 
 from podbench.harness.digits import (
-    RESIDUAL_RULES,
     decade_bound,
     floor_digits,
     iterative_row,
     residual_digits,
     residual_written,
-    row_writer,
     solver_digits,
 )
 
@@ -34,10 +33,12 @@ def test_residual_digits_follow_their_own_measurements():
     # stls: a decade of tolerance moves the clean fit's residual by 2.1 % (= 21*sqrt(1e-6)):
     # two digits determined; the kernels move it by 3.2 %: not one digit three digits above
     # that round-off -> 0, the decade only
-    assert RESIDUAL_RULES["stls"].tolerance_move() == pytest.approx(2.1e-2)
+    rule = STLS.stopping
+    assert rule.residual_gain * 1e-6 ** rule.residual_power == pytest.approx(2.1e-2)
     assert residual_digits("stls") == 0 and residual_digits("stls", 1e-8) == 0
     # cgls: 7.2e-4 per decade (4 digits), 3.4e-5 between kernels -> 5 - 3 = 2 digits
-    assert RESIDUAL_RULES["cgls"].tolerance_move() == pytest.approx(7.2e-4)
+    rule = CGLS.stopping
+    assert rule.residual_gain * 1e-10 ** rule.residual_power == pytest.approx(7.2e-4)
     assert residual_digits("cgls") == 2 and residual_digits("realization") == 2
     # a looser cgls tolerance decides: 1e-7 moves it by 0.72 -> one digit; kernel's 1e-6: 0
     assert residual_digits("cgls", 1e-7) == 1 and residual_digits("kernel") == 0
@@ -63,13 +64,16 @@ def test_an_iterative_row_writes_its_residuals_at_their_digits():
     row = {"method": "ML-stls", "fit_residual": 3.4687e-6, "solver_residual": 3.4687e-6,
            "solver_objective": 6.314113e-5, "total_error": 0.27238892, "solver_iterations": 170,
            "projection_error": 0.2455961}
-    out = row_writer("stls")(row)
+    det = STLS().determined()
+    out = iterative_row(row, det.digits, det.residual_digits)
     assert out["fit_residual"] == out["solver_residual"] == 1e-5
     assert out["total_error"] == 0.272 and out["solver_objective"] == 6.31e-5
     assert np.isnan(out["solver_iterations"]) and out["projection_error"] == 0.2455961
     # without residual digits, the residual is at the row's digits (as before)
     assert iterative_row(row, 3)["fit_residual"] == 3.47e-6
-    assert row_writer("cgls")({"fit_residual": 5.58539e-8})["fit_residual"] == 5.6e-8
+    det = CGLS().determined()
+    assert iterative_row({"fit_residual": 5.58539e-8}, det.digits,
+                         det.residual_digits)["fit_residual"] == 5.6e-8
 
 
 def _chapter5(name):

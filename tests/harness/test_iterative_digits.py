@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from podbench.deconvolution import CGLS, STLS
 
 from podbench.harness.digits import (
     ITERATIVE_MARGIN,
-    STOPPING_RULES,
     iterative_digits,
     iterative_note,
     iterative_row,
@@ -38,17 +38,17 @@ def test_digits_from_a_tolerance_and_a_roundoff():
 def test_the_solvers_digits_follow_their_tolerances():
     # cgls: residual test, a decade of tol = 1e-10 moves a number by <= 1.7e4*tol = 1.7e-6
     # (6 digits determined); its round-off between kernels, 3.3e-6, leaves 3 with the margin
-    assert STOPPING_RULES["cgls"].tolerance_move() == pytest.approx(1.7e-6)
+    assert CGLS.stopping.tolerance_move(CGLS().tol) == pytest.approx(1.7e-6)
     assert solver_digits("cgls") == 3
     # a looser tolerance determines fewer digits: 1e-6 moves by 1.7e-2 -> 2 digits
     assert solver_digits("cgls", 1e-6) == 2 and solver_digits("kernel") == 2
     # stls: objective-decrease test, the move grows as sqrt(tol): 5.3e-3 at 1e-6 -> 3 digits
-    assert STOPPING_RULES["stls"].tolerance_move() == pytest.approx(5.3e-3)
+    assert STLS.stopping.tolerance_move(STLS().tol) == pytest.approx(5.3e-3)
     assert solver_digits("stls") == 3 and solver_digits("stls", 1e-4) == 2
     # built on cgls's pilot; direct solvers keep the tables' digits; a superposition the
     # fewest of its parts'
     assert solver_digits("realization") == 3
-    assert solver_digits("ls") is None and solver_digits("block+tls") is None
+    assert solver_digits("ls") is None and solver_digits("block+tls-dt") is None
     assert solver_digits("subspace") is None
     assert solver_digits("ls+cgls") == 3 and solver_digits("cgls+kernel") == 2
 
@@ -59,7 +59,7 @@ def test_a_margin_of_three_digits_makes_a_flip_rare():
     # of a rounding boundary: 0.12 % of them (1e-3 of a unit for a leading 1, 9e-3 for a 9)
     rng = np.random.default_rng(0)
     v = 10.0 ** rng.uniform(-3, 3, 200_000)
-    w = v * (1 + STOPPING_RULES["cgls"].roundoff * rng.choice([-1.0, 1.0], v.size))
+    w = v * (1 + CGLS.stopping.roundoff * rng.choice([-1.0, 1.0], v.size))
     d = solver_digits("cgls")
     flips = np.mean([f"{a:.{d}g}" != f"{b:.{d}g}" for a, b in zip(v, w, strict=True)])
     assert 1e-4 < flips < 10.0 ** (1 - ITERATIVE_MARGIN)
@@ -84,7 +84,7 @@ def test_iterative_row():
 
 
 def test_the_tables_say_so_when_a_solver_is_iterative():
-    assert iterative_note(["ls", "auto", "", "block+tls"]) == ""
+    assert iterative_note(["ls", "auto", "", "block+tls-dt"]) == ""
     note = iterative_note(["ls", "stls", "cgls+ls", "cgls", "kernel"])
     assert "(significant digits `cgls`: 3, `kernel`: 2, `stls`: 3)" in note
     assert "iteration counts left empty" in note
@@ -168,3 +168,39 @@ def test_cgls_and_stls_rows_identical_across_openblas_kernels(tmp_path):
     haswell, skylake = _sweep("Haswell", tmp_path), _sweep("SkylakeX", tmp_path)
     assert haswell.count(b"\n") == 9  # header and 8 rows: 2 structures x SL, ML x 2 solvers
     assert haswell == skylake
+
+
+def test_a_solver_declares_its_digits_in_its_result_and_the_rows_follow():
+    """The solver's result carries what its stopping tolerance determines; the harness
+    writes a fit's rows from the fitted estimator's results, not from a table of names: a
+    looser tolerance gives fewer digits, an answer built on an iterative pilot (realization)
+    its pilot's, a direct solve none."""
+    import podbench.deconvolution as dc
+    from podbench.methods import SingleLoad
+
+    from podbench.harness.digits import estimator_writer
+    from podbench.sysid.deconvolution.determined import Determined
+
+    rng = np.random.default_rng(0)
+    n = 200
+    q = np.zeros((1, n))
+    q[0, 1:4] = [1.0, 2.0, 1.0]
+    y = dc.convolution_product([q], np.exp(-0.05 * np.arange(n)) * np.sin(0.3 * np.arange(n)),
+                               1e-3) + 1e-6 * rng.standard_normal(n)
+    system = dc.ConvolutionSystem([q], y, 1e-3)
+    res = dc.CGLS().solve(system)
+    assert res.determined == Determined(1e-10, 3, 2)
+    assert Determined.from_info(res.info["determined"]) == res.determined
+    assert dc.CGLS(tol=1e-6).solve(system).determined.digits == 2
+    assert dc.LeastSquares().solve(system).determined is None
+    assert "determined" not in dc.LeastSquares().solve(system).info
+    W = np.vstack([y, 0.5 * y])
+    F = np.vstack([q[0], np.zeros(n)])
+    import podbench as pb
+    rec = pb.Record(W=W, F=F, dt=1e-3)
+    row = {"total_error": 0.123456789, "scenario": "s"}
+    loose = SingleLoad(n_modes=1, solver="cgls", solver_options={"tol": 1e-6}).fit([rec])
+    assert estimator_writer(loose)(row)["total_error"] == 0.12
+    tight = SingleLoad(n_modes=1, solver="cgls").fit([rec])
+    assert estimator_writer(tight)(row)["total_error"] == 0.123
+    assert estimator_writer(SingleLoad(n_modes=1, solver="ls").fit([rec])) is None

@@ -93,7 +93,7 @@ def _run_cli(path, tmp_path, capsys, *extra):
       'method = "ML"\noptions = { solver = "cgls", solver_options = { regg = 1 } }\n'),
      "methods[1].options.solver_options", "unknown option 'regg'"),
     (('method = "ML"\n',
-      'method = "ML"\noptions = { solver = "tls", solver_options = { rcond = -1 } }\n'),
+      'method = "ML"\noptions = { solver = "tls-dt", solver_options = { rcond = -1 } }\n'),
      "methods[1].options.solver_options.rcond", "expected a number in (0, 1), got -1"),
     (('method = "SL"\n', 'method = "missing.py:Nope"\n'),
      "methods[0].method", "no such file"),

@@ -39,16 +39,15 @@ checks = {checks!r}
 def test_cross_scenario_operand_names_structure_and_target(tmp_path):
     p = _claims(tmp_path, ["ML.linearization_error < ch4/nl_beam/load5:ML.linearization_error"])
     e = evaluate_claims(load_claims(p)[0], TABLE)[0]
-    assert e["verdict"] == "reproduced"  # 0.0157 < 0.156
-    assert "ch4/nl_beam/load5:ML.linearization_error = 0.156" in e["details"][0]["shown"]
+    assert e.verdict == "reproduced"  # 0.0157 < 0.156
+    assert "ch4/nl_beam/load5:ML.linearization_error = 0.156" in e.details[0].shown
     # another target of the same scenario: 0.0157 > 0.001
     p = _claims(tmp_path, ["ML.linearization_error < ch4/nl_beam/other:ML.linearization_error"])
-    assert evaluate_claims(load_claims(p)[0], TABLE)[0]["verdict"] == "not reproduced"
+    assert evaluate_claims(load_claims(p)[0], TABLE)[0].verdict == "not reproduced"
     # half a location is not measurable (and says why)
     p = _claims(tmp_path, ["ML.linearization_error < ch4/nl_beam:ML.linearization_error"])
     e = evaluate_claims(load_claims(p)[0], TABLE)[0]
-    assert e["verdict"] == "not measured" and "SCENARIO/STRUCTURE/TARGET" in e["details"][0][
-        "shown"]
+    assert e.verdict == "not measured" and "SCENARIO/STRUCTURE/TARGET" in e.details[0].shown
 
 
 @pytest.mark.parametrize("table, field", [
@@ -89,7 +88,7 @@ def test_swept_verdicts_say_over_which_slack_a_claim_holds(tmp_path):
                 structure="rubber", target="undamped")
     claims = load_claims(p)[0]
     e = evaluate_claims(claims, table)[0]
-    assert e["verdict"] == "not reproduced"  # the literal band: lag 0
+    assert e.verdict == "not reproduced"  # the literal band: lag 0
     sw = swept_verdicts(claims, table, spec)["x"]
     (k1, t1, w1), (k2, t2, w2) = sw
     assert w1 == "nonlinearity, undamped, slack" and w2 == "nonlinearity, undamped, prestretch"

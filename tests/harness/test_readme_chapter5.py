@@ -32,15 +32,16 @@ def summary():
 def test_the_counts_are_findings_headline():
     findings = (RESULTS / "FINDINGS.md").read_text(encoding="utf-8")
     m = re.search(r"\*\*The text's claims: (\d+), each counted once under its best-supported "
-                  r"reading: (\d+) reproduced, (\d+) not reproduced, (\d+) tie within the noise "
-                  r"seeds' spread, (\d+) not measured, (\d+) not checkable", findings)
+                  r"reading: (\d+) reproduced, (\d+) not reproduced, (?:(\d+) tie within the "
+                  r"noise seeds' spread, )?(?:(\d+) not measured, )?(\d+) not checkable",
+                  findings)
     assert m, "FINDINGS.md lost its headline"
     total, reproduced, failed, ties, unmeasured, uncheckable = m.groups()
-    said = _said(r"of the chapter's (\d+) claims.*?, (\d+) are reproduced .*?, (\d+) are ties "
-                 r"within the noise seeds' spread .*?, (\d+) are not .*? and (\d+) \(Figs\. "
+    said = _said(r"of the chapter's (\d+) claims.*?, (\d+) are reproduced, (\d+) are ties "
+                 r"within the noise seeds' spread, (\d+) are not and (\d+) \(Figs\. "
                  r"5\.12–5\.13\) are not checkable")
-    assert said == (total, reproduced, ties, failed, uncheckable)
-    assert unmeasured == "0"  # the paragraph names no unmeasured claim
+    assert said == (total, reproduced, ties or "0", failed, uncheckable)
+    assert unmeasured in (None, "0")  # the paragraph names no unmeasured claim
 
 
 def _rng(values) -> str:
@@ -51,18 +52,16 @@ def _rng(values) -> str:
 def test_the_quoted_eq_4_2_medians_are_the_tables(summary):
     levels = ("linear_beam_noise_0pct", "linear_beam_noise_1pct", "linear_beam_noise_2pct")
     sl5 = summary[("linear_beam_noise_5pct", "SL-tls")]
-    said = _said(r"whose Eq\. 4\.2 median error is ([0-9.]+) % there")
+    said = _said(r"SL's Eq\. 4\.2 median on the linear beam is ([0-9.]+) % at 5 %")
     assert said == (f"{sl5:.1f}",)
     said = _said(r"up to 2 % noise SL gives ([0-9.–]+) % and ML ([0-9.–]+) %")
     assert said == (_rng([summary[(s, "SL-tls")] for s in levels]),
                     _rng([summary[(s, "ML-tls")] for s in levels]))
-    other_units = [summary[("linear_beam_units_noise_5pct", f"SL-tls-{u}")]
-                   for u in ("in-N", "m-lbf", "m-N")]
-    said = _said(r"in newton or metres SL gives ([0-9.]+) % at 5 %")
-    assert {f"{x:.1f}" for x in other_units} == set(said)
+    said = _said(r"the appendix as written, it is ([0-9.]+) % on seed 0")
+    assert said == (f"{summary[('linear_beam_noise_5pct', 'SL-tls-tol1000')]:.1f}",)
     seeds = pd.read_csv(RESULTS / "seeds.csv")
-    s = seeds[(seeds.scenario == "linear_beam_noise_5pct") & (seeds.method == "SL-tls")
+    s = seeds[(seeds.scenario == "linear_beam_noise_5pct") & (seeds.method == "SL-tls-tol1000")
               & (seeds.target == "load4") & (seeds.seed > 0)]
     assert sorted(s.seed) == [1, 2, 3, 4]
-    said = _said(r"on noise seeds 1–4 SL gives ([0-9.–]+) % in inch–lbf")
+    said = _said(r"and ([0-9.–]+) % on noise seeds 1–4")
     assert said == (_rng(s.norm_pe_median),)

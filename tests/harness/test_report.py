@@ -5,6 +5,7 @@ self-contained, well-formed report page; and (with Chromium) the page as a brows
 
 import base64
 import html
+import json
 import re
 import shutil
 import subprocess
@@ -22,7 +23,14 @@ from conftest import CHAIN_FORCED, CHAIN_FREE  # noqa: E402
 
 from podbench import cli
 from podbench.harness.runner import run_unit
-from podbench.report.figures import FigureTask, describe_case, draw_figure, make_figure
+from podbench.harness.series import prediction_series, truth_series
+from podbench.report.figures import (
+    MARGIN,
+    FigureTask,
+    describe_case,
+    draw_figure,
+    make_figure,
+)
 from podbench.report.html import text_to_html
 from podbench.study.scenarios import Case
 
@@ -162,6 +170,67 @@ def test_the_figure_is_fitted_to_the_truth_and_marks_what_leaves_it(tmp_path):
     assert a2.get_xlabel() == "Time, s"
 
 
+def test_a_band_is_shaded_only_where_it_stays_inside_the_truths_axis(tmp_path):
+    """A 90 % band narrow over the first half and 50× the truth over the second: the axis
+    stays fitted to the truth, the shading covers the first half only (its top never above
+    the axis) and the legend says at which share of the samples the band was left out."""
+    task = _task(tmp_path)
+    n = task.series["t"].size
+    task.series["A__band"] = np.where(np.arange(n) < n // 2, 0.1, 50.0 * 3.0)
+    fig = make_figure(task)
+    a1 = fig.axes[0]
+    bottom, top = a1.get_ylim()
+    truth = task.series["truth"]
+    assert bottom == 0.0 and truth.max() < top < 1.2 * truth.max()
+    shades = [c for c in a1.collections if len(c.get_paths())]
+    assert len(shades) == 1
+    verts = np.concatenate([p.vertices for p in shades[0].get_paths()])
+    assert verts[:, 1].max() <= top
+    assert verts[:, 0].max() < task.series["t"][n // 2]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend[1] == "A: total error 2.13 %, 90 % band off scale at 50 % of the samples"
+
+
+def test_the_wide_figure_shows_two_sensors_and_the_spectrum(tmp_path):
+    """A cantilever-like record at 25 sensors (a 4 Hz sinusoid, amplitude growing to the
+    tip): the sensor panels hold the tip and mid-span histories, method B (5× the truth)
+    leaves their scale and is marked; the spectrum peaks at 4 Hz at the truth's amplitude."""
+    dt, n = 0.01, 400
+    t = dt * np.arange(n)
+    x = np.arange(25.0)
+    W = np.outer((x / 24) ** 2, 0.5 * np.sin(2 * np.pi * 4.0 * t))  # 4 Hz: 16 cycles
+    s = {"t": t, "truth": np.linalg.norm(W, axis=0)}
+    s.update(truth_series(W, dt, positions=x, labels=[f"x{int(v)}" for v in x]))
+    for label, g in (("A", 1.02), ("B", 5.0)):
+        s[label] = g * s["truth"]
+        s[label + "__pe"] = np.full(n, 100 * abs(g - 1))
+        s.update(prediction_series(label, g * W, dt, s["sensors"]))
+    task = FigureTask(path=tmp_path / "wide.png", title="Beam", subtitle="lti_beam, target p",
+                      series=s, methods=(("A", 0.02), ("B", 4.0)), events=(), fmt="png")
+    fig = make_figure(task)
+    try:
+        assert len(fig.axes) == 5
+        tip, mid, spec = fig.axes[2:]
+        assert [t.get_text() for t in tip.texts] == ["tip: x24"]
+        assert [t.get_text() for t in mid.texts] == ["mid-span: x12"]
+        # the tip's truth (±0.5 in, to the sampling) and the margin
+        peak, trough = np.max(W[24]), np.min(W[24])
+        margin = MARGIN * (peak - trough)
+        assert tip.get_ylim() == pytest.approx((trough - margin, peak + margin))
+        assert peak == pytest.approx(0.5, rel=5e-3)
+        assert {ln.get_marker() for ln in tip.lines} >= {"^", "v"}  # B leaves it both ways
+        assert tip.get_ylabel() == "w, in" and fig.axes[0].get_ylabel().endswith(
+            "(Eq. 4.1), in")
+        f, amp = spec.lines[0].get_data()
+        assert f[np.argmax(amp)] == pytest.approx(4.0)
+        assert np.max(amp) == pytest.approx(np.linalg.norm(0.5 * (x / 24) ** 2), rel=5e-3)
+        assert spec.get_yscale() == "log" and spec.get_xlabel() == "Frequency, Hz"
+    finally:
+        plt.close(fig)
+    draw_figure(task)
+    assert mpimg.imread(task.path).shape[1] == 1800  # 12 in at 150 dpi
+
+
 @pytest.mark.parametrize("fmt, magic, uri", [
     ("png", b"\x89PNG", "data:image/png;base64,"),
     ("svg", b"<?xml", "data:image/svg+xml;base64,"),
@@ -261,7 +330,7 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
     for needle in ("chain_free: Coupled chain, free response", "chain_forced",
                    'class="e0"', "chain-mds-exact", "chain-povr-impossible",
                    'badge reproduced', 'badge not-reproduced', "<em>no</em>",
-                   "1 of 2 claims reproduced", 'id="fits"', "condition_number",
+                   "2 claims: 1 reproduced, 1 not reproduced", 'id="fits"', "condition_number",
                    "subspace_error = ‖Ŵ − P W‖ / N", "<dt>commit</dt>", "<dt>NumPy</dt>",
                    "<dt>matplotlib</dt>", "Coupled chain, free response (k = m = 5)",
                    'id="calibration"', "Spearman(estimate, realized)",
@@ -313,12 +382,45 @@ def _chromium():
     return None
 
 
-_TEXT_PROBE = """<script>window.addEventListener("load", function () {
+_PROBE = """<script>window.addEventListener("load", function () {
+  var de = document.documentElement, all = document.querySelectorAll("details");
+  var out = {folded_height: de.scrollHeight, details: all.length,
+             unfolded_at_load: Array.prototype.filter.call(all, function (d) {
+               return d.open; }).length};
+  // a link into a folded section unfolds it: the first claim's link in the verdict table
+  var link = document.querySelector("table.verdicts a[href^='#claim-']");
+  if (link) {
+    link.click();
+    var target = document.getElementById(link.getAttribute("href").slice(1));
+    out.link_unfolds = target.offsetParent !== null && target.getBoundingClientRect().height > 0;
+  }
+  all.forEach(function (d) { d.open = true; });
+  out.unfolded_height = de.scrollHeight;
+  out.page_overflow = Math.max(0, de.scrollWidth - de.clientWidth);
+  // every in-page link resolves; the column heads link to the glossary
+  var ids = {};
+  document.querySelectorAll("[id]").forEach(function (e) { ids[e.id] = true; });
+  var links = document.querySelectorAll("a[href^='#']");
+  out.links = links.length;
+  out.broken = Array.prototype.filter.call(links, function (a) {
+    return !ids[a.getAttribute("href").slice(1)]; }).map(function (a) {
+    return a.getAttribute("href"); });
+  out.head_terms = document.querySelectorAll("th a.term[href^='#g-']").length;
+  // a table either fits its frame or sits in a frame that says it scrolls (the fits table)
+  out.cut = Array.prototype.filter.call(document.querySelectorAll(".scroll"), function (f) {
+    return f.scrollWidth > f.clientWidth + 1 && !f.classList.contains("sticky1"); }).length;
+  out.images = document.images.length;
+  var stat = Array.prototype.filter.call(document.querySelectorAll("header .stat"),
+    function (e) { return /figures/.test(e.textContent); })[0];
+  out.header_figures = stat ? parseInt(stat.querySelector("b").textContent, 10) : -1;
+  document.body.setAttribute("data-probe", JSON.stringify(out));
   var pre = document.createElement("pre");
   pre.id = "probe-text";
   pre.textContent = document.querySelector("main").innerText;
   document.body.appendChild(pre);
 });</script>"""
+"""Measures the page in the browser (folded, then every section unfolded, as a reader who
+opens them all) and copies the text a reader sees into ``<pre id="probe-text">``."""
 
 _RAW_TABLE_ROW = re.compile(r"^\s*\|.*\|\s*$|\|\s*:?-{3,}:?\s*\|")
 """A Markdown table row left as text: a line starting and ending with a pipe, or a delimiter
@@ -332,14 +434,17 @@ def _browser_base(exe, tmp_path):
             "--virtual-time-budget=5000"]
 
 
-def check_page_in_browser(exe, page_path, tmp_path, n_images):
-    """What a reader's browser shows of ``page_path``: every image decoded with a non-zero
-    natural size, every table inside a frame that scrolls sideways and nothing wider than
-    the window, no Markdown table row left as text, and a screenshot of the top that is not
-    blank. Returns the page's text (``innerText`` of ``<main>``)."""
+def check_page_in_browser(exe, page_path, tmp_path, n_images, width=1400):
+    """What a reader's browser shows of ``page_path`` at ``width`` px: every image decoded
+    with a non-zero natural size, every table inside a frame that scrolls sideways and
+    nothing wider than the window, folded and unfolded; no table cut by its frame but the
+    fit diagnostics' (which says it scrolls); every in-page link resolving; the header's
+    figure count the images drawn; no Markdown table row left as text; and a screenshot of
+    the top that is not blank. Returns ``(text, probe)``: the page's text with every section
+    unfolded and the measurements."""
     base = _browser_base(exe, tmp_path)
     url = page_path.resolve().as_uri()
-    dom = subprocess.run([*base, "--window-size=1280,2000", "--dump-dom", url],
+    dom = subprocess.run([*base, f"--window-size={width},2000", "--dump-dom", url],
                          capture_output=True, text=True, timeout=300, check=True).stdout
     body = re.search(r"<body[^>]*>", dom)
     assert body, dom[:500]
@@ -350,26 +455,34 @@ def check_page_in_browser(exe, page_path, tmp_path, n_images):
     assert int(attrs["data-tables"]) > 0 and attrs["data-tables-unframed"] == "0"
     assert attrs["data-page-overflow"] == "0"  # the page never scrolls sideways
     assert "Traceback" not in dom and "failed:" not in dom
-    # the text a reader sees: no raw Markdown table rows
-    probe = tmp_path / "probe.html"
-    probe.write_text(page_path.read_text(encoding="utf-8").replace(
-        "</body>", _TEXT_PROBE + "</body>"), encoding="utf-8")
-    dom = subprocess.run([*base, "--window-size=1280,2000", "--dump-dom", probe.as_uri()],
+    probe_page = tmp_path / "probe.html"
+    probe_page.write_text(page_path.read_text(encoding="utf-8").replace(
+        "</body>", _PROBE + "</body>"), encoding="utf-8")
+    dom = subprocess.run([*base, f"--window-size={width},2000", "--dump-dom",
+                          probe_page.as_uri()],
                          capture_output=True, text=True, timeout=300, check=True).stdout
+    m = re.search(r'data-probe="([^"]*)"', dom)
+    assert m, dom[-500:]
+    probe = json.loads(html.unescape(m.group(1)))
+    assert probe["broken"] == [] and probe["links"] > 0
+    assert probe["images"] == n_images == probe["header_figures"]
+    assert probe["cut"] == 0 and probe["page_overflow"] == 0
+    assert probe["details"] > 0 and probe["unfolded_height"] > probe["folded_height"]
+    assert probe.get("link_unfolds", True)
     m = re.search(r'<pre id="probe-text">(.*?)</pre>', dom, re.S)
     assert m, dom[-500:]
     text = html.unescape(m.group(1))
     raw = [ln for ln in text.splitlines() if _RAW_TABLE_ROW.search(ln)]
     assert raw == [], raw[:5]
     shot = tmp_path / "report.png"
-    subprocess.run([*base, f"--screenshot={shot}", "--window-size=1280,2000", url],
+    subprocess.run([*base, f"--screenshot={shot}", f"--window-size={width},2000", url],
                    capture_output=True, timeout=300, check=True)
     img = mpimg.imread(shot)[..., :3]
-    assert img.shape[:2] == (2000, 1280)
+    assert img.shape[:2] == (2000, width)
     gray = img.mean(axis=2)
     assert gray.std() > 0.1  # not blank: the dark header, tables and figures
     assert (gray < 0.5).mean() > 0.05 and (gray > 0.9).mean() > 0.3
-    return text
+    return text, probe
 
 
 @pytest.mark.browser
@@ -381,10 +494,13 @@ def test_the_report_in_a_headless_browser(study, tmp_path):
     out = tmp_path / "results" / "small"
     _run(study, out)
     n_figures = len(list((out / "figures").iterdir()))
-    text = check_page_in_browser(exe, out / "report.html", tmp_path, n_figures)
+    text, probe = check_page_in_browser(exe, out / "report.html", tmp_path, n_figures)
     # the remark's Markdown table is a table: its cells are tab-separated in the text
     assert "fracture\t\"breaks off\"\telement 10 removed" in text
     assert "Words before the table." in text and "| open point" not in text
+    # both scenarios unfolded at load (a small study), the figures and claims folded; every
+    # error column's head links to the glossary (10 columns, two tables)
+    assert probe["unfolded_at_load"] == 2 and probe["head_terms"] >= 20
 
 
 def test_the_report_names_the_command_that_made_it(study, tmp_path):
@@ -406,7 +522,7 @@ def test_fits_table_writes_roundoff_residuals_as_zero():
     unit = SimpleNamespace(fits=[
         {"scenario": "s", "structure": "b", "method": "ML", "n_modes": 4, "solver": "block",
          "fit_residual": 3.26547e-16, "solver_residual": 4.2e-16, "solver_rcond": 1e-15},
-        {"scenario": "s", "structure": "b", "method": "ML-tls", "n_modes": 4, "solver": "tls",
+        {"scenario": "s", "structure": "b", "method": "ML-tls", "n_modes": 4, "solver": "tls-dt",
          "fit_residual": 0.0123, "solver_residual": 2 * ROUNDOFF_RESIDUAL,
          "solver_rcond": 1e-15},
     ])
@@ -473,7 +589,11 @@ def test_the_chapter4_report_in_a_headless_browser(tmp_path):
     out = tmp_path / "chapter4"
     assert cli.main(["run", "chapter4", "--out", str(out), "-q"]) == 0
     n_images = len(list((out / "figures").glob("*.png")))
-    text = check_page_in_browser(exe, out / "report.html", tmp_path, n_images)
+    text, probe = check_page_in_browser(exe, out / "report.html", tmp_path, n_images)
     # the remark's table of readings, and one decomposition figure per scenario (7)
     assert "truss fracture\t§4.2:" in text
     assert len(list((out / "figures").glob("*__decomposition.png"))) == 7
+    # at 1400 px the page opens at a readable height (over 44,000 px unfolded before the
+    # sections folded): the summary, the seven tables and what their large errors mean
+    assert probe["folded_height"] < 15000 < probe["unfolded_height"]
+    assert "SL on lti_beam" in text and "diagonal assumption" in text

@@ -206,9 +206,9 @@ target = "t"
 checks = ["A.norm_pe_median - 1.5 >= 2*clean:A.norm_pe_median + 4.5"]
 ''')
     claims, _ = load_claims(p)
-    e = {r["claim"].id: r for r in evaluate_claims(claims, TABLE)}
+    e = {r.claim.id: r for r in evaluate_claims(claims, TABLE)}
     # n1: 14 <= 15 holds; n5: 16 <= 15 fails
-    assert e["points"]["by_scenario"] == {"n1": "reproduced", "n5": "not reproduced"}
-    assert "clean:A.norm_pe_median + 10 = 15" in e["points"]["details"][0]["shown"]
+    assert e["points"].by_scenario == {"n1": "reproduced", "n5": "not reproduced"}
+    assert "clean:A.norm_pe_median + 10 = 15" in e["points"].details[0].shown
     # 16 - 1.5 = 14.5 >= 2*5 + 4.5 = 14.5
-    assert e["minus"]["verdict"] == "reproduced"
+    assert e["minus"].verdict == "reproduced"

@@ -62,12 +62,12 @@ def test_sweep_table_is_read_with_defaults(write_scenario):
         noise = [0, 0.01]
         n_modes = [3, 5]
         seeds = [4, 2]
-        solvers = ["ls", { solver = "tls", options = { rcond = 1e-2 }, label = "tls-1e-2" }]
+        solvers = ["ls", { solver = "tls-dt", options = { rcond = 1e-2 }, label = "tls-1e-2" }]
         """))
     sw = sc.sweep
     assert sw.noise == (0.0, 0.01) and sw.n_modes == (3, 5) and sw.seeds == (4, 2)
     assert [(c.label, c.solver, c.options) for c in sw.solvers] == [
-        ("ls", "ls", {}), ("tls-1e-2", "tls", {"rcond": 1e-2})]
+        ("ls", "ls", {}), ("tls-1e-2", "tls-dt", {"rcond": 1e-2})]
     assert sw.noise_on == ("W", "F") and sw.coupled_train == "first"
     empty = load_scenario(sweep_file(write_scenario, "", "chain_empty"))
     assert empty.sweep.noise == (0.0,) and empty.sweep.seeds == (0,)
@@ -83,7 +83,7 @@ def test_sweep_table_is_read_with_defaults(write_scenario):
     ("seeds = [-1]", "sweep.seeds[0]"),
     ("n_modes = [0]", "sweep.n_modes[0]"),
     ('solvers = ["ls", "magic"]', "sweep.solvers[1]"),
-    ('solvers = [{ solver = "tls", rcond = 1e-2 }]', "sweep.solvers[0].rcond"),
+    ('solvers = [{ solver = "tls-dt", rcond = 1e-2 }]', "sweep.solvers[0].rcond"),
     ('noise_on = ["W", "X"]', "sweep.noise_on[1]"),
     ('coupled_train = "some"', "sweep.coupled_train"),
 ])
@@ -97,7 +97,7 @@ def test_malformed_sweep_tables_name_the_file_and_field(write_scenario, table, f
 def test_example_sweep_file_loads_and_plans():
     path = bundled_scenarios() / "sweeps" / "beam_forced_noise.toml"
     sc = load_scenario(path)
-    assert [c.solver for c in sc.sweep.solvers] == ["ls", "tls", "cgls", "fft", "realization",
+    assert [c.solver for c in sc.sweep.solvers] == ["ls", "tls-dt", "cgls", "fft", "realization",
                                                     "subspace", "stls", "auto"]
     _, tasks = plan_sweep([path])
     n_levels, n_seeds = len(sc.sweep.noise), len(sc.sweep.seeds)
@@ -233,9 +233,9 @@ def test_solver_axis_expands_deconvolving_methods_and_their_twins():
     from podbench.study.scenarios import SolverChoice
 
     sc = apply_overrides(mixed, solvers=[SolverChoice("ls", "ls"),
-                                         SolverChoice("t2", "tls", {"rcond": 1e-2})])
+                                         SolverChoice("t2", "tls-dt", {"rcond": 1e-2})])
     mr = sc.method("MR [t2]")
-    assert mr.options["solver"] == "tls" and mr.options["solver_options"] == {"rcond": 1e-2}
+    assert mr.options["solver"] == "tls-dt" and mr.options["solver_options"] == {"rcond": 1e-2}
     assert mr.twin == "MDS+MDS+ML [t2]" and (mr.base_label, mr.solver_label) == ("MR", "t2")
     sup = sc.method("MDS+MDS+ML [t2]")
     assert sup.parts == ("MDS (w0)", "MDS (v0)", "ML (F) [t2]")
@@ -246,21 +246,21 @@ def test_solver_axis_expands_deconvolving_methods_and_their_twins():
 def test_each_solver_is_compared_with_a_twin_using_the_same_solver(write_scenario):
     """SL's basis is the five POMs of f1, as ML's: the twin (ML in SL's basis) is the reported
     ML, so SL's residual error equals ML's subspace error, solver by solver."""
-    p = sweep_file(write_scenario, 'solvers = ["ls", "tls"]')
+    p = sweep_file(write_scenario, 'solvers = ["ls", "tls-dt"]')
     _, df = run_sweep([p])
     got = df.set_index(["method", "solver"])
-    for s in ("ls", "tls"):
+    for s in ("ls", "tls-dt"):
         assert got.loc[("SL", s), "residual_error"] == pytest.approx(
             got.loc[("ML", s), "subspace_error"], rel=1e-9, abs=1e-13)
     # the two solvers differ visibly on ML (truncated TLS drops directions)
-    assert got.loc[("ML", "ls"), "total_error"] < 1e-12 < got.loc[("ML", "tls"), "total_error"]
+    assert got.loc[("ML", "ls"), "total_error"] < 1e-12 < got.loc[("ML", "tls-dt"), "total_error"]
 
 
 # ----------------------------------------------------------------------- execution
 SMALL = """
 noise = [0.0, 0.02]
 seeds = [0, 1]
-solvers = ["ls", "tls"]
+solvers = ["ls", "tls-dt"]
 """
 
 
@@ -280,8 +280,8 @@ def test_dask_local_cluster_gives_the_same_table(write_scenario):
 
     # a user's solver class, named in the file, is imported where the scenario is read
     p = sweep_file(write_scenario, SMALL.replace(
-        'solvers = ["ls", "tls"]',
-        'solvers = ["ls", "tls", {solver = "plain.py:Plain", label = "plain"}]'))
+        'solvers = ["ls", "tls-dt"]',
+        'solvers = ["ls", "tls-dt", {solver = "plain.py:Plain", label = "plain"}]'))
     (p.parent / "plain.py").write_text(
         "import numpy as np\n"
         "from podbench.deconvolution import DenseSolver\n\n"
@@ -290,7 +290,7 @@ def test_dask_local_cluster_gives_the_same_table(write_scenario):
         "    def _solve_matrix(self, A, B):\n"
         "        return np.linalg.lstsq(A, B, rcond=None)[0]\n")
     _, serial = run_sweep([p])
-    assert set(serial["solver"]) >= {"ls", "tls", "plain"}
+    assert set(serial["solver"]) >= {"ls", "tls-dt", "plain"}
     mine = serial[(serial.solver == "plain") & (serial.noise == 0)]
     assert (mine.status == "ok").all() and len(mine) > 0
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp",
@@ -311,15 +311,15 @@ def test_cli_sweep_writes_csv_and_markdown_identically_twice(write_scenario, tmp
     p = sweep_file(write_scenario, "noise = [0.0]")
     out = tmp_path / "res"
     args = ["sweep", str(p), "-o", str(out), "-q", "--no-cache", "--noise", "0,0.01",
-            "--seeds", "0-1", "--solvers", "ls,tls"]
+            "--seeds", "0-1", "--solvers", "ls,tls-dt"]
     assert cli.main(args) == 0
     csv, md = out / "chain_sweep" / "sweep.csv", out / "chain_sweep" / "sweep.md"
     df = pd.read_csv(csv, keep_default_na=False)
     assert list(df.columns) == list(SWEEP_COLUMNS)
     assert len(df) == 2 * 2 * 2 * 2 and set(df.noise) == {0.0, 0.01}
-    assert set(df.solver) == {"ls", "tls"} and (df.status == "ok").all()
+    assert set(df.solver) == {"ls", "tls-dt"} and (df.status == "ok").all()
     text = md.read_text(encoding="utf-8")
-    assert "| chain_coupled | ML | f6 | 5 | tls |" in text and "noise 0.01" in text
+    assert "| chain_coupled | ML | f6 | 5 | tls-dt |" in text and "noise 0.01" in text
     first = csv.read_bytes(), md.read_bytes()
     assert cli.main(args) == 0
     assert (csv.read_bytes(), md.read_bytes()) == first

@@ -13,7 +13,7 @@ from podbench.harness.tables import summary_table
 
 # ML with truncated TLS: its SVD differs in the last bits between 1 and 2 OpenBLAS threads
 # (measured on the 2-core CI machine before pinning: every row of this sweep differed).
-TLS_SWEEP = CHAIN_FORCED + '\n[sweep]\nnoise = [0.0]\nseeds = [0]\nsolvers = ["tls"]\n'
+TLS_SWEEP = CHAIN_FORCED + '\n[sweep]\nnoise = [0.0]\nseeds = [0]\nsolvers = ["tls-dt"]\n'
 
 
 def _blas_threads() -> list[int]:

@@ -30,7 +30,7 @@ from ._truth import rel_err
 
 LEVELS = (0.0, 1e-4, 1e-3, 1e-2, 3e-2, 5e-2)
 SEEDS = (0, 1, 2, 3, 4)
-SOLVERS = ("ls", "tls", "tls rcond=1e-2", "tls noise")
+SOLVERS = ("ls", "tls-dt", "tls-dt rcond=1e-2", "tls-dt noise")
 CASES = (
     ("SL, ideal chain, k = 2", "ideal", "SL", 2),
     ("SL, ideal chain, k = 5", "ideal", "SL", 5),
@@ -49,12 +49,12 @@ def _noisy(X, level, rng):
 def _solver(label, level, dt, W, F):
     if label == "ls":
         return "ls", {}
-    if label == "tls":
-        return "tls", {}
-    if label == "tls rcond=1e-2":
-        return "tls", {"rcond": 1e-2}
+    if label == "tls-dt":
+        return "tls-dt", {}
+    if label == "tls-dt rcond=1e-2":
+        return "tls-dt", {"rcond": 1e-2}
     sd = max(dt * level * _rms(F), level * _rms(W))
-    return ("tls", {"noise_level": sd}) if sd > 0 else ("tls", {})
+    return ("tls-dt", {"noise_level": sd}) if sd > 0 else ("tls-dt", {})
 
 
 def error(case: str, method: str, k: int, level: float, seed: int, solver: str) -> float:

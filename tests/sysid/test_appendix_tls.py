@@ -19,6 +19,7 @@ from podbench.methods import MultipleLoad, SingleLoad
 
 import podbench as pb
 from podbench import deconvolution as dc
+from podbench.core.recordfiles import read_record
 from podbench.errors import InputError
 
 DATA = (Path(__file__).resolve().parents[2] / "scenarios" / "chapter5" / "data"
@@ -36,14 +37,13 @@ def form_conv_mat(a):
     return A
 
 
-def tlsdeconv(y, X):
-    """The appendix's ``tlsdeconv``, line by line (0-based indices)."""
+def tlsdeconv(y, X, tol=1000):
+    """The appendix's ``tlsdeconv``, line by line (0-based indices; ``tol`` its constant)."""
     C = np.hstack([X, y[:, None]])
     U, S, Vt = np.linalg.svd(C)  # [U,S,V] = svd(C): full
     V = Vt.T
     nrow = C.shape[0]
     r = 0
-    tol = 1000
     cn = np.zeros(nrow)
     for i in range(nrow):
         cn[i] = S[0] / S[i]
@@ -176,7 +176,7 @@ def test_appendix_tls_cut_depends_on_units():
 
 
 def test_parameters_are_checked_and_clonable():
-    for bad, name in [({"tol": 1.0}, "tol"), ({"tol": -5}, "tol"),
+    for bad, name in [({"tol": 0.5}, "tol"), ({"tol": -5}, "tol"), ({"tol": "SNR"}, "tol"),
                       ({"column_scale": 0.0}, "column_scale"), ({"balance": "yes"}, "balance")]:
         with pytest.raises(InputError, match=f"`{name}`"):
             dc.AppendixTLS(**bad).solve_matrix(np.eye(3), np.ones(3))
@@ -196,3 +196,135 @@ def test_fast_discarded_subspace_equals_full_svd_on_a_chapter5_sized_system():
     h, info = dc.dense._appendix_solve(X, y, 1000.0)
     assert info["rank"] == r_ref
     assert np.linalg.norm(h - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
+
+
+@pytest.mark.parametrize("tol", [3.0, 30.0, 1000.0, 1e4])
+def test_the_bordered_route_is_the_svd_of_x_y_at_every_tol(tol):
+    """AppendixTLS solves through the eigenvalues of XᵀX bordered by Xᵀy (secular roots,
+    XᵀX from correlations: X never formed): the kept count and h of the full SVD of [X y],
+    from a cut that keeps most directions to one that keeps few."""
+    q, y = _noisy_pulse_system(200, 5, noise=0.03)
+    X = form_conv_mat(q)
+    h_ref, r_ref = tlsdeconv(y, X, tol)
+    res = dc.AppendixTLS(tol=tol).solve(dc.ConvolutionSystem(q[None, :], y, 1.0))
+    assert res.info["rank"] == r_ref
+    assert np.linalg.norm(res.X - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
+
+
+def test_correlations_give_the_gram_matrix_and_the_border():
+    from podbench.sysid.deconvolution.bordered import border, toeplitz_gram, toeplitz_rmatvec
+
+    rng = np.random.default_rng(7)
+    n = 17
+    u, v, y = rng.standard_normal((3, n))
+    Tu, Tv = form_conv_mat(u), form_conv_mat(v)
+    np.testing.assert_allclose(toeplitz_gram(u, v), Tu.T @ Tv, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(toeplitz_rmatvec(u, y), Tu.T @ y, rtol=0, atol=1e-13)
+    G = rng.standard_normal((n, 2, 2))  # two load cases, two modes
+    X = np.block([[form_conv_mat(G[:, j, i]) for i in range(2)] for j in range(2)])
+    y2 = rng.standard_normal(2 * n)
+    np.testing.assert_allclose(border(G, y2), X.T @ y2, rtol=0, atol=1e-12)
+
+
+def test_a_response_outside_the_forces_range_or_zero_gives_zero():
+    """y = 0: [X 0]'s null direction is y's own (discarded, V(n+1) = 1): h = 0, as the SVD."""
+    q, _ = _noisy_pulse_system(50, 6)
+    res = dc.AppendixTLS().solve(dc.ConvolutionSystem(q[None, :], np.zeros(50), 1.0))
+    assert np.all(res.X == 0)
+
+
+def test_the_snr_rule_reads_the_records_only():
+    """tol = "snr": the amplitude SNR of the forces in X, from their samples alone. On the
+    committed Chapter 5 records the load cell's SNR is the level the experiment drew (1/level
+    within 10 %, read from the file's F row only), the rule gives the same tol in any units,
+    and the solver equals the appendix's TLS at that tol."""
+    from podbench.sysid.deconvolution.snr import noise_std, snr, system_snr
+
+    root = DATA.parents[1] / "linear_beam"
+    for level in (0.001, 0.01, 0.02, 0.05):
+        F = np.load(root / f"noise_{100 * level:g}pct" / "load8.npz")["F"]
+        f = F[np.flatnonzero(np.any(F != 0, axis=1))[0]]
+        assert snr(f) == pytest.approx(1.0 / level, rel=0.1), level
+        assert snr(LBF_TO_N * f) == pytest.approx(snr(f), rel=1e-12)
+    clean = np.load(root / "noise_0pct" / "load8.npz")["F"]
+    assert noise_std(clean[np.flatnonzero(np.any(clean != 0, axis=1))[0]]) == 0.0
+    # white noise of a known deviation on a smooth response with a few pulses
+    rng = np.random.default_rng(0)
+    t = np.arange(2000) * 1e-4
+    x = np.sin(2 * np.pi * 10 * t) + 0.3 * np.sin(2 * np.pi * 63 * t)
+    x[[100, 700, 1500]] += 5.0
+    assert noise_std(x + 0.01 * rng.standard_normal(t.size)) == pytest.approx(0.01, rel=0.06)
+    # the solver: the rule's tol, per right-hand side, then the appendix's TLS at it
+    recs = {c: read_record(root / "noise_5pct" / f"{c}.npz") for c in ("load8", "load12")}
+    U = np.linalg.svd(recs["load8"].W, full_matrices=False)[0][:, :2]
+    Qs = [U.T @ recs[c].F for c in ("load8", "load12")]
+    B = np.column_stack([np.concatenate([U.T[i] @ recs[c].W for c in ("load8", "load12")])
+                         for i in range(2)])
+    system = dc.ConvolutionSystem(Qs, B, 1e-4)
+    tol = dc.snr_tol(system)
+    assert tol == pytest.approx(system_snr(system)) and 17 < tol < 23  # 5 %: 20
+    got = dc.AppendixTLS(tol="snr").solve(system)
+    ref = dc.AppendixTLS(tol=tol).solve(system)
+    np.testing.assert_array_equal(got.X, ref.X)
+    assert got.info["rcond"] == pytest.approx(1.0 / tol)
+    si = dc.ConvolutionSystem([LBF_TO_N * Q for Q in Qs], IN_TO_M * B, 1e-4)
+    assert dc.snr_tol(si) == pytest.approx(tol, rel=1e-12)
+    with pytest.raises(InputError, match="`tol`"):
+        dc.AppendixTLS(tol="snr").solve_matrix(np.eye(3), np.ones(3))
+
+
+def test_least_squares_from_the_cached_svd_is_gelsd():
+    """"ls" solves from the SVD of the convolution matrix, kept per process: the answer of
+    LAPACK's gelsd (its cut, rank and condition) on a numerically singular Chapter 5 system
+    (the pulse starts one sample after t = 0), and the same system again is free."""
+    from podbench.sysid.deconvolution import bordered
+
+    recs = _records(300)
+    W, F, dt = recs["load8"]
+    U = np.linalg.svd(W, full_matrices=False)[0][:, :2]
+    system = dc.ConvolutionSystem([U.T[:1] @ F], U.T[0] @ W, dt)
+    got = dc.LeastSquares().solve(system)
+    X, _, rank, s = np.linalg.lstsq(system.dense(), system.B, rcond=None)
+    assert np.linalg.norm(got.X - X) <= 1e-9 * np.linalg.norm(X)
+    assert got.info["rank"] == rank < 300
+    bordered._SVD_CACHE.clear()
+    dc.LeastSquares().solve(dc.ConvolutionSystem([U.T[:1] @ F], U.T[1] @ W, dt))
+    assert len(bordered._SVD_CACHE) == 1
+    dc.LeastSquares().solve(dc.ConvolutionSystem([U.T[:1] @ F], 2.0 * (U.T[1] @ W), dt))
+    assert len(bordered._SVD_CACHE) == 1
+
+
+def test_the_former_name_tls_runs_tls_dt_and_warns_once(recwarn):
+    from podbench.errors import PodbenchWarning
+    from podbench.sysid.deconvolution import _api
+
+    _api._WARNED.discard("tls")
+    assert type(dc.make_solver("tls")) is dc.TruncatedTLS is type(dc.make_solver("tls-dt"))
+    dc.make_solver("tls")
+    warned = [w for w in recwarn if issubclass(w.category, PodbenchWarning)]
+    assert len(warned) == 1
+    assert "'tls' is now named 'tls-dt'" in str(warned[0].message)
+    assert "'tls-appendix'" in str(warned[0].message) and "'tls-balanced'" in str(warned[0].message)
+    assert "tls" not in dc.available_solvers() and "tls-dt" in dc.available_solvers()
+
+
+def test_only_null_directions_below_the_cut_lower_the_rank():
+    """A clean force that starts at rest makes X singular (its last column is zero); with a
+    cut so high that only those null directions are discarded, the MATLAB's denominator is
+    0 (a division by zero). The solver discards the next smallest directions, one at a time,
+    until the denominator reaches TLS_MIN_DEN: the SVD's non-generic solution."""
+    q, y = _noisy_pulse_system(60, 8, noise=0.0)
+    y = y + 1e-3 * np.random.default_rng(1).standard_normal(60)
+    X = form_conv_mat(q)
+    C = np.hstack([X, y[:, None]])
+    _, S, Vt = np.linalg.svd(C)
+    V = Vt.T
+    tol = 2.0 * S[0] / S[-1]  # keeps every singular value: only the null direction is cut
+    h_ref, r_ref = tlsdeconv(y, X, tol)
+    assert abs(1 - np.sum(V[60, :r_ref] ** 2)) < 1e-12  # the MATLAB divides by ~0 here
+    res = dc.AppendixTLS(tol=tol).solve(dc.ConvolutionSystem(q[None, :], y, 1.0))
+    r = next(k for k in range(r_ref, 0, -1) if 1 - np.sum(V[60, :k] ** 2) >= dc.dense.TLS_MIN_DEN)
+    den = 1 - np.sum(V[60, :r] ** 2)
+    h = (V[60, :r] * V[:60, :r]).sum(axis=1) / den
+    assert res.info["rank"] == r < r_ref
+    assert np.linalg.norm(res.X - h) <= 1e-7 * np.linalg.norm(h)

@@ -241,7 +241,7 @@ def test_single_load_band_carries_the_diagonal_term(monkeypatch):
     """SL on the coupled chain (its diagonal assumption is broken): a target loaded where
     the training load was (same modal pattern, other amplitude) has nothing unexplained and
     the in-sample band; a target loaded elsewhere gets the split's wider band, an estimate
-    relative to the truth's norm the record supports (``‖Ŵ − Ŵ_⊥‖² + ‖T‖²``), and a band
+    relative to the truth's norm the record supports (``‖Ŵ − Ŵ_⊥‖² + ‖Ŵ_⊥‖‖T‖``), and a band
     that covers the truth. The ``"tangent"`` variant carries :func:`diagonal_inconsistency`."""
     from podbench.sysid.methods import bands
 
@@ -257,7 +257,10 @@ def test_single_load_band_carries_the_diagonal_term(monkeypatch):
     Wh = p.mean
     assert p.details["diagonal_unexplained"] == pytest.approx(
         np.linalg.norm(W_perp) / np.linalg.norm(Wh))
-    ref = math.sqrt(np.sum((Wh - W_perp) ** 2) + np.sum(T2))
+    # the truth's norm: the explained part plus ‖W_⊥‖, read as the geometric mean of the
+    # method's own ‖Ŵ_⊥‖ and the training pattern's gain ‖T‖ (bands.DIAGONAL_NORM)
+    ref = math.sqrt(np.sum((Wh - W_perp) ** 2)
+                    + math.sqrt(np.sum(W_perp ** 2) * np.sum(T2)))
     assert p.error_estimate >= math.sqrt(np.sum(W_perp ** 2) + np.sum(T2)) / ref * 0.999
     assert p.covers(case.W[4]) >= 0.85
     assert q.error_estimate < 0.5 * p.error_estimate
@@ -288,7 +291,16 @@ def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitu
     d_big = bands.extrapolation(rms(pg.mean), lo, hi)
     assert d_big > 1
     ratio = (d_big / d_base) ** bands.AMPLITUDE_POWER
-    np.testing.assert_allclose(pg.half_width, 10 * ratio * pb_.half_width, rtol=1e-9)
+    # the estimate's part beyond the projection share scales by d (the terms of the target
+    # are scale-free: 10× the load has the same leverage and blind spot)
+    rho2 = pb_.details.get("projection_share", 0.0) ** 2
+    np.testing.assert_allclose(pg.error_estimate ** 2 - rho2,
+                               ratio ** 2 * (pb_.error_estimate ** 2 - rho2), rtol=1e-9)
+    # the band is the estimate's absolute error ‖Ŵ‖ e/sqrt(1 + e²) spread over the envelope
+    def absolute(p):
+        return 1 / math.sqrt(1 + p.error_estimate ** -2)
+    np.testing.assert_allclose(pg.half_width, 10 * absolute(pg) / absolute(pb_)
+                               * pb_.half_width, rtol=1e-9)
     assert bands.extrapolation(2.0, 1.0, 4.0) == 1.0
     assert bands.extrapolation(8.0, 1.0, 4.0) == 2.0
     # below the training range: not an extrapolation (the linearization error grows with
@@ -361,7 +373,7 @@ def test_fold_predictions_equal_the_refits(make, n_modes):
     for a, b in zip(fast, slow, strict=True):
         assert np.max(np.abs(a - b)) <= 1e-9 * np.max(np.abs(b)), np.max(np.abs(a - b))
     # and the calibration uses them: its folds' residuals are the refits'
-    _, residuals, _, _ = bands._residuals(model, recs, U, True, bands._frozen(model))
+    residuals = bands._residuals(model, recs, U, True, bands._frozen(model))[1]
     for R, b, r in zip(residuals, slow, recs, strict=True):
         inside = U_cv @ (U_cv.T @ r.W) if cv_modes else r.W
         expect = inside - b + ((r.W - U @ (U.T @ r.W)) if cv_modes else 0.0)

@@ -183,7 +183,7 @@ def test_tls_without_noise_recovers_the_exact_solution():
     rng = np.random.default_rng(7)
     A = rng.standard_normal((30, 30)) + 10 * np.eye(30)
     x = rng.standard_normal((30, 2))
-    np.testing.assert_allclose(dc.solve(A, A @ x, "tls"), x, atol=1e-9)
+    np.testing.assert_allclose(dc.solve(A, A @ x, "tls-dt"), x, atol=1e-9)
 
 
 def test_truncation_keeps_tls_bounded_where_pinv_blows_up():
@@ -200,20 +200,20 @@ def test_truncation_keeps_tls_bounded_where_pinv_blows_up():
     A = dc.convolution_matrix(qn, dt)
     c_ls = dc.solve(A, vn, "ls")
     err = {}
-    for key, c in (("ls", c_ls), ("tls", dc.solve(A, vn, "tls")),
-                   ("tls 1e-2", dc.solve(A, vn, "tls", rcond=1e-2))):
+    for key, c in (("ls", c_ls), ("tls-dt", dc.solve(A, vn, "tls-dt")),
+                   ("tls 1e-2", dc.solve(A, vn, "tls-dt", rcond=1e-2))):
         err[key] = np.linalg.norm(c - c_true) / np.linalg.norm(c_true)
     # measured: ls 2.9e5, tls (default rcond 1e-3) 0.15, tls rcond 1e-2 0.05
     assert err["ls"] > 1e3
-    assert err["tls"] < 0.5
+    assert err["tls-dt"] < 0.5
     assert err["tls 1e-2"] < 0.5
 
 
 def test_solver_table_and_user_dense_solvers():
-    assert dc.available_solvers() == ("ls", "tls", "tls-appendix", "tls-balanced", "block",
+    assert dc.available_solvers() == ("ls", "tls-dt", "tls-appendix", "tls-balanced", "block",
                                      "fft", "cgls", "kernel", "realization", "subspace",
                                      "stls", "auto")
-    assert dc.get_solver("tls") is dc.TruncatedTLS
+    assert dc.get_solver("tls-dt") is dc.TruncatedTLS
     with pytest.raises(UnknownNameError, match="unknown solver 'fft'.*'ls'"):
         dc.solve(np.eye(2), np.ones(2), "fft")
     # an unknown option is an InputError naming it, and a TypeError as in Python

@@ -225,7 +225,7 @@ def test_shorter_force_predicts_the_first_samples(method):
     np.testing.assert_allclose(part, full[:, :50], atol=1e-12 * np.abs(full).max())
 
 
-@pytest.mark.parametrize("solver", ["ls", "tls"])
+@pytest.mark.parametrize("solver", ["ls", "tls-dt"])
 def test_tls_on_clean_data_matches_ls(solver):
     fc = forced_case("coupled")
     model = MultipleLoad(solver=solver).fit(fc.W, fc.F, dt=fc.dt)

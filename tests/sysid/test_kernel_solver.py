@@ -139,7 +139,7 @@ def test_auto_picks_exact_on_clean_and_robust_on_noisy():
     assert real.info["order"] == dc.deconvolve(Qs, B, dt, "realization",
                                                return_info=True).info["order"]
     with pytest.raises(InputError, match="`robust`"):
-        dc.make_solver("auto", {"robust": "tls"})
+        dc.make_solver("auto", {"robust": "tls-dt"})
 
 
 def test_tls_column_scaling_invariance_and_gap_rule():
@@ -165,10 +165,10 @@ def test_tls_column_scaling_invariance_and_gap_rule():
     s = np.linalg.svd(np.hstack([A4 + 1e-8 * rng.standard_normal(A4.shape), B4]),
                       compute_uv=False)
     assert dc.tls_rank(s, (30, 8), 6, rank="gap") == 4
-    res = dc.solve(A4, B4, "tls", rank="gap", scale=True, return_info=True)
+    res = dc.solve(A4, B4, "tls-dt", rank="gap", scale=True, return_info=True)
     assert res.info["rank"] == 4 and res.info["rank_rule"] == "gap" and res.info["scaled"]
     with pytest.raises(InputError, match="`rank`"):
-        dc.make_solver("tls", {"rank": "elbow"})
+        dc.make_solver("tls-dt", {"rank": "elbow"})
 
 
 def test_evidence_quadratic_has_no_cancellation_on_square_systems():

@@ -224,7 +224,7 @@ def test_solver_name_and_options(forced):
         SingleLoad(n_modes=2, solver_options={"rcnd": 1}).fit(forced.W[0], forced.F[0],
                                                                dt=forced.dt)
     with pytest.raises(InputError, match="at most one truncation rule"):
-        MultipleLoad(n_modes=2, solver="tls", solver_options={"rcond": 1e-2, "rank": 3}).fit(
+        MultipleLoad(n_modes=2, solver="tls-dt", solver_options={"rcond": 1e-2, "rank": 3}).fit(
             forced.W[:2], forced.F[:2], dt=forced.dt)
 
 

@@ -30,14 +30,14 @@ pytestmark = pytest.mark.heavy  # seconds per test: not in the fast tier (README
 
 SOLVERS = {
     "ls": dc.LeastSquares,
-    "tls": dc.TruncatedTLS,
+    "tls-dt": dc.TruncatedTLS,
     "block": dc.BlockSubstitution,
     "fft": dc.FFTTikhonov,
     "cgls": dc.CGLS,
 }
 NON_DEFAULT = {  # one changed hyper-parameter per solver
     "ls": {"rcond": 1e-12},
-    "tls": {"rank": 5},
+    "tls-dt": {"rank": 5},
     "block": {"leaf": 8},
     "fft": {"reg": 1e-3, "pad": 3.0},
     "cgls": {"reg": 1e-4, "max_iter": 50},
@@ -149,7 +149,7 @@ def test_tls_rank_is_tls_rank_of_the_augmented_matrix(options):
     A = dc.block_convolution_matrix(Qs, dt)
     _, s, Vt = np.linalg.svd(np.hstack([A, B]))
     s = s[:min(A.shape[0], A.shape[1] + B.shape[1])]
-    res = dc.deconvolve(Qs, B, dt, "tls", return_info=True, **options)
+    res = dc.deconvolve(Qs, B, dt, "tls-dt", return_info=True, **options)
     p = dc.tls_rank(s, (A.shape[0], A.shape[1] + B.shape[1]), A.shape[1], **options)
     # the rule's rank, lowered while the TLS denominator λ_min(I − V21 V21ᵀ) is zero (the
     # non-generic problem; with the default cut this wide system's rank 79 has 6e-16)
@@ -299,7 +299,7 @@ def test_make_solver_builds_and_rejects():
     assert dc.make_solver(solver) is solver
     assert isinstance(dc.make_solver(dc.FFTTikhonov, {"pad": 4}), dc.FFTTikhonov)
     with pytest.raises(UnknownNameError,
-                       match="Parameter `solver`: unknown solver 'nope'; built-in: 'ls', 'tls', "
+                       match="Parameter `solver`: unknown solver 'nope'; built-in: 'ls', 'tls-dt', "
                              "'tls-appendix', 'tls-balanced', 'block', 'fft', 'cgls'"):
         dc.make_solver("nope")
     with pytest.raises(InputError, match=r"Parameter `solver_options`: unknown option 'regg' "
@@ -311,9 +311,9 @@ def test_make_solver_builds_and_rejects():
     assert info.value.param == "max_iter"
     with pytest.raises(InvalidParameterError, match=r"^Parameter `rcond`: expected a number "
                                                     r"in \(0, 1\), got 2\.0$"):
-        dc.make_solver("tls", {"rcond": 2.0})
+        dc.make_solver("tls-dt", {"rcond": 2.0})
     with pytest.raises(InputError, match="Parameters `rcond`, `noise_level`, `rank`"):
-        dc.make_solver("tls", {"rcond": 1e-2, "rank": 3})
+        dc.make_solver("tls-dt", {"rcond": 1e-2, "rank": 3})
     with pytest.raises(InputError, match="Parameter `solver_options`: options \\['reg'\\] given "
                                          "with the solver instance"):
         dc.make_solver(solver, {"reg": 1.0})

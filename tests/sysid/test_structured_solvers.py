@@ -387,7 +387,7 @@ def test_dense_size_limits_suggest_structured_solvers():
     W = [np.tile(Wj, (1, 5)) for Wj in fc.W]
     F = [np.tile(Fj, (1, 5)) for Fj in fc.F]  # n = 1000, k = 5: 5005 columns
     with pytest.raises(InputError, match="TLS limit"):
-        MultipleLoad(solver="tls").fit(W, F, dt=fc.dt)
+        MultipleLoad(solver="tls-dt").fit(W, F, dt=fc.dt)
     # dense LS: the matrix size guard
     Qs, B, dt = _well_conditioned(30, 2)
     with pytest.raises(InputError, match=r"60 × 60.*'block'"):
@@ -396,7 +396,7 @@ def test_dense_size_limits_suggest_structured_solvers():
 
 
 def test_registry_and_bad_input():
-    assert set(dc.available_solvers()) >= {"ls", "tls", *STRUCTURED}
+    assert set(dc.available_solvers()) >= {"ls", "tls-dt", *STRUCTURED}
     assert set(dc.structured_solvers()) == {*STRUCTURED, "kernel", "realization", "subspace",
                                          "stls", "auto"}
     with pytest.raises(UnknownNameError, match="structured solver: use deconvolve"):

@@ -21,19 +21,22 @@ rank, growth, …)::
     result.X, result.info["reg"], result.info["iterations"]
     deconvolve(Q_list, B, dt, solver="block")          # X; SL/ML/MR call this
     deconvolve(Q_list, B, dt, "fft", return_info=True)  # SolverResult
-    solve(A, B, solver="tls", rcond=1e-3)               # dense solvers on a given matrix
+    solve(A, B, solver="tls-dt", rcond=1e-3)            # dense solvers on a given matrix
     make_solver("my_solvers.py:Mine", {"alpha": 2})     # a Solver subclass of one's own
 
 Dense (form ``A``; the reference, ``O((kn)³)`` time and ``O((kn)²)`` memory):
 
 ``"ls"``    :class:`LeastSquares` (:func:`least_squares`), minimum-norm least squares
             ``X = A⁺ B`` (Eq. 3.76) by an SVD-based LAPACK driver.
-``"tls"``   :class:`TruncatedTLS` (:func:`truncated_tls`), truncated total least squares
-            (Eqs. 3.78–3.80, several right-hand sides), rank by :func:`tls_rank`; refused
-            above :data:`TLS_MAX_COLUMNS` columns. podbench's form: ``A`` keeps Δt.
+``"tls-dt"`` :class:`TruncatedTLS` (:func:`truncated_tls`), truncated total least squares
+            (Eqs. 3.78–3.80, several right-hand sides) of the Δt-scaled matrix, rank by
+            :func:`tls_rank`; its cut depends on Δt and the units (``scale=True``
+            equilibrates the columns first); refused above :data:`TLS_MAX_COLUMNS`
+            columns. Formerly ``"tls"``, which still names it (with a warning).
 ``"tls-appendix"`` :class:`AppendixTLS` (:func:`appendix_tls`), the dissertation's TLS: the
-            appendix's ``tlsdeconv`` on the raw force samples (no Δt), ``σ_1/σ_i <= 1000``,
-            one right-hand side at a time — Chapter 5's solver.
+            appendix's ``tlsdeconv`` on the raw force samples (no Δt), ``σ_1/σ_i <= tol``
+            (``tol = 1000``, or ``tol="snr"``: the SNR of the forces), one right-hand side at
+            a time — Chapter 5's solver.
 ``"tls-balanced"`` :class:`BalancedTLS`, the same with each force block and each right-hand
             side divided by its norm first: the answer does not depend on units (the
             recommended TLS for noisy data).
@@ -68,6 +71,7 @@ cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regulariza
 """
 
 from podbench.sysid.deconvolution._api import (
+    RENAMED,
     available_solvers,
     deconvolve,
     get_solver,
@@ -96,6 +100,7 @@ from podbench.sysid.deconvolution.dense import (
     TruncatedTLS,
     appendix_tls,
     least_squares,
+    snr_tol,
     tls_rank,
     truncated_tls,
 )
@@ -113,6 +118,7 @@ from podbench.sysid.deconvolution.realization import (
     pole_realization,
     pole_regressors,
 )
+from podbench.sysid.deconvolution.snr import noise_std, snr, system_snr
 from podbench.sysid.deconvolution.stls import DEFAULT_STLS_MAX_ITER, DEFAULT_STLS_TOL, STLS
 from podbench.sysid.deconvolution.subspace import RANK_TOL, Subspace
 from podbench.sysid.deconvolution.system import DENSE_MAX_BYTES, ConvolutionSystem
@@ -128,6 +134,7 @@ from podbench.sysid.deconvolution.tikhonov import (
 )
 
 __all__ = [
+    "RENAMED",
     # convolution
     "convolution_matrix",
     "block_convolution_matrix",
@@ -165,6 +172,7 @@ __all__ = [
     "least_squares",
     "truncated_tls",
     "appendix_tls",
+    "snr_tol",
     "tls_rank",
     "solve",
     "deconvolve",
@@ -172,6 +180,9 @@ __all__ = [
     "fft_tikhonov",
     "cgls_fft",
     "gcv_regularization",
+    "noise_std",
+    "snr",
+    "system_snr",
     "get_solver",
     "available_solvers",
     "structured_solvers",

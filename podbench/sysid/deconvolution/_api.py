@@ -2,16 +2,18 @@
 
 The built-in solvers are a fixed table; a user's solver is a :class:`Solver` subclass, passed
 as an instance or named ``"module:Class"`` / ``"file.py:Class"`` (imported by
-:func:`podbench.core.userimport.import_object`, the same way in every process).
+:func:`podbench.core.userimport.import_object`, the same way in every process). A former
+name (:data:`RENAMED`) still names its solver and warns once with the new name.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
 from podbench.core.userimport import UserImportError, import_object
-from podbench.errors import InputError, UnknownNameError
+from podbench.errors import InputError, PodbenchWarning, UnknownNameError
 from podbench.sysid.deconvolution._base import Solver, SolverResult, UnknownOptionError
 from podbench.sysid.deconvolution.auto import Auto
 from podbench.sysid.deconvolution.block import BlockSubstitution
@@ -37,11 +39,12 @@ __all__ = [
     "get_solver",
     "solve",
     "deconvolve",
+    "RENAMED",
 ]
 
 _BUILTIN: dict[str, type[Solver]] = {
     "ls": LeastSquares,
-    "tls": TruncatedTLS,
+    "tls-dt": TruncatedTLS,
     "tls-appendix": AppendixTLS,
     "tls-balanced": BalancedTLS,
     "block": BlockSubstitution,
@@ -54,6 +57,16 @@ _BUILTIN: dict[str, type[Solver]] = {
     "auto": Auto,
 }
 
+
+RENAMED: dict[str, tuple[str, str]] = {
+    "tls": ("tls-dt", "podbench's truncated TLS of the Δt-scaled matrix, whose cut depends "
+                      "on Δt and the units; the dissertation's TLS is 'tls-appendix', the "
+                      "unit-free one 'tls-balanced'"),
+}
+"""Former solver names: ``old → (new, what the new name is)``. A former name still runs its
+solver, with one :class:`~podbench.errors.PodbenchWarning` per process."""
+
+_WARNED: set = set()
 
 SOLVER_OPTIONS = [None, InstanceOf(Mapping, "a dict of keyword options")]
 """What a method's ``solver_options`` (and :func:`make_solver`'s ``options``) admits."""
@@ -70,7 +83,15 @@ def structured_solvers() -> tuple[str, ...]:
 
 
 def get_solver(name: str) -> type[Solver]:
-    """The built-in solver class named ``name`` (:class:`UnknownNameError` if none)."""
+    """The built-in solver class named ``name`` (:class:`UnknownNameError` if none; a former
+    name of :data:`RENAMED` warns once and gives its solver)."""
+    if isinstance(name, str) and name in RENAMED:
+        new, what = RENAMED[name]
+        if name not in _WARNED:
+            _WARNED.add(name)
+            warnings.warn(f"solver {name!r} is now named {new!r} ({what}); {name!r} runs "
+                          f"it as {new!r}", PodbenchWarning, stacklevel=3)
+        name = new
     try:
         return _BUILTIN[name]
     except (KeyError, TypeError):
@@ -153,7 +174,7 @@ def deconvolve(Q_list, B, dt: float, solver="ls", *, return_info: bool = False, 
     """Solve the (block) convolution system of Eq. 3.43 / 3.48 with the chosen solver.
 
     ``B ≈ block_convolution_matrix(Q_list, dt) @ X`` for the stacked kernel ``X = C̄``
-    (Eq. 3.42). Dense solvers (``"ls"``, ``"tls"``) form the matrix (refused above
+    (Eq. 3.42). Dense solvers (``"ls"``, ``"tls-appendix"``, …) form the matrix (refused above
     ``max_dense_bytes``, default :data:`DENSE_MAX_BYTES`); structured solvers (``"block"``,
     ``"fft"``, ``"cgls"``) work on the modal forces directly and never form it.
     ``make_solver(solver, options).solve(ConvolutionSystem(Q_list, B, dt))``.
@@ -198,7 +219,7 @@ def solve(A, B, solver="ls", *, return_info: bool = False, **options):
     A : (N, M) array_like
     B : (N,) or (N, r) array_like
     solver : str or DenseSolver
-        A dense solver (``"ls"``, ``"tls"``, or a :class:`DenseSolver`). Structured solvers
+        A dense solver (``"ls"``, ``"tls-dt"``, or a :class:`DenseSolver`). Structured solvers
         need the Toeplitz form, not a matrix: use :func:`deconvolve`.
     return_info : bool
         Return the :class:`SolverResult` instead of ``X``.

@@ -21,6 +21,7 @@ import numpy as np
 
 from podbench.core.userimport import import_module_or_file
 from podbench.errors import DimensionError, IllConditionedError, InputError, InvalidParameterError
+from podbench.sysid.deconvolution.determined import Determined, StoppingRule
 from podbench.sysid.deconvolution.system import ConvolutionSystem
 from podbench.sysid.params import ParamsMixin
 
@@ -42,7 +43,11 @@ quantity), in this order; a solver may add its own after them:
 ``rcond``       relative singular-value cut used;
 ``condition``   a condition estimate (see each solver);
 ``growth``      ``‖A‖‖X‖/‖B‖`` of block forward substitution;
-``shift``       leading zero force samples shifted past."""
+``shift``       leading zero force samples shifted past.
+
+An iterative solver adds ``determined``: the digits its stopping test determines, as text
+(:meth:`Solver.determined`, :meth:`~podbench.sysid.deconvolution.determined.Determined.
+as_info`)."""
 
 
 class UnknownOptionError(InvalidParameterError, TypeError):
@@ -68,11 +73,16 @@ class SolverResult:
         ``"subspace"``: poles and residues), that model ``(A, B, C, D)``, exact:
         ``X[0]ᵀ = D`` and ``X[p]ᵀ = C A^{p−1} B`` (``r × k``, in/(lbf·s)), and the memory
         beyond the ``n`` lags of ``X``. None for a solver that gives the kernel only.
+    determined : Determined or None
+        For an iterative solve, the significant digits its stopping tolerance determines of
+        ``X``'s consequences and of its relative residual (:meth:`Solver.determined`); None
+        for a direct solve (determined to round-off).
     """
 
     X: np.ndarray
     info: dict = field(default_factory=dict)
     realization: tuple | None = None
+    determined: Determined | None = None
 
     def __repr__(self) -> str:
         return f"SolverResult(X=<array {self.X.shape}>, info={self.info!r})"
@@ -109,10 +119,15 @@ class Solver(ParamsMixin):
         Short name shown in tables (a subclass that sets none gets its class name).
     structured : bool
         True if the solver never forms the dense matrix.
+    stopping : StoppingRule or None
+        For an iterative solver, what its stopping test leaves undetermined (measured);
+        with ``stopping_tol``, the name of its tolerance parameter.
     """
 
     name = "solver"
     structured = False
+    stopping: StoppingRule | None = None
+    stopping_tol = "tol"
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -165,12 +180,23 @@ class Solver(ParamsMixin):
         """Return ``X`` or ``(X, info)``; implemented by each solver."""
         raise NotImplementedError(f"{type(self).__name__} does not implement _solve(system)")
 
+    def determined(self) -> Determined | None:
+        """The digits this solver's answer is determined to at its own tolerance (its
+        :attr:`stopping` rule), None for a direct solver."""
+        if self.stopping is None:
+            return None
+        return self.stopping.determined(getattr(self, self.stopping_tol))
+
     def _result(self, system: ConvolutionSystem, X, info: dict | None,
                 realization: tuple | None = None) -> SolverResult:
         expected = (system.k * system.n,) + (() if system.vector else (system.n_rhs,))
         X = checked_solution(self.name, X, expected)
+        info = dict(info or {})
+        det = Determined.from_info(info.get("determined")) or self.determined()
+        if det is not None:
+            info["determined"] = det.as_info()
         return SolverResult(X=X, info=full_info(self.name, info, system.residual(X)),
-                            realization=realization)
+                            realization=realization, determined=det)
 
     # ------------------------------------------------------------------ pickling
     def __reduce_ex__(self, protocol):

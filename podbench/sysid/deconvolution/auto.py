@@ -197,7 +197,9 @@ class Auto(Solver):
             hyper = robust.hyperparameters(system)
             extra = {**extra, "evidence_noise_floor": hyper["noise_floor_min"]}
         X, info = robust._solve(system, hyper)
-        return X, {**info, "choice": "kernel", **extra}
+        det = robust.determined()
+        return X, {**info, "choice": "kernel", **extra,
+                   **({"determined": det.as_info()} if det is not None else {})}
 
 
 def _info(result) -> dict:

@@ -36,9 +36,8 @@ def _forward_substitution(G: np.ndarray, Y: np.ndarray, leaf: int) -> np.ndarray
     used before they were merged, so that every solution keeps its bits. The product on
     one system would be 1.5–2.5× faster on ML's systems but moves the last bits of every
     ``block`` solve, and with them values of the committed tables that lie on a rounding
-    boundary (``results/mr_designs/calibration.csv``: 0.018 became 0.0179 with the default
-    OpenBLAS kernel and stayed 0.018 with ``OPENBLAS_CORETYPE=Haswell``); an ``einsum`` on a
-    batch keeps every bit too but was 2.7× slower or more.
+    boundary (docs/noise.md); an ``einsum`` on a batch keeps every bit too but was 2.7×
+    slower or more.
     """
     b, n, k, _ = G.shape
     r = Y.shape[3]

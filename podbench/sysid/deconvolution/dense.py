@@ -1,16 +1,20 @@
-"""Dense solvers: form ``A`` (the reference, ``O((kn)³)`` time, ``O((kn)²)`` memory).
+"""Dense solvers: the matrix problems of Eqs. 3.76–3.80, ``O((kn)³)`` time, ``O((kn)²)`` memory.
 
 ``"ls"``    :class:`LeastSquares` / :func:`least_squares`, minimum-norm least squares
-            ``X = A⁺ B`` (Eq. 3.76) by an SVD-based LAPACK driver.
-``"tls"``   :class:`TruncatedTLS` / :func:`truncated_tls`, truncated total least squares
+            ``X = A⁺ B`` (Eq. 3.76) from the SVD of the convolution matrix (kept per
+            process: every right-hand side on the same forces shares it).
+``"tls-dt"`` :class:`TruncatedTLS` / :func:`truncated_tls`, truncated total least squares
             (Eqs. 3.78–3.80, several right-hand sides), rank by :func:`tls_rank`; refused
             above :data:`TLS_MAX_COLUMNS` columns. podbench's form: the matrix keeps Δt
-            (``Δt·toeplitz(q)``), so its cut differs from the appendix's. The ``rcond`` rule
-            solves through the discarded eigenvectors of ``[A | B]ᵀ[A | B]`` (about 4× faster
-            than the SVD at 2050 columns, :func:`_tls_gram`).
+            (``Δt·toeplitz(q)``), so its cut depends on Δt and the units (``scale=True``
+            equilibrates the columns). The ``rcond`` rule solves through the discarded
+            eigenvectors of ``[A | B]ᵀ[A | B]`` (:func:`_tls_gram`). Formerly ``"tls"``.
 ``"tls-appendix"`` :class:`AppendixTLS` / :func:`appendix_tls`, the dissertation's TLS: the
-            appendix's ``tlsdeconv`` (raw force samples, no Δt, ``σ_1/σ_i <= 1000``, one
-            right-hand side at a time); ``balance=True`` is its unit-independent form.
+            appendix's ``tlsdeconv`` (raw force samples, no Δt, ``σ_1/σ_i <= tol``, one
+            right-hand side at a time; ``tol`` 1000 or ``"snr"``), through the eigenvalues of
+            ``XᵀX`` (:mod:`~podbench.sysid.deconvolution.bordered`).
+``"tls-balanced"`` :class:`BalancedTLS`, the same with the force blocks and ``y``
+            equilibrated: the same answer in any units.
 
 The solver objects of these four keep their last :data:`MEMO_SIZE` answers per process
 (exact bytes of the system and the options as the key): a repeated solve returns the first
@@ -36,6 +40,13 @@ from podbench.sysid.deconvolution._base import (
     full_info,
     relative_residual,
 )
+from podbench.sysid.deconvolution.bordered import (
+    border,
+    bordered_tls,
+    convolution_svd,
+    gram_eigh,
+)
+from podbench.sysid.deconvolution.snr import system_snr
 from podbench.sysid.deconvolution.system import DENSE_MAX_BYTES, ConvolutionSystem
 from podbench.sysid.params import COUNT, FRACTION, POSITIVE, Boolean, Interval, Options
 
@@ -52,15 +63,15 @@ __all__ = [
     "BalancedTLS",
     "appendix_tls",
     "DEFAULT_APPENDIX_TOL",
+    "SNR_TOL",
+    "SNR_TOL_MAX",
+    "snr_tol",
 ]
 
 TLS_MAX_COLUMNS = 4096
-"""Largest number of columns of ``[A | B]`` that :func:`truncated_tls` accepts by default.
-
-Measured on the project machine (AMD EPYC, one BLAS thread): the economy SVD (``gesdd``) of a
-square-ish matrix takes 4.6 s at 2000 columns, 15 s at 3000 and 41 s at 4000 (cubic growth;
-about 140 s expected at ML's n = 1000, k = 6, i.e. 6006 columns), with peak memory about
-seven matrices of that size (237 MB measured at 2000 × 2004). Beyond the limit it raises
+"""Largest number of columns of ``[A | B]`` that :func:`truncated_tls` accepts by default:
+an SVD of that size grows as the cube of the columns, with peak memory about seven matrices
+of that size (times measured in docs/noise.md). Beyond the limit it raises
 :class:`InputError` suggesting a structured solver; ``max_columns=`` overrides it."""
 
 DEFAULT_TLS_RCOND = 1e-3
@@ -87,12 +98,10 @@ comes out at ``1e-36…1e-15``; every other one met in the committed studies is 
 
 TLS_CUT_TIE = 1e-10
 """Singular values of ``[A | B]`` within ``TLS_CUT_TIE·σ_1`` below the ``rcond`` cut count as
-at the cut, hence kept: a tie broken one way by every BLAS kernel and by both
+at the cut, hence kept: a tie broken one way by every CPU and by both
 :func:`_tls_gram` and :func:`_tls_svd` (their singular values agree to about ``1e-12 σ_1``;
-an SVD's own round-off is ``~ε σ_1``). Measured: the closest singular value to the cut in
-the committed studies' TLS systems lies ``7.3e-5`` of the cut from it (the beam_forced_noise
-sweep's 315 systems; ``2.4e-4`` on Chapter 5's 207), i.e. at least ``7.3e-8 σ_1``, 730
-times the band."""
+an SVD's own round-off is ``~ε σ_1``); the closest singular value to the cut in the
+committed studies' systems lies hundreds of times the band from it (docs/noise.md)."""
 
 
 def _cut_level(rcond: float, s1: float) -> float:
@@ -300,14 +309,11 @@ def _nongeneric_rank(V21: np.ndarray, p: int) -> int:
     ``[A | B]`` reaches, e.g. a singular ``A`` whose null direction is what the cut
     discards), the truncated TLS solution does not exist (Van Huffel & Vandewalle 1991,
     *The Total Least Squares Problem*, §3.4, the non-generic problem) and the computed
-    ``X`` is round-off divided by round-off: measured on the beam_forced_noise sweep (LTI
-    beam, SL, mode 4 at 3 and 5 % noise: a 250 × 251 ``[A | B]`` whose 250 singular values
-    all pass the cut, so the one discarded is the null vector of ``[A | B]`` with ``V22``
-    at 1e-18), ``|X|`` of 0 to 13 between OpenBLAS kernels and under a 1e-12 perturbation
-    of the records. Their remedy, the non-generic TLS solution, discards the next smallest
-    direction as well (``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` over the enlarged set, whose zero
-    columns of ``V22`` add nothing): there ``V22 V22ᵀ = 0.06…0.22`` and ``X`` is
-    determined to 1e-11 under the same perturbation. ``p' = 0`` (``X = 0``) when no rank
+    ``X`` is round-off divided by round-off (on the beam_forced_noise sweep it moved between
+    CPUs and under a 1e-12 perturbation of the records: docs/noise.md). Their
+    remedy, the non-generic TLS solution, discards the next smallest direction as well
+    (``X = −V12 V22ᵀ(V22 V22ᵀ)⁻¹`` over the enlarged set, whose zero columns of ``V22`` add
+    nothing), which the data determine. ``p' = 0`` (``X = 0``) when no rank
     reaches the level (``B`` orthogonal to every direction of ``A``)."""
     r = V21.shape[0]
     while p > 0:
@@ -587,9 +593,31 @@ class LeastSquares(DenseSolver):
         rcond = None if self.rcond is None else check_positive(self.rcond, "rcond")
         return _lstsq(A, B, rcond)
 
+    def _solve_dense(self, system: ConvolutionSystem):
+        """``X = A⁺ B`` from the SVD of the convolution matrix, kept per process
+        (:func:`~podbench.sysid.deconvolution.bordered.convolution_svd`: every system on the
+        same forces shares it); the cut and diagnostics of ``gelsd``'s (:func:`_lstsq`)."""
+        system.check_dense(self.max_dense_bytes, solver=self.name)
+        rcond = None if self.rcond is None else check_positive(self.rcond, "rcond")
+        U, s, Vt = convolution_svd(system.G)
+        s = s * system.dt  # A = Δt·X
+        used = float(np.finfo(float).eps * max(system.shape)) if rcond is None else rcond
+        keep = s > used * s[0] if s.size and s[0] > 0 else np.zeros(s.size, dtype=bool)
+        X = Vt[keep].T @ ((U[:, keep].T @ system._B2) / s[keep][:, None])
+        info = {"rank": int(np.count_nonzero(keep)), "rcond": used,
+                "condition": condition_number(s)}
+        return (X[:, 0] if system.vector else X), info
+
 
 class TruncatedTLS(DenseSolver):
-    """Truncated total least squares (Eqs. 3.77–3.80) on the dense matrix (``"tls"``).
+    """Truncated total least squares (Eqs. 3.77–3.80) on the dense matrix (``"tls-dt"``).
+
+    podbench's form, not the appendix's: the matrix keeps Δt (``Δt·toeplitz(q)``) and the
+    right-hand sides are solved together, so its cut ``σ_i ≥ rcond·σ_1`` depends on Δt and
+    on the units of forces and responses (``scale=True`` equilibrates every column first,
+    which removes both). The dissertation's TLS is :class:`AppendixTLS`
+    (``"tls-appendix"``), the unit-free one :class:`BalancedTLS` (``"tls-balanced"``).
+    Formerly named ``"tls"`` (:data:`~podbench.sysid.deconvolution._api.RENAMED`).
 
     Parameters
     ----------
@@ -610,7 +638,7 @@ class TruncatedTLS(DenseSolver):
     over the kept ones; ``None`` if none is kept).
     """
 
-    name = "tls"
+    name = "tls-dt"
     _parameter_constraints = {"rcond": [None, FRACTION], "noise_level": [None, POSITIVE],
                               "rank": [None, Options("gap"), Interval("integer", 0)],
                               "max_columns": [None, COUNT], "scale": [Boolean()],
@@ -645,6 +673,24 @@ DEFAULT_APPENDIX_TOL = 1000.0
 """``tol`` of the appendix's ``tlsdeconv``: keep the directions with ``σ_1/σ_i <= tol``
 ("tol = 1000; %based on SNR of data")."""
 
+SNR_TOL = "snr"
+"""``tol`` of :class:`AppendixTLS` set from the data, the appendix's "based on SNR of data"
+automated: ``tol`` = the amplitude SNR of the modal forces of ``X``
+(:func:`~podbench.sysid.deconvolution.snr.system_snr`), within
+[1, :data:`SNR_TOL_MAX`]."""
+
+SNR_TOL_MAX = 1e4
+"""Largest ``tol`` the SNR rule gives (80 dB): the fourth differences of
+:func:`~podbench.sysid.deconvolution.snr.noise_std` resolve noise from the signal of a
+response to about that ratio (the clean Chapter 5 records read 4×10³–5×10⁴), and a clean
+force, exactly zero between its pulses, reads as infinite; a larger ``tol`` would keep the
+round-off directions of a numerically singular ``X``."""
+
+
+def snr_tol(system: ConvolutionSystem, column: int = 0) -> float:
+    """``tol`` by the SNR rule (:data:`SNR_TOL`) for one right-hand side of ``system``."""
+    return float(min(max(system_snr(system, column), 1.0), SNR_TOL_MAX))
+
 
 def _appendix_discarded(C: np.ndarray, tol: float):
     """The right singular vectors of ``C`` that ``tlsdeconv`` does *not* keep, and the count
@@ -652,12 +698,12 @@ def _appendix_discarded(C: np.ndarray, tol: float):
 
     ``tlsdeconv`` keeps ``σ_i`` with ``σ_1/σ_i <= tol`` (``i <= nrow``); ``Σ_{kept}`` of the
     last row of ``V`` and its products equal ``1 −`` / minus those over the discarded
-    vectors (``V`` is orthogonal), and on the Chapter 5 systems the discarded are few (about
-    1 % of ``M + 1``). They are the eigenvectors of ``CᵀC`` with eigenvalue
+    vectors (``V`` is orthogonal). They are the eigenvectors of ``CᵀC`` with eigenvalue
     ``< σ_1²/tol²`` (``σ_1²`` by Lanczos, then one LAPACK ``syevr`` on that interval): one
-    tridiagonalization instead of a full SVD (4–5 times faster at 2049 columns). The
-    subspace is the SVD's to about ``ε σ_1²/gap`` (relative ``1e-9`` on the kernels of
-    Chapter 5; ``tests/methods/test_appendix_tls.py`` compares with the full SVD).
+    tridiagonalization instead of a full SVD, the subspace the SVD's to about
+    ``ε σ_1²/gap`` (``tests/sysid/test_appendix_tls.py`` compares with the full SVD). The
+    path of :func:`appendix_tls` on a given matrix; a convolution system takes
+    :mod:`~podbench.sysid.deconvolution.bordered`.
     """
     n1 = C.shape[1]
     G = C.T @ C
@@ -703,8 +749,8 @@ def appendix_tls(X, y, *, tol: float = DEFAULT_APPENDIX_TOL) -> np.ndarray:
 
 def _check_tol(tol) -> float:
     tol = check_positive(tol, "tol")
-    if tol <= 1:
-        raise InputError(f"Parameter `tol`: must be above 1 (a ratio σ_1/σ_i), got {tol!r}")
+    if tol < 1:
+        raise InputError(f"Parameter `tol`: must be at least 1 (a ratio σ_1/σ_i), got {tol!r}")
     return float(tol)
 
 
@@ -717,10 +763,14 @@ def _appendix_solve(X: np.ndarray, y: np.ndarray, tol: float):
     den = float(Vd[M] @ Vd[M])
     info = {"rank": r, "tls_den": den}
     if r == 0 or den == 0.0:
-        warnings.warn("appendix TLS: no direction kept (or 1 − ΣV² = 0); returning h = 0",
-                      PodbenchWarning, stacklevel=4)
+        _warn_nothing_kept()
         return np.zeros(M), info
     return num / den, info
+
+
+def _warn_nothing_kept() -> None:
+    warnings.warn("appendix TLS: no direction kept (or 1 − ΣV² = 0); returning h = 0",
+                  PodbenchWarning, stacklevel=5)
 
 
 def _block_weights(A: np.ndarray, n_blocks: int) -> np.ndarray:
@@ -747,6 +797,11 @@ class AppendixTLS(DenseSolver):
     (:func:`appendix_tls`). The MATLAB's kernel is Δt times podbench's (Eq. 3.39 keeps Δt),
     so the solution is returned divided by Δt; predictions are the MATLAB's.
 
+    ``tol``: the appendix's ``tol = 1000; %based on SNR of data`` (the default), or
+    ``"snr"``: the rule the comment asks for, "automated, not specified like it is now":
+    ``tol`` = the amplitude SNR of the forces in ``X``, estimated from the samples
+    (:func:`snr_tol`; 1000 is 60 dB), one value per right-hand side.
+
     The cut depends on units: ``σ_1/σ_i`` of ``[X y]`` changes when the forces or the
     responses change units (lbf → N, in → mm). ``column_scale=ρ`` forms ``[ρ X | y]``
     (and returns ``ρ h``): the same data in other units (ρ = force factor / response
@@ -758,8 +813,9 @@ class AppendixTLS(DenseSolver):
 
     Parameters
     ----------
-    tol : float
-        Largest ``σ_1/σ_i`` kept (default 1000, the appendix's ``tol``).
+    tol : float or "snr"
+        Largest ``σ_1/σ_i`` kept (default 1000, the appendix's ``tol``; at least 1), or
+        ``"snr"`` (above).
     column_scale : float
         ``ρ`` above (default 1: the data's own units); ignored with ``balance``.
     balance : bool
@@ -768,15 +824,16 @@ class AppendixTLS(DenseSolver):
         Size limits as :class:`TruncatedTLS`.
 
     Diagnostics: ``rank`` (directions kept; the smallest over ML's columns) and
-    ``rank_max``, ``rcond`` (``1/tol``), ``tls_den`` (the smallest ``1 − ΣV²``).
+    ``rank_max``, ``rcond`` (``1/tol``, the largest over the columns), ``tls_den`` (the
+    smallest ``1 − ΣV²``).
     """
 
     name = "tls-appendix"
-    _parameter_constraints = {"tol": [Interval("number", 1, None, closed="neither")],
+    _parameter_constraints = {"tol": [Options(SNR_TOL), Interval("number", 1, None)],
                               "column_scale": [POSITIVE], "balance": [Boolean()],
                               "max_columns": [None, COUNT], "max_dense_bytes": [POSITIVE]}
 
-    def __init__(self, *, tol: float = DEFAULT_APPENDIX_TOL, column_scale: float = 1.0,
+    def __init__(self, *, tol: float | str = DEFAULT_APPENDIX_TOL, column_scale: float = 1.0,
                  balance: bool = False, max_columns: int | None = None,
                  max_dense_bytes: float = DENSE_MAX_BYTES):
         self.tol = tol
@@ -790,18 +847,63 @@ class AppendixTLS(DenseSolver):
         _check_tls_size(N, M, 1, _tls_limit(self.max_columns))  # before forming A
         return super()._solve(system)
 
+    def _tols(self, system: ConvolutionSystem | None, n_rhs: int) -> list[float]:
+        if self.tol != SNR_TOL:
+            return [_check_tol(self.tol)] * n_rhs
+        if system is None:
+            raise InputError('Parameter `tol`: "snr" reads the modal forces of a '
+                             "convolution system; give a number to solve a given matrix")
+        return [snr_tol(system, col) for col in range(n_rhs)]
+
     def _solve_dense(self, system: ConvolutionSystem):
-        A = system.dense(self.max_dense_bytes, solver=self.name) / system.dt  # raw samples
-        X, info = self._solve_raw(A, system._B2, system.k)
+        """``tlsdeconv`` on every right-hand side through the eigendecomposition of ``XᵀX``
+        (:mod:`~podbench.sysid.deconvolution.bordered`: the same directions and ``h`` as the
+        SVD of ``[X y]``, ``X`` never formed)."""
+        system.check_dense(self.max_dense_bytes, solver=self.name)
+        tols = self._tols(system, system.n_rhs)
+        G = system.G  # the raw modal-force samples: the appendix's form_conv_mat(q), no Δt
+        n, n_cases, k = G.shape
+        if self.balance:  # each force block divided by its Frobenius norm
+            ramp = (n - np.arange(n))[:, None, None]  # T(q) holds q[m] in n − m rows
+            norms = np.sqrt(np.sum(ramp * G * G, axis=(0, 1)))
+            wb = np.where(norms > 0, 1.0 / np.where(norms > 0, norms, 1.0), 1.0)
+        else:
+            wb = np.full(k, float(self.column_scale))
+        # a common factor of every block scales XᵀX: one eigendecomposition serves all
+        common = bool(np.all(wb == wb[0]))
+        mu, Q = gram_eigh(G) if common else gram_eigh(G, wb)
+        mu = mu * (wb[0] * wb[0]) if common else mu
+        X = np.zeros((k * n, system.n_rhs))
+        infos = []
+        for col in range(system.n_rhs):
+            y = system._B2[:, col]
+            wy = 1.0
+            if self.balance:
+                ny = float(np.linalg.norm(y))
+                wy = 1.0 / ny if ny > 0 else 1.0
+            b = border(G, y * wy, wb)
+            h, r, den = bordered_tls(mu, Q, b, float((y * wy) @ (y * wy)), tols[col],
+                                     n_cases * n, min_den=TLS_MIN_DEN)
+            if r == 0 or den == 0.0:
+                _warn_nothing_kept()
+                h = np.zeros(k * n)
+            X[:, col] = h * np.repeat(wb, n) / wy
+            infos.append({"rank": r, "tls_den": den})
         X = X / system.dt  # the MATLAB's kernel is Δt times podbench's
-        return (X[:, 0] if system.vector else X), info
+        return (X[:, 0] if system.vector else X), self._info(infos, tols)
+
+    def _info(self, infos, tols) -> dict:
+        ranks = [i["rank"] for i in infos]
+        return {"rank": min(ranks), "rank_max": max(ranks), "rcond": 1.0 / min(tols),
+                "tls_den": min(i["tls_den"] for i in infos), "balanced": bool(self.balance),
+                "column_scale": None if self.balance else float(self.column_scale)}
 
     def _solve_matrix(self, A, B):
         _check_tls_size(A.shape[0], A.shape[1], 1, _tls_limit(self.max_columns))
-        return self._solve_raw(A, B, 1)
+        return self._solve_raw(A, B, 1, self._tols(None, B.shape[1]))
 
-    def _solve_raw(self, A: np.ndarray, B: np.ndarray, n_blocks: int):
-        tol = _check_tol(self.tol)
+    def _solve_raw(self, A: np.ndarray, B: np.ndarray, n_blocks: int, tols):
+        """``tlsdeconv`` on a given matrix, column by column (:func:`appendix_tls`)."""
         if self.balance:
             wa = _block_weights(A, n_blocks)
             A = A * wa
@@ -816,14 +918,10 @@ class AppendixTLS(DenseSolver):
             if self.balance:
                 ny = float(np.linalg.norm(y))
                 wy = 1.0 / ny if ny > 0 else 1.0
-            h, inf = _appendix_solve(A, y * wy, tol)
+            h, inf = _appendix_solve(A, y * wy, tols[col])
             X[:, col] = h * wa / wy
             infos.append(inf)
-        ranks = [i["rank"] for i in infos]
-        return X, {"rank": min(ranks), "rank_max": max(ranks), "rcond": 1.0 / tol,
-                   "tls_den": min(i["tls_den"] for i in infos),
-                   "balanced": bool(self.balance),
-                   "column_scale": None if self.balance else float(self.column_scale)}
+        return X, self._info(infos, tols)
 
 
 class BalancedTLS(AppendixTLS):
@@ -835,7 +933,7 @@ class BalancedTLS(AppendixTLS):
 
     name = "tls-balanced"
 
-    def __init__(self, *, tol: float = DEFAULT_APPENDIX_TOL, column_scale: float = 1.0,
+    def __init__(self, *, tol: float | str = DEFAULT_APPENDIX_TOL, column_scale: float = 1.0,
                  balance: bool = True, max_columns: int | None = None,
                  max_dense_bytes: float = DENSE_MAX_BYTES):
         super().__init__(tol=tol, column_scale=column_scale, balance=balance,

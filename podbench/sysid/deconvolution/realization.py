@@ -44,8 +44,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.linalg
-import scipy.signal
 
 from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver
@@ -67,7 +67,7 @@ then costs well under a second."""
 
 PILOTS: dict[str, type[Solver]] = {
     "cgls": CGLS, "kernel": KernelRegularized, "block": BlockSubstitution, "ls": LeastSquares,
-    "tls": TruncatedTLS, "fft": FFTTikhonov, "stls": STLS}
+    "tls-dt": TruncatedTLS, "fft": FFTTikhonov, "stls": STLS}
 """The built-in solvers a pilot kernel may come from (direct or regularized kernel
 estimates; not ``realization``, ``subspace`` or ``auto``, which are built on this one)."""
 
@@ -329,6 +329,10 @@ class Realization(Solver):
     # ------------------------------------------------------------------ parameters
     def _pilot_solver(self) -> Solver:
         return PILOTS[self.pilot]()
+
+    def determined(self):
+        """The realization is built on the pilot kernel: its pilot solver's digits."""
+        return self._pilot_solver().determined()
 
     # ------------------------------------------------------------------ steps
     def _n_pilot(self, n: int, k: int) -> int:

@@ -57,7 +57,7 @@ the longer). ``horizon=`` fixes it.
 **Order**: only orders ``N`` whose singular value ``S_N`` exceeds the **rank floor**
 ``rank_tol · S_1`` (default :data:`RANK_TOL` = 1e-8 ≈ √eps) are candidates: an order whose
 subspace direction sits at round-off is not determined by the data, and its poles (and any
-rule that compares them) would depend on the BLAS kernel. Among the candidates (even orders
+rule that compares them) would depend on the CPU. Among the candidates (even orders
 up to ``max_order``) the hold-out rule of :mod:`.realization` chooses, on the first
 ``n_rule`` samples of every record (the whole record unless it is long): poles (steps 1–4)
 and residues (step 5) from the first ``n_fit = n_rule − ⌈holdout·n_rule⌉`` samples, the
@@ -66,16 +66,12 @@ and the smallest order within one standard error of the best (``rule="1se"``; ``
 the best). Held-out errors that agree to a relative ``1e-6`` count as equal, so round-off
 cannot reorder them. The chosen order is then identified from the whole records.
 
-**Determined by the data** (issue 23): with ``L₃₂`` read from the blocks of the LQ factor,
-as MOESP writes it, the clean NL beam's ML fit of the beam_forced_noise sweep chose order
-16, 30 or 38 under three 1e-12 perturbations of its records (its kernel moving by 9 %),
-and wrote a total error of 0.15038 on OpenBLAS SkylakeX against 0.150422 and 0.150627 on
-Haswell: its pulse loads leave the future inputs of rank 24 of 124 (horizon 31), and the
-LQ factor's rows for the dependent ones are round-off whose directions carry future-output
-content into ``L₃₂``. The projected form (:func:`_l32`) chooses order 28 under every
-perturbation, its kernel moving by at most 2e-7, and gives the same table on both kernels;
-the hold-out tie ``_TIE`` was not the cause (the chosen and the next order's errors differ
-by more than 1e-2 relative there).
+**Determined by the data**: with ``L₃₂`` read from the blocks of the LQ factor, as MOESP
+writes it, a pulse load's future inputs are rank deficient, the LQ factor's rows for the
+dependent ones are round-off, and their directions carry future-output content into
+``L₃₂``: the chosen order and the kernel then move under a 1e-12 perturbation of the
+records and between CPUs (docs/noise.md). The projected form (:func:`_l32`) reads
+``L₃₂`` on the instruments' numerical range only and is determined by the data.
 """
 
 from __future__ import annotations
@@ -83,8 +79,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.linalg
-import scipy.signal
 
 from podbench.errors import InputError
 from podbench.sysid.deconvolution._base import Solver
@@ -185,10 +181,8 @@ def _l32(R: np.ndarray, i: int, k: int, r: int, rank_tol: float = RANK_TOL) -> n
     rule). Reading the blocks of ``L = Rᵀ`` directly, as the LQ form of MOESP does, needs
     ``U_f`` and ``Z`` of full row rank: a pulse load's future inputs are zero after the
     pulse, the rows of ``R`` for such dependent rows are round-off, and their directions,
-    chosen by the BLAS kernel, carry future-output content in or out of ``L₃₂`` (measured
-    on the clean NL beam, ML: its ninth singular value 1.7231e-3 on OpenBLAS Haswell,
-    1.7248e-3 on SkylakeX, 1.5399e-3 with the records perturbed by 1e-12; the projected
-    form: 3e-12 relative between the kernels)."""
+    chosen by the CPU's round-off, carry future-output content in or out of ``L₃₂`` (measured
+    in docs/noise.md: the projected form agrees between kernels to 3e-12)."""
     a = i * k
     c = i * r
     m = R.shape[1]

@@ -187,18 +187,11 @@ class ConvolutionSystem:
             return num / den
         return 0.0 if num == 0 else float("inf")
 
-    def dense(self, max_bytes: float | None = None, *, solver: str | None = None) -> np.ndarray:
-        """The dense matrix ``A`` (``n_cases·n × k·n``; block ``(j, i)`` is
-        ``convolution_matrix(ʲq_i, dt)``), as :func:`block_convolution_matrix`.
-
-        Parameters
-        ----------
-        max_bytes : float, optional
-            Size limit (default :data:`DENSE_MAX_BYTES`): a larger matrix raises
-            :class:`InputError` suggesting a structured solver.
-        solver : str, optional
-            Name of the solver asking, for the message.
-        """
+    def check_dense(self, max_bytes: float | None = None, *, solver: str | None = None) -> None:
+        """Refuse a dense matrix ``A`` above ``max_bytes`` (default :data:`DENSE_MAX_BYTES`)
+        with an :class:`InputError` suggesting a structured solver (what :meth:`dense` checks
+        before forming it; a dense solver that forms another matrix of ``A``'s size checks
+        the same)."""
         limit = check_positive(DENSE_MAX_BYTES if max_bytes is None else max_bytes,
                                "max_dense_bytes")
         n, n_cases, k = self.G.shape
@@ -211,6 +204,21 @@ class ConvolutionSystem:
                 "GiB; its pseudo-inverse costs O((k·n)³)); use a structured solver: 'block' "
                 "(exact), 'fft' or 'cgls' (Tikhonov-regularized)"
             )
+
+    def dense(self, max_bytes: float | None = None, *, solver: str | None = None) -> np.ndarray:
+        """The dense matrix ``A`` (``n_cases·n × k·n``; block ``(j, i)`` is
+        ``convolution_matrix(ʲq_i, dt)``), as :func:`block_convolution_matrix`.
+
+        Parameters
+        ----------
+        max_bytes : float, optional
+            Size limit (default :data:`DENSE_MAX_BYTES`): a larger matrix raises
+            :class:`InputError` suggesting a structured solver.
+        solver : str, optional
+            Name of the solver asking, for the message.
+        """
+        self.check_dense(max_bytes, solver=solver)
+        n, n_cases, k = self.G.shape
         out = np.zeros((n_cases * n, k * n))
         for j in range(n_cases):
             for i in range(k):

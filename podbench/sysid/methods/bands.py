@@ -1,212 +1,26 @@
-"""Prediction bands and error estimates: every prediction states its own error (issue 21).
+"""Prediction bands and error estimates: every prediction states its own error.
 
 ``model.predict(target, coverage=0.9)`` returns a :class:`Prediction` (``mean``, ``lower``,
-``upper``, ``error_estimate``, ``to_pandas()``); ``model.predict(target)`` still returns the
-array. The band is built from the training records only (no truth), from two sources:
+``upper``, ``error_estimate``, ``note``, ``to_pandas()``); ``model.predict(target)`` still
+returns the array. Everything is built from the training records, never from the truth
+(docs/bands.md has the derivations and the measurements):
 
-1. **Identification uncertainty** (measurement noise through the deconvolution). The noise
-   of each sensor channel is estimated from the training records — the part of every
-   record outside the fitted basis, ``(I − UUᵀ)W``, holds ``(m − k)/m`` of white per-channel
-   noise (and the projection error, so the estimate errs high) — or given (``noise_std``).
-   It is propagated by refitting the method on the training records with fresh noise of that
-   level (``n_draws`` Monte-Carlo refits in the fitted basis; by default only where the
-   records allow no split — with cross-validation the noise reaches the band through the
-   folds, which are fitted on noisy records and scored against a noisy one); the spread of
-   the target's prediction over the draws is ``s_noise(i, t)`` (a moving RMS over time
-   smooths the few draws). Under Gaussian noise and a linear fit this part alone is exact:
-   ``half-width = z_{(1+c)/2} · s_noise``.
-2. **Model-form error** (projection, diagonalization, linearization, time variance) by
-   cross-validation over the training records: each training record is predicted by a
-   model fitted to the others in the fitted basis ``U`` (leave one record out; the basis
-   stays that of the whole fit, so the folds differ from the model only in the dynamics
-   they identify; a method whose ``k`` is bounded by the number of records refits in the
-   first ``N − 1`` columns of ``U``: see below). Each
-   residual ``R_j(i, t)`` is normalized by a difficulty ``s(i, t)`` computed from the
-   *prediction only* — its local RMS envelope at that sensor times a time profile ``g(t)``
-   (10 bins, learned from the folds' residuals: phase errors grow with time) — and the
-   conformal quantile ``q`` of the pooled normalized residuals at the level ``c`` (with the
-   ``(n + 1)`` correction of split-conformal regression, as crepes' normalized
-   ``ConformalRegressor`` computes it) scales the target's band:
-   ``half-width = q · s(i, t)``.
-
-The two half-widths add in quadrature. **Exchangeability.** Samples of one time history are
-not exchangeable (neighbouring samples share their error), so no per-sample guarantee is
-claimed. The unit that is argued exchangeable is the *record*: training load cases and the
-target are draws of one test design (load position, shape, initial profile); the coverage
-podbench scores is the fraction of a target's samples inside the band, and the pooled
-quantile estimates the quantile of that fraction's distribution over records. With N
-records the guarantee is at the record level only, and weak (N = 3…6); it is measured, not
-assumed (the calibration study). Where a method takes one design only (POVR, SL: one
-record; MR: exactly three) there is no split: the model-form part then rests on the
-training record's in-sample residual (its projection error) alone, which cannot see the
-diagonal assumption's error (SL and POVR add its split, *One design only* below) —
-such bands are reported with their calibration and ``Prediction.source`` says
-``"in-sample"``.
-
-The error estimate (the predicted ``total_error`` ‖Ŵ − W‖_F/‖W‖_F) is the RMS of the band's
-predicted residual, ``sqrt(Σ (μ·s² + s_noise²)) / ‖Ŵ‖_F`` (SL, POVR: plus the
-diagonal part, over the truth's norm its split supports: below; MDS and POVR on an initial
-displacement: the part inside the basis plus the target's own share outside it, *The
-target's own projection share* below), with ``μ`` the geometric mean over
-the folds of ``‖R_j‖²_F / ‖s_j‖²_F`` (each fold's Frobenius error in units of its
-difficulty, so the estimate measures what ``total_error`` measures): relative errors differ
-by orders of magnitude between records (a load near the clamp barely moves the beam and its
-relative projection error is ten times the others'), and an estimate scored within a factor
-of 2 is a log-scale estimate, for which the geometric mean is the central value. The band
-keeps the pooled quantile (its coverage is a fraction of samples over all folds).
-
-**Cost** (``python benchmarks/bands.py``, issue 21: at most 5× the plain fit and
-predict). A method may give its folds without refits, ``fold_predictions(records, basis,
-frozen)`` (the same predictions as the refits, to round-off; tested): MDS's fold
-prediction is linear in the other records' projections (``U Σ_l c_l Uᵀ ˡW``, ``c`` from
-the fold's ``V̂0``), ML's folds are deconvolved together (``Solver.solve_many``; ``"block"``:
-one batched forward substitution). The band's arithmetic runs on the stacked folds (one
-envelope pass, the moving RMS by slices of a cumulative sum, the conformal quantile by
-selection). Measured (a machine at load 13–17 on 2 cores; sub-millisecond ratios vary up
-to 2× between runs): MDS5 12–49× → 4.9–6.0×, ML4-block 5–7× → 2.5–4.7×, POVR 6–7.3× →
-5.4–7.6× (its 0.4-ms fit against two noise refits and the diagonal split: over target);
-clean / 1 % noise: ML6-cgls 2.6 / 3.5×, ML6-fft 4.1 / 3.8×, ML4-cgls 1.5 / 1.6×, SL
-2.6 / 2.9×, FIR-LS 3.6 / 3.9×, ML-TC 2.2 / 2.2×.
-
-**The target's own projection share** (:data:`PROJECTION_SHARE`). A free-response
-method on an initial displacement (MDS, POVR) knows the target's ``w̃0`` and predicts in
-the span of ``U``: its relative error at ``t = 0`` is exactly ``ρ = ‖(I − UUᵀ)w̃0‖/‖w̃0‖``
-(``projection_share``), measurable before the truth is known, and on the free beams the
-whole history's error follows it (MDS5 on the LTI beam: realized 0.042 / 0.0007 / 0.0035
-/ 0.0022 / 0.0060 / 0.0007 against ρ = 0.043 / 0.0007 / 0.0033 / 0.0019 / 0.0061 /
-0.0008). The estimate of such a target is ``sqrt(e_in² + ρ²)``: the identification's
-error inside the basis (the same scale rule on the residuals' part ``U Uᵀ R_j``) plus the
-target's own share outside it, instead of the training records' projection error; the
-band is unchanged. Measured on results/calibration (before → after; no constant; found on
-the LTI beam, checked on the others): within ×2 0.328 → 0.361, Spearman 0.861 → 0.871;
-cross-validated within ×2 0.352 → 0.402, Spearman 0.778 → 0.809 (median
-estimate/realized 2.11 → 1.91); free beams within ×2 0.438 → 0.519 (LTV MDS5 0.22 → 0.50,
-Spearman 0.47 → 0.75; NL unchanged); coverage identical. On the 5-DOF chain (k = 3 of 5)
-MDS's estimate 0.837 → 0.326 against a realized 0.310.
-
-**What limits the estimate's accuracy** (measured on results/calibration's 402
-predictions, log₂ of estimate/realized). The estimate is the expected error (the RMS of
-the band's predicted residual), not a quantile. Its misses are mostly *within* a fitted
-model: the study fits 60 models (method × structure class × noise level), each predicting
-4–8 targets, and an oracle constant per fitted model, chosen on the truth, puts 0.79 of
-the estimates within ×2 (0.774 before the projection share; one constant for all 0.44,
-per method 0.60). Any correction that is one number per fitted model — a rescaling, a
-leave-one-out fold-size correction derived from the folds, a mean of the folds instead of
-their geometric mean — is at most that oracle, so none reaches "within ×2 for 80 %":
-
-* cross-validated estimates are nearly one number per model: across a model's targets
-  log₂(estimate) has a standard deviation of 0.43 (median over models) against 1.54 for
-  the realized error, within-model Spearman 0.53 (0.25 before the projection share;
-  oracle per model 0.74): the difficulty ``s`` follows the prediction's own envelope, so
-  ``‖s‖/‖Ŵ‖`` hardly depends on the target; for forced targets nothing like ``ρ`` is
-  known (the response starts at rest), and the folds cannot tell how far a target lies
-  from the training design;
-* the one-design split (SL, POVR) ranks a model's targets (within-model Spearman 0.98,
-  oracle per model 0.89) but its level is off (SL ×7.8 high on the beams, where the
-  realized ``‖W_⊥‖`` is 5–16× the training pattern's gain ``‖T‖``).
-
-A per-(method, class) shift tuned at 0 % noise and checked at 1 and 5 % reaches 0.64 of
-the former estimates within ×2 (unshifted 0.33) — a constant fitted on the truth, so not
-adopted.
-
-**Regularization of the refits.** Every refit (fold or noise draw) runs at the full fit's
-data-driven choices (:meth:`~podbench.sysid.methods.base.PODMethod.frozen_params`: the GCV
-``reg`` of ``"cgls"``/``"fft"``/``"stls"``, a realization's hold-out order, ERA's order,
-OpInf's regularizer, the FIR lags and TC prior of the IO methods) instead of choosing them
-again from its own records. The folds then measure the model-form error *at the full fit's
-regularization*, which is the regularization of the model whose prediction the band is
-for; re-choosing would add the variability of the choice (a different λ per fold) to the
-band, and its search is most of the cost (ML6 with ``"cgls"``: the band cost 6.4× the plain
-fit and predict with a GCV search per fold, 2.5× without; ``benchmarks/bands.py``). Bias:
-the full fit's λ was chosen with the held-out record among the data (a mild leak, which
-makes a fold's error optimistic), while a fold has fewer records at the same λ than the
-choice was made for (its system is less determined: pessimistic). Measured on the
-calibration study (before the amplitude factor below): class coverage moves by at most a
-few points on the beams, both ways (ML NL 0.82 → 0.82, ML4 LTI 0.95 → 0.93); on the truss a
-fold whose own GCV λ collapsed (2e-4 instead of 0.135: error 176× its response) now
-predicts at the full λ (error 0.99), i.e. almost nothing, and its residual in units of its
-own envelope dominated the pooled quantile (ML7: coverage 0.89 → 0.99, interval score 19×
-the constant band's) until the envelope's floor below was tied to the training
-amplitudes. ``reuse_choices=False`` (:func:`calibrate`) re-chooses in every refit.
-
-**Amplitude extrapolation.** A fold (or target) whose prediction is larger than every
-record its model was fitted on is not exchangeable with the others: the linearization error
-of a nonlinear structure grows with amplitude. Its difficulty is multiplied by ``d^β``
-(:func:`extrapolation`, ``d = max(a/a_max, 1)``, ``a`` the RMS of the prediction — what the
-method sees — and ``a_max`` the largest RMS of its training records; β =
-:data:`AMPLITUDE_POWER` = 1, stated, not fitted: with N = 4…7 folds and one of them beyond
-the range a fitted β is one point's slope), in the folds' scores and in the target's band.
-The envelope's floor is also taken relative to the training records' per-sensor RMS
-(:data:`TRAINING_FLOOR`), so that a fold predicting almost nothing gets a band on the scale
-of what its model was fitted on. Measured on the calibration study (reuse on; class means
-of ML): LTI 0.95 → 0.94, LTV 0.91 → 0.95, NL 0.82 → 0.82, truss 0.99 → 0.99 with its
-interval score 19 → 1.8× the constant band's; Spearman over the cross-validated
-predictions 0.751 → 0.778. Counting a prediction *below* the range as extrapolated too
-(:data:`EXTRAPOLATE_BELOW`) was measured and is off: the fold of the load nearest the clamp
-(a response 10× smaller, ten times the others' relative projection error — a position
-effect) is then charged to amplitude, its scores are divided by ``d`` ≈ 7–9 and the pooled
-quantile drops (ML NL 0.79). The NL misses are targets beyond the training amplitudes
-(ML6's 2-ms pulse: 2.2× the largest training tip amplitude, realized error 1.27 against an
-estimate of 0.05) whose error grows much faster than ``d`` (a cubic spring): the factor
-does not reach them, and nothing the records show tells how fast it grows. Measured
-(ML4 and ML6 on the NL beam, results/calibration): the training records are one load
-(500 lbf, 0.5 ms) at several positions, so their amplitudes differ by position only, and
-the one fold beyond the others' range (22 in, ``d`` = 1.3) has 3–9× the error of the
-folds inside — on the *linear* beam too (0.0041 against 0.0011–0.0013: a position
-effect, the load nearest the free end), so a slope fitted to the folds (β ≈ 4 on the LTI
-beam) measures position, not nonlinearity. Of the misses two lie *inside* the training
-RMS range (the 200-lbf pulse at 13 in: ``a/a_max`` = 0.19, realized 0.10, coverage
-0.57–0.76; the 1.5-ms half-sine: 0.51, 0.09, 0.71–0.84): the nonlinearity shows in the
-load's amplitude and shape at one position, which the design never varies, and no factor
-of the prediction's RMS can see it. ML's NL coverage over the targets of the training
-load's amplitude and shape is 0.92 / 0.89 / 0.96 (0 / 1 / 5 % noise), over the other
-three 0.61 / 0.52 / 0.82; β stays 1.
-
-**One design only (SL, POVR): the diagonal assumption.** One record cannot cross-validate,
-and its in-sample residual cannot see the diagonal assumption's error (SL: estimate 0.047
-against a realized 2.1). SL and POVR scale each mode's training response by
-``s_i = q'_i/u_i`` (Chapter 3: SL's ``ṽ_i = c_ii * q̃_i`` with ``c_ii`` deconvolved from the
-training mode's response to ``u_i``, Eqs. 3.43–3.44; POVR's ``σ̃_i = σ_i q'_i/u_i``,
-Eq. 3.24; ``u`` the training record's modal excitation, ``q'`` the target's). Their
-prediction is linear in ``q'``, and the scaling is *exact* on the part of the target with
-the training pattern, ``q'_∥ = â âᵀq'`` (``â = u/‖u‖``): there every mode sees the same
-scale and the method returns the training response itself, scaled — the linear
-structure's own (``c_ii u_i = Σ_l c_il u_l`` is what the deconvolution identifies). Hence,
-for a linear structure and a training load of one spatial pattern, the prediction's error
-is exactly ``Ŵ − W = Ŵ_⊥ − W_⊥`` (:func:`diagonal_split`; tested to round-off on the
-coupled chain): the method's response to the rest ``q'_⊥ = q' − q'_∥`` (known) minus the
-structure's (unknown: the record never saw that excitation). ``W_⊥`` is bounded by what
-the record determines, the response to each mode's unexplained excitation applied in the
-training pattern, ``T² = Σ_i respond(â q'_⊥,i)²`` (the structure's gain along the one
-direction the record shows). The band's model-form part is then ``s_diag² = env(Ŵ_⊥)² +
-env(T)²`` (``env``: the local mean square over the envelope's window; half-width
-``z·s_diag``, the two unknown-signed parts added in quadrature, Gaussian reading), and
-the error estimate is relative to the truth's norm the split supports,
-``‖W‖² ≈ ‖Ŵ − Ŵ_⊥‖² + ‖T‖²``, instead of ``‖Ŵ‖`` (a prediction that is mostly artefact
-is measured against what the record says the truth is). Nothing in it divides by ``u_i``:
-a mode the training load barely excites inflates ``Ŵ_⊥`` exactly as much as it inflates
-the prediction, so the band is bounded by the prediction's own unexplained part.
-
-The former rule (:data:`DIAGONAL_RULE` ``"tangent"``, :func:`diagonal_inconsistency`:
-the spread ``D`` of the ``s_i``, the tangent of the angle between ``q'`` and ``u``, spread
-over the prediction as ``‖s_diag‖_F = D‖Ŵ‖_F``) divides by ``cos`` of that angle: on the
-truss's face-10 double hit ``D`` = 5910 / 161 / 6.5 at 0 / 1 / 5 % training noise against
-a realized 49, and the study's interval score was 50× the constant band's. Measured on
-the calibration study (results/calibration, ``"tangent"`` → ``"split"``): interval score
-over all 402 predictions 50 → 0.31 × the best constant band's (beams alone 0.77 → 0.54;
-SL 56 → 0.20, POVR 0.84 → 0.91); the double hit's estimate 5910 / 161 / 6.5 → 31 / 31 /
-28 (realized 49 / 49 / 47), coverage 1.0 → 0.99; Spearman(error_estimate, total_error)
-0.857 → 0.861; within a factor of 2 0.38 → 0.33: ``T`` is the gain along the training
-pattern only, and on the beams the target's unexplained excitation falls on modes of
-larger gain (``‖W_⊥‖`` is 5–16× ``‖T‖``), so SL's estimates there err high (median
-estimate/realized 1.7 → 7.8) while the truss's come within ×2 (0.25 → 1.0). Coverage: SL
-LTI 1.0 → 1.0, LTV 0.83 → 0.78, NL 1.0 → 0.97, truss 0.99 → 0.99; POVR LTI 0.99 → 1.0,
-LTV 0.79 → 0.94, NL 0.57 → 0.70. :data:`DIAGONAL_TERM` switches the term off.
-
-With as many records as modes (MDS, ML on Chapter 4's designs) a fold refits in the first
-``N − 1`` columns of ``U``; its residual is taken as the fold's error inside those modes plus
-the whole basis's projection error ``(I − UUᵀ)W_j`` (not the error of the missing mode,
-which the fitted model does identify).
+* **Cross-validation** (a method whose records allow leaving one out): each training record
+  is predicted by the method refitted on the others in the fitted basis (at the full fit's
+  regularization, :meth:`~podbench.sysid.methods.base.PODMethod.frozen_params`). The error
+  estimate of a prediction is ``sqrt(d²(κ_Λ²(Λ² + 1) + κ_Δ²Δ²) + ρ²)``: the target's
+  leverage ``Λ``, blind spot ``Δ`` and projection share ``ρ``
+  (:mod:`~podbench.sysid.methods.band_target`), the level factor ``d`` (:func:`levels`,
+  :func:`extrapolation`: a measured input's RMS outside the training inputs' range, above
+  or below, else the prediction's RMS above the training responses'), and two gains
+  fitted to the folds' realized errors
+  (:func:`fit_gains`). The band is normalized conformal: each fold's residual in units of
+  its own estimate spread over its prediction's envelope, the conformal quantile of the
+  pooled scores scaling the target's difficulty (:func:`_difficulty`).
+* **One design only** (POVR, SL: one record; MR: exactly three): the in-sample residual,
+  the noise propagated by refits on noisy copies, and for SL and POVR the diagonal
+  assumption's split (:func:`diagonal_split`); MR has no model-form term and gives no
+  estimate (NaN, with ``Prediction.note`` saying why).
 """
 
 from __future__ import annotations
@@ -218,8 +32,11 @@ from statistics import NormalDist
 
 import numpy as np
 
+from podbench.core.hints import percent_hint
 from podbench.core.records import as_record
 from podbench.errors import InputError
+from podbench.sysid.methods import band_target
+from podbench.sysid.methods.band_target import TargetTerms
 
 __all__ = ["Prediction", "BandCalibration", "calibrate", "predict_band", "check_coverage",
            "interval_score", "band_coverage"]
@@ -254,21 +71,57 @@ TRAINING_FLOOR = True
 """Whether the envelope's floor also scales with the training records' per-sensor RMS."""
 AMPLITUDE_POWER = 1.0
 """β of the amplitude-extrapolation factor ``d^β`` of the model-form difficulty
-(:func:`extrapolation`); 0 switches it off."""
+(:func:`extrapolation`); 0 switches it off. For the input level (:data:`LEVEL_RULE`) the
+folds may raise it (:func:`fit_level_power`)."""
+LEVEL_RULE = "input"
+"""How a prediction's level is compared with the training records' range (:func:`levels`):
+``"input"``: where every record carries a measured input (input/output records: the force or
+ground motion a test applies, e.g. a ground-vibration test run at several force levels) the
+RMS of that input, outside the range *above or below* it (a structure whose best linear
+model changes with the level, through friction, clearance or a stiffening spring, is as far
+from a low level as from a high one); every other record: the prediction's RMS against the
+training responses', above the range only (:data:`EXTRAPOLATE_BELOW`). ``"response"``: the
+latter for every record (the former rule)."""
+LEVEL_POWERS = (1.0, 1.5, 2.0, 3.0)
+"""The exponents β of the input level's excursion the folds choose from (:func:`fit_level_power`);
+the smallest is :data:`AMPLITUDE_POWER`'s default."""
+LEVEL_SPREAD = 1.1
+"""A fold counts as outside the others' input-level range when its excursion exceeds this:
+below it, the spread of the folds' errors from every other cause swamps a level effect."""
 
 
 def _rms(X) -> float:
     return float(np.sqrt(np.mean(np.asarray(X, dtype=float) ** 2)))
 
 
-def extrapolation(amplitude: float, lo: float, hi: float) -> float:
+def extrapolation(amplitude: float, lo: float, hi: float, below: bool | None = None) -> float:
     """How far a prediction of RMS ``amplitude`` lies beyond the RMS range ``[lo, hi]`` of
-    the records the model was fitted on: ``max(amplitude/hi, 1)`` (and ``lo/amplitude``
-    below the range when :data:`EXTRAPOLATE_BELOW`)."""
+    the records the model was fitted on: ``max(amplitude/hi, 1)``, and ``lo/amplitude``
+    below the range when ``below`` (default :data:`EXTRAPOLATE_BELOW`)."""
     if not amplitude > 0 or not hi > 0:
         return 1.0
-    below = lo / amplitude if EXTRAPOLATE_BELOW else 1.0
-    return float(max(amplitude / hi, below, 1.0))
+    below = EXTRAPOLATE_BELOW if below is None else below
+    under = lo / amplitude if below and lo > 0 else 1.0
+    return float(max(amplitude / hi, under, 1.0))
+
+
+def input_level(record) -> float | None:
+    """The RMS of a record's measured input over all input channels (input unit), or None
+    for a record without one (simulated records: ``F``, ``w0`` are loads, not measured
+    inputs) or when :data:`LEVEL_RULE` is ``"response"``."""
+    if LEVEL_RULE != "input" or record.u is None or record.collocated:
+        return None
+    return _rms(record.u)
+
+
+def levels(records) -> tuple[str, list[float]]:
+    """``(rule, levels)`` of the training records: ``"input"`` and their input RMS where
+    every record has a measured input (:func:`input_level`), else ``"response"`` and the
+    RMS of their responses ``W``."""
+    lv = [input_level(r) for r in records]
+    if all(v is not None and v > 0 for v in lv):
+        return "input", [float(v) for v in lv]
+    return "response", [_rms(r.W) for r in records]
 
 
 def diagonal_split(pattern, excitation, respond) -> tuple[np.ndarray, np.ndarray]:
@@ -345,7 +198,8 @@ def check_coverage(coverage) -> float:
         raise InputError(f"Parameter `coverage`: expected a number in (0, 1), got "
                          f"{coverage!r}") from None
     if not 0.0 < c < 1.0 or not math.isfinite(c):
-        raise InputError(f"Parameter `coverage`: must be in (0, 1), got {coverage!r}")
+        raise InputError(f"Parameter `coverage`: must be in (0, 1), got {coverage!r}"
+                         f"{percent_hint(c)}")
     return c
 
 
@@ -369,7 +223,11 @@ class Prediction:
         ``n_folds`` folds), ``"in-sample"`` (one design only: no split) or ``"noise"``
         (the noise part alone was asked for).
     details : dict
-        Scalars of the calibration (conformal quantile, folds, noise level, …).
+        Scalars of the calibration (conformal quantile, folds, noise level, the target's
+        leverage, blind spot and projection share, …).
+    note : str
+        Why no error estimate can be made (``error_estimate`` is then NaN); empty when
+        it can.
     """
 
     mean: np.ndarray
@@ -380,6 +238,7 @@ class Prediction:
     dt: float | None = None
     source: str = ""
     details: dict = field(default_factory=dict)
+    note: str = ""
 
     @property
     def half_width(self) -> np.ndarray:
@@ -495,9 +354,16 @@ class BandCalibration:
     n_draws: int
     cv_modes: int | None = None      # k of the cross-validation refits
     noise_models: list = field(default_factory=list)  # refits on noisy copies
-    amplitude_range: tuple = (0.0, 0.0)  # RMS range of the training records' W
+    amplitude_range: tuple = (0.0, 0.0)  # level range of the training records (levels())
     reference_rms: np.ndarray | None = None  # per-sensor RMS of the training records' W
     inside_score: float | None = None  # mean_square_score of the residuals inside the basis
+    gains: tuple | None = None       # (κ_Λ², κ_Δ²) of the target-aware estimate (folds)
+    excitations: object = None       # band_target.Excitations of the training records in U
+    fold_errors: np.ndarray | None = None     # realized relative error of each fold
+    fold_estimates: np.ndarray | None = None  # the estimate's value for each fold
+    note: str = ""                   # why no estimate can be made (empty: it can)
+    level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
+    level_power: float = AMPLITUDE_POWER  # β of the level's excursion d = a^β
 
     def quantile(self, coverage: float) -> float:
         """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
@@ -599,32 +465,35 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
             for j in range(len(recs))]
 
 
-def _fold_envelopes(Whs, recs) -> list[np.ndarray]:
-    """Each fold's difficulty: the envelope of its prediction, floored by the per-sensor
-    RMS of the records it was fitted on, times its amplitude-extrapolation factor
-    (computed for all folds at once where the predictions share a shape)."""
+def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float]]:
+    """``(envelopes, excursions)``: each fold's envelope of its prediction, floored by the
+    per-sensor RMS of the records it was fitted on (computed for all folds at once where
+    the predictions share a shape), and how far its level lies outside the others'
+    (:func:`extrapolation` of :func:`levels`: the left-out record's input RMS against the
+    others', both ways, or its prediction's RMS against the others' responses)."""
     N = len(recs)
     ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
-    amps = [_rms(r.W) for r in recs]
-    refs, factors = [], []
+    rule, amps = levels(recs)
+    refs, excursions = [], []
     for j, Wh in enumerate(Whs):
         rest = [ms[l] for l in range(N) if l != j]
-        rest_rms = [amps[l] for l in range(N) if l != j]
+        rest_lv = [amps[l] for l in range(N) if l != j]
         refs.append(np.sqrt(np.mean(rest, axis=0)))
-        factors.append(extrapolation(_rms(Wh), min(rest_rms), max(rest_rms))
-                       ** AMPLITUDE_POWER)
+        own = amps[j] if rule == "input" else _rms(Wh)
+        excursions.append(extrapolation(own, min(rest_lv), max(rest_lv),
+                                        below=True if rule == "input" else None))
     if len({Wh.shape for Wh in Whs}) == 1:
-        return list(_envelope(np.stack(Whs), np.stack(refs))
-                    * np.asarray(factors)[:, None, None])
-    return [_envelope(Wh, ref) * f for Wh, ref, f in zip(Whs, refs, factors, strict=True)]
+        return list(_envelope(np.stack(Whs), np.stack(refs))), excursions
+    return [_envelope(Wh, ref) for Wh, ref in zip(Whs, refs, strict=True)], excursions
 
 
 def _residuals(model, recs, U, can_split: bool, frozen=None):
-    """``(source, residuals, envelopes, cv_modes)``: leave-one-record-out residuals where the
-    records allow a split, else the in-sample residuals."""
-    residuals, envs = [], []
+    """``(source, residuals, envelopes, cv_modes, predictions, excursions)``: leave-one-record-out
+    residuals where the records allow a split, else the in-sample residuals."""
+    residuals, envs, excursions = [], [], []
     source = "in-sample"
     cv_modes = None
+    Whs: list = []
     if can_split:
         source = "cross-validation"
         k = int(U.shape[1])
@@ -632,7 +501,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
-        envs = _fold_envelopes(Whs, recs)
+        envs, excursions = _fold_envelopes(Whs, recs)
         for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
@@ -649,7 +518,9 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             W = np.asarray(r.W, dtype=float)[:, :Wh.shape[1]]
             residuals.append(W - Wh)
             envs.append(_envelope(Wh))
-    return source, residuals, envs, cv_modes
+            Whs.append(Wh)
+            excursions.append(1.0)
+    return source, residuals, envs, cv_modes, Whs, excursions
 
 
 def _time_profile(residuals, envs) -> np.ndarray:
@@ -681,14 +552,13 @@ def _time_profile(residuals, envs) -> np.ndarray:
 
 def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, seed: int = 0,
               cross_validate: bool = True, reuse_choices: bool = True) -> BandCalibration:
-    """Calibrate the band of a fitted ``model`` on its training ``records`` (see the module
-    docstring). ``noise_std``: per-channel noise std of the training records (scalar or
-    (m,)), default estimated; ``n_draws`` noise refits (default: 2 where the records allow
-    no split, 0 where they are cross-validated — each fold is then fitted on noisy records
-    and scored against a noisy one, so the noise reaches the band through the folds, at
-    the cost of no extra refit); ``cross_validate=False`` gives the noise part alone (the
-    known-answer case); ``reuse_choices=False`` lets every refit choose its regularization
-    again (see the module docstring, *Regularization of the refits*)."""
+    """Calibrate the band of a fitted ``model`` on its training ``records`` (docs/bands.md).
+    ``noise_std``: per-channel noise std of the training records (scalar or (m,)), default
+    estimated; ``n_draws`` noise refits (default: 2 where the records allow no split, 0
+    where they are cross-validated — each fold is then fitted on noisy records and scored
+    against a noisy one, so the noise reaches the band through the folds, at the cost of
+    no extra refit); ``cross_validate=False`` gives the noise part alone (the known-answer
+    case); ``reuse_choices=False`` lets every refit choose its regularization again."""
     recs = list(records)
     if recs[0].u is not None and not recs[0].collocated and cross_validate and len(recs) < 2:
         raise InputError(f"{type(model).__name__}: a prediction band on input/output records "
@@ -699,40 +569,155 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
         (hi is None or len(recs) - 1 <= hi)
     if n_draws is None:
         n_draws = 0 if can_split else 2
-    m = np.asarray(model.modes_).shape[0]
     U = np.asarray(model.modes_, dtype=float)
-    sig = _noise_std(model, recs, noise_std, m)
+    sig = _noise_std(model, recs, noise_std, U.shape[0])
     frozen = _frozen(model) if reuse_choices else {}
     noise_models = _noise_refits(model, recs, sig, n_draws, seed, U, frozen)
     if not cross_validate:
         return BandCalibration("noise", np.zeros(0), 0.0, np.ones(N_TIME_BINS), sig, 0,
                                len(noise_models), None, noise_models)
-    source, residuals, envs, cv_modes = _residuals(model, recs, U, can_split, frozen)
+    source, residuals, envs, cv_modes, Whs, excursions = _residuals(model, recs, U, can_split,
+                                                                     frozen)
     g = _time_profile(residuals, envs)
-    difficulty = [E * g[_bins(R.shape[1])][None, :] for R, E in zip(residuals, envs,
-                                                                   strict=True)]
-    scores = np.concatenate([(np.abs(R) / S).ravel()
-                             for R, S in zip(residuals, difficulty, strict=True)])
-    # the error estimate's scale: per fold, κ_j² = ‖R_j‖²/‖s_j‖² (the fold's Frobenius
-    # error in units of its difficulty, so that the estimate is the same quantity as
-    # total_error); the geometric mean over folds (relative errors differ by orders of
-    # magnitude between records — a load near the clamp — and the estimate is scored on a
-    # log scale: within a factor of 2)
-    ms = np.array([np.sum(R ** 2) / np.sum(S ** 2)
-                   for R, S in zip(residuals, difficulty, strict=True)])
-    ms_gm = _geometric_mean(ms)
-    inside = None
-    if PROJECTION_SHARE and callable(getattr(model, "projection_share", None)):
-        # the same scale from the residuals' part inside the basis (U Uᵀ R_j): the error the
-        # identification adds; the target's own share outside the basis is added per target
-        inside = _geometric_mean(np.array([np.sum((U @ (U.T @ R)) ** 2) / np.sum(S ** 2)
-                                           for R, S in zip(residuals, difficulty,
-                                                           strict=True)]))
-    amps = [_rms(r.W) for r in recs]
-    return BandCalibration(source, scores, ms_gm, g, sig,
-                           len(residuals) if source == "cross-validation" else 0,
-                           len(noise_models), cv_modes, noise_models,
-                           (min(amps), max(amps)), _sensor_rms(recs), inside)
+    rule, amps = levels(recs)
+    cal = BandCalibration(source, np.zeros(0), 0.0, g, sig,
+                          len(residuals) if source == "cross-validation" else 0,
+                          len(noise_models), cv_modes, noise_models,
+                          (min(amps), max(amps)), _sensor_rms(recs), level_rule=rule)
+    if source == "cross-validation":
+        _fold_estimate(cal, model, recs, U, residuals, Whs, excursions)
+    else:
+        _in_sample_scale(cal, residuals, envs)
+    return cal
+
+
+def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursions) -> None:
+    """The target-aware estimate's gains, each fold's estimate and the band's normalized
+    scores (docs/bands.md, *The estimate*): each fold's realized error against its
+    :func:`~podbench.sysid.methods.band_target.fold_terms`, the gains fitted to them
+    (:func:`fit_gains`), and every residual sample over the fold's difficulty — its
+    estimate spread over the prediction's envelope."""
+    U_cv = U if cal.cv_modes is None else U[:, :cal.cv_modes]
+    terms = band_target.fold_terms(model, recs, U_cv, U)
+    if terms is None:  # no excitation to compare: one number per model
+        terms = [TargetTerms(0.0, 0.0, None)] * len(recs)
+    errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
+        np.asarray(r.W, float)[:, :R.shape[1]])), 1e-300)
+        for R, r in zip(residuals, recs, strict=True)])
+    a = np.asarray(excursions, dtype=float)
+    if cal.level_rule == "input":
+        cal.level_power = fit_level_power(errors, terms, a)
+    d = a ** cal.level_power
+    cal.gains = fit_gains(errors, terms, d)
+    cal.fold_errors = errors
+    cal.fold_estimates = np.array([estimate(cal.gains, t, f)
+                                   for t, f in zip(terms, d, strict=True)])
+    cal.excitations = band_target.excitations(model, recs, U)
+    scores = []
+    for R, Wh, e in zip(residuals, Whs, cal.fold_estimates, strict=True):
+        S = _difficulty(Wh, cal, e)
+        scores.append((np.abs(R) / S).ravel())
+    cal.scores = np.concatenate(scores)
+    cal.mean_square_score = float(np.mean(cal.scores ** 2))
+
+
+def _in_sample_scale(cal: BandCalibration, residuals, envs) -> None:
+    """One design only: the in-sample residuals in units of the envelope (the scale of the
+    band's in-sample part and of its estimate)."""
+    difficulty = [E * cal.time_profile[_bins(R.shape[1])][None, :]
+                  for R, E in zip(residuals, envs, strict=True)]
+    cal.scores = np.concatenate([(np.abs(R) / S).ravel()
+                                 for R, S in zip(residuals, difficulty, strict=True)])
+    cal.mean_square_score = _geometric_mean(np.array([
+        np.sum(R ** 2) / np.sum(S ** 2) for R, S in zip(residuals, difficulty, strict=True)]))
+
+
+def estimate(gains, terms: TargetTerms, factor: float = 1.0) -> float:
+    """The predicted relative error ``sqrt(d²(κ_Λ²(Λ² + 1) + κ_Δ²Δ²) + ρ²)`` of a target
+    (or a fold) with :class:`~podbench.sysid.methods.band_target.TargetTerms` ``terms``
+    and amplitude factor ``d`` (docs/bands.md, *The estimate*)."""
+    a, b = gains
+    rho2 = (terms.rho or 0.0) ** 2
+    return math.sqrt(factor ** 2 * (a * (terms.leverage2 + 1.0) + b * terms.blind2) + rho2)
+
+
+FLOOR_SHARE = 0.01
+"""A fold's error left after its projection share ρ is at least this share of its error²
+(the gains are fitted on logarithms)."""
+GAIN_GRID = 41
+"""Candidates of the blind-spot gain κ_Δ² (log-spaced over five decades, and 0)."""
+
+
+def fit_level_power(errors, terms, excursions) -> float:
+    """β of the input level's excursion ``d = a^β`` (:data:`LEVEL_RULE`): the
+    :data:`LEVEL_POWERS` value whose :func:`fit_gains` explains the folds' errors with the
+    least logarithmic loss, when at least two folds lie outside the others' level range
+    (excursion above :data:`LEVEL_SPREAD`: a left-out lowest and highest level); else the
+    smallest, :data:`AMPLITUDE_POWER`. Never below it: two or three folds cannot tell a
+    structure whose error does not grow with the level from one whose error does, and a
+    level outside the training range is an extrapolation of a model that the records show
+    only inside it."""
+    a = np.asarray(excursions, dtype=float)
+    if np.count_nonzero(a > LEVEL_SPREAD) < 2:
+        return AMPLITUDE_POWER
+    best = None
+    for beta in sorted({AMPLITUDE_POWER, *LEVEL_POWERS}):
+        if beta < AMPLITUDE_POWER:
+            continue
+        loss = _fit(errors, terms, a ** beta)[0]
+        if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
+            best = (loss, beta)
+    return float(best[1])
+
+
+def fit_gains(errors, terms, factors) -> tuple[float, float]:
+    """``(κ_Λ², κ_Δ²)`` fitted to the folds' realized errors ``e_j`` in log space:
+    ``Σ_j (ln y_j − ln(κ_Λ²(Λ_j² + 1) + κ_Δ²Δ_j²))²`` least, with
+    ``y_j = (e_j² − ρ_j²)/d_j²`` (the share outside the basis is known, the amplitude
+    factor stated). For each κ_Δ² on a grid (0, and five decades about the value that
+    explains the folds by the blind spot alone) κ_Λ² is the geometric mean that the
+    logarithmic fit gives; the pair of least loss is kept (deterministic: a grid, no
+    optimizer)."""
+    return _fit(errors, terms, factors)[1:]
+
+
+def _fit(errors, terms, factors) -> tuple[float, float, float]:
+    """``(loss, κ_Λ², κ_Δ²)`` of :func:`fit_gains`."""
+    e2 = np.asarray(errors, dtype=float) ** 2
+    rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
+    y = np.maximum(e2 - rho2, FLOOR_SHARE * e2) / np.asarray(factors, float) ** 2
+    L = np.array([t.leverage2 + 1.0 for t in terms])
+    D = np.array([t.blind2 for t in terms])
+    ok = np.isfinite(y) & (y > 0) & np.isfinite(L) & np.isfinite(D)
+    if not np.any(ok):
+        return math.inf, 0.0, 0.0
+    y, L, D = y[ok], L[ok], D[ok]
+    cands = [0.0]
+    if np.any(D > 0):
+        base = float(np.median(y[D > 0] / D[D > 0]))
+        cands += list(base * np.logspace(-4, 1, GAIN_GRID))
+    best = None
+    for b in cands:
+        a = _geometric_mean(np.maximum(y - b * D, 1e-12 * y) / L)
+        loss = float(np.sum((np.log(y) - np.log(a * L + b * D)) ** 2))
+        if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
+            best = (loss, a, b)
+    return best
+
+
+def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float) -> np.ndarray:
+    """The band's difficulty of a prediction ``Ŵ`` whose relative error is estimated as
+    ``err``: its envelope (floored by the training records' per-sensor RMS) times the time
+    profile ``g``, scaled so that its Frobenius norm is the absolute error that ``err``
+    means, ``‖Ŵ‖ err/sqrt(1 + err²)`` (the truth's norm is ``‖Ŵ‖/sqrt(1 + err²)`` for an
+    error uncorrelated with it)."""
+    E = _envelope(Wh, cal.reference_rms) * cal.time_profile[_bins(Wh.shape[1])][None, :]
+    norm_e = float(np.linalg.norm(E))
+    if not (math.isfinite(err) and norm_e > 0):
+        return E
+    scale = float(np.linalg.norm(Wh)) * err / math.sqrt(1.0 + err ** 2)
+    tiny = 1e-12 * (float(np.sqrt(np.mean(Wh ** 2))) or 1.0)
+    return np.maximum(E * (scale / norm_e), tiny)
 
 
 def _geometric_mean(ms: np.ndarray) -> float:
@@ -760,7 +745,7 @@ def _diagonal_part(model, record, Wh: np.ndarray, cal: BandCalibration):
         W_perp, T2 = hook(record)
         width = max(3, round(ENVELOPE_FRACTION * Wh.shape[1]))
         s2 = _moving_rms(W_perp, width) ** 2 + _moving_rms(np.sqrt(T2), width) ** 2
-        ref = math.sqrt(float(np.sum((Wh - W_perp) ** 2)) + float(np.sum(T2)))
+        ref = math.sqrt(float(np.sum((Wh - W_perp) ** 2)) + _unexplained_norm2(W_perp, T2))
         details = {"diagonal_unexplained": float(np.linalg.norm(W_perp)) / norm
                    if norm > 0 else math.inf,
                    "diagonal_bound": math.sqrt(float(np.sum(T2))) / norm if norm > 0
@@ -775,12 +760,30 @@ def _diagonal_part(model, record, Wh: np.ndarray, cal: BandCalibration):
     return D * env * ratio, {"diagonal_inconsistency": D}, norm
 
 
+DIAGONAL_NORM = "bracket"
+"""How a single-record diagonal method's error estimate reads the norm of the structure's
+unknown response ``W_⊥`` to the target's unexplained excitation (docs/bands.md, *One design
+only*): ``"bracket"`` the geometric mean of its two readings, the method's own ``‖Ŵ_⊥‖``
+(exact when the POMs are uncoupled modes, the diagonal assumption) and the training
+pattern's gain ``‖T‖`` (exact when the structure's gain is the same in every direction);
+``"pattern"`` ``‖T‖`` alone (the former rule: far too small when the training load excites
+only stiff directions, e.g. a load near a clamp, and then the relative estimate explodes)."""
+
+
+def _unexplained_norm2(W_perp: np.ndarray, T2: np.ndarray) -> float:
+    """``‖W_⊥‖²`` as :data:`DIAGONAL_NORM` reads it."""
+    t2 = float(np.sum(T2))
+    if DIAGONAL_NORM == "pattern":
+        return t2
+    return math.sqrt(float(np.sum(W_perp ** 2)) * t2)
+
+
 def predict_band(model, record, coverage: float, cal: BandCalibration,
                  mean: np.ndarray) -> Prediction:
     """The band of ``model``'s prediction ``mean`` for ``record`` at ``coverage``."""
     c = check_coverage(coverage)
     Wh = np.asarray(mean, dtype=float)
-    m, n = Wh.shape
+    n = Wh.shape[1]
     var_noise = np.zeros_like(Wh)
     if cal.noise_models:
         devs = np.stack([np.asarray(e.predict(record), dtype=float) - Wh
@@ -789,34 +792,72 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
         var_noise = _moving_rms(np.sqrt(np.mean(devs ** 2, axis=0)),
                                 max(3, round(ENVELOPE_FRACTION * n))) ** 2
     z = NormalDist().inv_cdf(0.5 + c / 2)
-    if cal.source == "noise":
-        s_model = np.zeros_like(Wh)
-        q = 0.0
-    else:
-        bins = _bins(n)
-        d = extrapolation(_rms(Wh), *cal.amplitude_range) if cal.source == \
-            "cross-validation" else 1.0
-        ref = cal.reference_rms if cal.source == "cross-validation" else None
-        s_model = _envelope(Wh, ref) * cal.time_profile[bins][None, :] * d ** AMPLITUDE_POWER
-        q = cal.quantile(c)
-    s_diag, diag_details, norm = _diagonal_part(model, record, Wh, cal)
-    half = np.sqrt((z ** 2) * (var_noise + s_diag ** 2) + (q * s_model) ** 2)
-    share = getattr(model, "projection_share", None)
-    rho = share(record) if cal.inside_score is not None and callable(share) else None
-    if rho is None:
-        pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise
-                               + s_diag ** 2))
-        err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
-    else:  # the identification's error inside the basis, and the target's own outside it
-        pred_sq = float(np.sum(cal.inside_score * s_model ** 2 + var_noise + s_diag ** 2))
-        err = math.sqrt(pred_sq / norm ** 2 + rho ** 2) if norm > 0 else math.inf
-    details = {"conformal_quantile": q, "n_folds": cal.n_folds, "n_draws": cal.n_draws,
+    details = {"n_folds": cal.n_folds, "n_draws": cal.n_draws,
                "n_scores": int(cal.scores.size),
                "noise_std_max": float(np.max(cal.noise_std)) if cal.noise_std is not None
                else 0.0}
     if cal.cv_modes is not None:
         details["cv_modes"] = cal.cv_modes
-    details.update(diag_details)
+    if cal.source == "cross-validation":
+        err, s_model, q, terms, a = _cross_validated(model, record, Wh, cal, c)
+        details.update(conformal_quantile=q, leverage=math.sqrt(terms.leverage2),
+                       blind_spot=math.sqrt(terms.blind2), level_excursion=a,
+                       level_power=cal.level_power, level_rule=cal.level_rule)
+        if terms.rho is not None:
+            details["projection_share"] = terms.rho
+        half = np.sqrt((q * s_model) ** 2 + z ** 2 * var_noise)
+        note = ""
+    else:
+        err, half, note, more = _one_design(model, record, Wh, cal, c, z, var_noise)
+        details.update(more)
     return Prediction(mean=Wh, lower=Wh - half, upper=Wh + half, coverage=c,
                       error_estimate=err, dt=getattr(model, "dt_", None) or
-                      getattr(record, "dt", None), source=cal.source, details=details)
+                      getattr(record, "dt", None), source=cal.source, details=details,
+                      note=note)
+
+
+def _cross_validated(model, record, Wh, cal: BandCalibration, c: float):
+    """``(estimate, difficulty, conformal quantile, terms, level excursion)`` of a
+    cross-validated band."""
+    U = np.asarray(model.modes_, dtype=float)
+    terms = band_target.target_terms(model, cal.excitations, record, U)
+    if terms is None:
+        terms = TargetTerms(0.0, 0.0, None)
+    a = target_excursion(record, Wh, cal)
+    err = estimate(cal.gains, terms, a ** cal.level_power)
+    return err, _difficulty(Wh, cal, err), cal.quantile(c), terms, a
+
+
+def target_excursion(record, Wh, cal: BandCalibration) -> float:
+    """How far a target lies outside the training records' level range (:func:`levels`):
+    its measured input's RMS, both ways, or its prediction's RMS, above."""
+    if cal.level_rule == "input":
+        level = input_level(record)
+        if level is not None:
+            return extrapolation(level, *cal.amplitude_range, below=True)
+    return extrapolation(_rms(Wh), *cal.amplitude_range)
+
+
+def _one_design(model, record, Wh, cal: BandCalibration, c: float, z: float, var_noise):
+    """``(estimate, half-width, note, details)`` of a band fitted on one design only (no
+    split): the in-sample residual's part, the noise part and, for SL and POVR, the
+    diagonal assumption's split; no estimate (NaN and a note) for a method that has no
+    model-form term (MR)."""
+    s_model = np.zeros_like(Wh)
+    q = 0.0
+    if cal.source == "in-sample":
+        s_model = _envelope(Wh) * cal.time_profile[_bins(Wh.shape[1])][None, :]
+        q = cal.quantile(c)
+    s_diag, details, norm = _diagonal_part(model, record, Wh, cal)
+    half = np.sqrt((z ** 2) * (var_noise + s_diag ** 2) + (q * s_model) ** 2)
+    details["conformal_quantile"] = q
+    if cal.source == "in-sample" and "diagonal_unexplained" not in details and \
+            "diagonal_inconsistency" not in details:
+        note = (f"no error estimate: {type(model).__name__} was fitted on one design "
+                f"({len(getattr(model, 'training_records_', None) or ())} records, none of "
+                "which can be left out) and its in-sample residual does not show the "
+                "model-form error; the band holds the noise and the in-sample residual only")
+        return math.nan, half, note, details
+    pred_sq = float(np.sum(cal.mean_square_score * s_model ** 2 + var_noise + s_diag ** 2))
+    err = math.sqrt(pred_sq) / norm if norm > 0 else math.inf
+    return err, half, "", details

@@ -67,6 +67,13 @@ class FIRLeastSquares(MultipleLoad):
     def inputs(self):
         return "measured"
 
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+        """ML's command-line parameters restricted to those FIR-LS has (its inputs, solver
+        and basis are fixed)."""
+        out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        names = self._get_param_names()
+        return {k: v for k, v in out.items() if k in names}
+
     def _measured_basis(self, recs) -> tuple[np.ndarray, np.ndarray]:
         m = recs[0].n_outputs
         return np.eye(m), np.linalg.norm(np.hstack([r.y for r in recs]), axis=1)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import inspect
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 
 from podbench import _compat
 from podbench.core.records import check_compatible

@@ -260,10 +260,16 @@ class ERA(PeerMethod):
     """
 
     abbreviation = "ERA"
-    #: the observer recursion (Eq. 2) amplifies the records' round-off (:data:`OKID_RCOND`)
-    amplifies_round_off = True
     #: a free decay's ``predict(x0_new)`` (:mod:`podbench.sysid.methods.arrays`)
     array_form = ArrayForm(target="x0")
+    #: the observer recursion (Eq. 2) amplifies the records' round-off (:data:`OKID_RCOND`):
+    #: a study may write its errors at the digits a probed refit leaves in place
+    amplifies_round_off = True
+    floor_digits = 3
+    """Significant digits its estimates are determined to: the observer recursion (Eq. 2)
+    amplifies the records' round-off past the tables' sixth digit (measured between CPUs
+    on the peers study, 3e-6…2.3e-5 relative: docs/noise.md), three digits put the
+    written digit at least 40× above that floor."""
     _parameter_constraints = {"n_modes": INT_OR_NONE, "order": INT_OR_NONE,
                               "max_order": [Interval("integer", 1)], "lags": INT_OR_NONE,
                               "holdout": HOLDOUT,
@@ -351,8 +357,12 @@ class ERA(PeerMethod):
             super()._fit(records, basis)
 
     def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
-        """On measured inputs the Hankel matrix of :data:`ERA_BLOCKS` seconds."""
-        out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        """On measured inputs the Hankel matrix of :data:`ERA_BLOCKS` seconds. ``--n-modes
+        K`` means K modes, as for every method: the realization order ``2K`` (a mode is a
+        complex pole pair), not the size of the basis."""
+        out = super().command_line_params(records, solver=solver, n_modes=None)
+        if n_modes is not None:
+            out["order"] = 2 * int(n_modes)
         if self.excitation == "forced" and not self._modal(records):
             out.update(inputs="measured", blocks=ERA_BLOCKS)
         return out

@@ -1,0 +1,89 @@
+"""``podbench fit``: fit a registered method on training record files and keep the model.
+
+The files, the method and ``--solver``/``--n-modes`` are read and checked as
+``podbench predict`` reads them (:mod:`podbench.harness.predict`). The output folder ``OUT``
+(built beside its place and swapped in whole):
+
+* ``OUT/model.npz``: the fitted model with its provenance (:mod:`podbench.sysid.models`:
+  arrays plus a JSON header with ``format_version``; no pickles);
+* ``OUT/model.json``: its readable summary: the method, its parameters, the training files
+  with their SHA-256, ``dt``, channels, units, the podbench version, what the fit chose
+  (solver, lags, prior, order) and how the state-space realization and its physical modes
+  were chosen (or, where the method has no state-space form, the one line why);
+* ``OUT/modes.csv``: one row per physical mode sorted by frequency, ``mode,
+  frequency_hz, damping_ratio, shape:<output channel>…`` (the real, phase-aligned shape,
+  largest |component| = 1); not written where the method has no state-space form.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from podbench.core.atomic import replace_dir
+from podbench.core.records import check_records
+from podbench.core.threads import single_blas_thread
+from podbench.errors import InputError
+from podbench.harness.predict import (
+    command_line_estimator,
+    fitted_config,
+    method_entry,
+    min_samples_of,
+    read_any,
+)
+from podbench.sysid.models import Model, realization_summary
+
+__all__ = ["FitResult", "fit_files", "modes_table"]
+
+
+@dataclass
+class FitResult:
+    """What :func:`fit_files` wrote: the ``model`` (a :class:`~podbench.sysid.models.Model`),
+    the folder ``out``, the ``modes`` table (None where the method has no state-space form)
+    and ``note`` (why not)."""
+
+    model: Model
+    out: Path
+    modes: pd.DataFrame | None
+    note: str = ""
+
+
+def modes_table(method) -> tuple[pd.DataFrame | None, dict]:
+    """The physical modes of a fitted method and, for model.json, its realization summary
+    and how the modes were chosen; None and the one-line reason (``modes_reason``) where
+    it has no state-space form."""
+    summary, table = realization_summary(method)
+    if table is None:
+        return None, {**summary, "modes_table": None, "modes_reason": summary["reason"]}
+    return table, {**summary, "modes_table": "modes.csv", "modes_count": len(table)}
+
+
+def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,
+              input_units=None, output_units=None, units=None) -> FitResult:
+    """Fit ``method`` on the ``train`` files and write ``out`` (module docstring). Raises
+    InputError (one line naming the file and the field, or the option) before anything is
+    written."""
+    train = [str(p) for p in train]
+    if not train:
+        raise InputError("Parameter `train`: no training file given")
+    entry = method_entry(method)
+    kw = dict(input_units=input_units, output_units=output_units, system=units)
+    tr = [read_any(p, **kw, require_outputs=True) for p in train]
+    est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes)
+    check_records(tr, min_samples=min_samples_of(est, tr[0].dt))
+    with single_blas_thread():
+        est.fit(tr)
+        table, summary = modes_table(est)
+    model = Model(est, training_files=train)
+    config = fitted_config(entry, est, train, [])
+    extra = {"fitted": config["fitted"], "chosen": config["chosen"],
+             "inputs": config["inputs"], **summary}
+    with replace_dir(out) as tmp:
+        model.save(tmp / "model.npz", extra=extra)
+        if table is not None:
+            table.to_csv(tmp / "modes.csv", index=False, float_format="%.6g",
+                         lineterminator="\n")
+    return FitResult(model=model, out=Path(out), modes=table,
+                     note=str(summary.get("modes_reason", "")))

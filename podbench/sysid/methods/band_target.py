@@ -1,0 +1,217 @@
+"""The target's own difficulty, for the error estimate and band of a prediction.
+
+A linear identification method predicts a target as a combination of its training records:
+MDS exactly (``Ŵ = U Σ_l c_l Uᵀ ˡW`` with ``c = V̂0⁺ Uᵀ w̃0``, Eqs. 3.27–3.29), ML frequency
+by frequency (``V̂(f) = Σ_l c_l(f) ˡV̂(f)`` with ``c(f) = Q(f)⁺ q̃(f)``, Eqs. 3.48–3.49 in
+the frequency domain, the modal forces ``Q = [ˡq …]``), the input/output methods likewise
+with the measured inputs. The coefficients ``c`` are computed here from the excitations
+alone (what the method sees of a record: ``Uᵀw0``, ``UᵀF``, the inputs ``u``), for a
+target and, leaving each training record out, for every fold. Three terms follow
+(:class:`TargetTerms`), each computable before the truth is known:
+
+* **leverage** ``Λ² = Σ_f Σ_l |c_l(f)|² ‖ˡV̂(f)‖² / Σ_f ‖Σ_l c_l(f) ˡV̂(f)‖²``: how large a
+  combination of training responses the prediction is made of, relative to the prediction
+  (1 for a target equal to a training record; large when the prediction is a difference of
+  large, nearly cancelling parts). An error of each training record proportional to its
+  response (noise per channel, the part of it no k-mode model explains) reaches the
+  prediction multiplied by ``Λ``;
+* **blind spot** ``Δ² = Σ_f ‖x̃(f) − Σ_l c_l(f) ˡx(f)‖² / Σ_f ‖Uᵀx̃(f)‖²``: the part of the
+  target's excitation in the sensors' full space (``w̃0``, ``F̃``) that the combination
+  matching its modal excitation ``Uᵀx̃`` leaves over, relative to that modal excitation. It
+  lies outside the basis (the modal parts match), the method cannot see it, and the
+  structure responds to it, in the basis (coupling) and outside it; with point loads at
+  new positions it grows with the leverage and with how little of the load the basis
+  holds (a load near a clamp);
+* **projection share** ``ρ = ‖(I − UUᵀ) w̃0‖/‖w̃0‖`` of an initial displacement: the
+  prediction's exact relative error at ``t = 0`` (the prediction lies in the span of
+  ``U``, the truth starts at ``w̃0``).
+
+How large an error each unit of ``Λ`` and ``Δ`` brings is not known from theory: it is
+calibrated on the folds (:mod:`podbench.sysid.methods.bands`), whose realized errors are
+known without the truth. Nothing here reads a target's response.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["TargetTerms", "Excitations", "excitations", "target_terms", "fold_terms",
+           "RCOND"]
+
+RCOND = 1e-6
+"""Singular values of the training excitations below ``RCOND`` × the largest (over all
+frequencies) are treated as zero in ``c = X⁺ x̃``: a frequency at which no training record
+is excited contributes nothing that the records could express."""
+
+
+@dataclass(frozen=True)
+class TargetTerms:
+    """The target's difficulty relative to the training records (module docstring).
+
+    ``leverage2`` (Λ²), ``blind2`` (Δ²) and ``rho`` (ρ; None when the excitation is not an
+    initial displacement) are dimensionless."""
+
+    leverage2: float
+    blind2: float
+    rho: float | None = None
+
+
+@dataclass
+class Excitations:
+    """What the leverage needs of a set of records in one basis: per record the modal
+    excitation ``E`` (B, p), the full-space excitation ``X`` (B, m) or None, and the
+    response in the basis ``R`` (B, q), over B frequency bins (one for a free response)."""
+
+    E: np.ndarray  # (B, p, N)
+    X: np.ndarray | None  # (B, m, N)
+    R: np.ndarray  # (B, q, N)
+    nfft: int
+
+
+def _inputs(record):
+    """The excitation history of a forced or input/output record (F or u)."""
+    for name in ("F", "u"):
+        v = getattr(record, name, None)
+        if v is not None:
+            return np.asarray(v, dtype=float)
+    return None
+
+
+def _outputs(record):
+    for name in ("W", "y"):
+        v = getattr(record, name, None)
+        if v is not None:
+            return np.asarray(v, dtype=float)
+    return None
+
+
+def _initial(model, record):
+    """The initial profile a free-response method reads (``w0`` or ``v0``), with
+    ``W[:, 0]`` for a displacement record without ``w0``."""
+    name = "v0" if getattr(model, "excitation", "displacement") == "velocity" else "w0"
+    x = getattr(record, name, None)
+    if x is None and name == "w0":
+        W = _outputs(record)
+        x = None if W is None else W[:, 0]
+    return None if x is None else np.asarray(x, dtype=float).ravel()
+
+
+def kind_of(model) -> str:
+    """``"free"``, ``"forced"``, ``"io"`` or ``""`` (no target terms: mixed responses)."""
+    kind = getattr(model, "excitation_kind", "")
+    return kind if kind in ("free", "forced", "io") else ""
+
+
+def _one(model, record, U: np.ndarray, nfft: int, *, response: bool):
+    """``(E, X, R)`` of one record in the basis ``U``: E (B, p), X (B, m) or None,
+    R (B, q) or None (``response=False``: a target)."""
+    kind = kind_of(model)
+    if kind == "free":
+        x = _initial(model, record)
+        if x is None:
+            return None
+        R = None
+        if response:
+            R = (U.T @ _outputs(record)).reshape(1, -1)
+        return (U.T @ x)[None, :], x[None, :], R
+    F = _inputs(record)
+    if F is None:
+        return None
+    R = np.fft.rfft(U.T @ _outputs(record), n=nfft, axis=1).T if response else None
+    if kind == "forced" and F.shape[0] == U.shape[0]:
+        return np.fft.rfft(U.T @ F, n=nfft, axis=1).T, np.fft.rfft(F, n=nfft, axis=1).T, R
+    # inputs elsewhere than at the outputs: the inputs themselves are the excitation
+    return np.fft.rfft(F, n=nfft, axis=1).T, None, R
+
+
+def excitations(model, records, U) -> Excitations | None:
+    """The excitations and responses of ``records`` in the basis ``U`` (None when the
+    method has no target terms or a record lacks its excitation)."""
+    if not kind_of(model):
+        return None
+    U = np.asarray(U, dtype=float)
+    n = max(_outputs(r).shape[1] for r in records)
+    nfft = 2 * n  # zero-padded: the products are linear convolutions, not circular
+    parts = [_one(model, r, U, nfft, response=True) for r in records]
+    if any(p is None for p in parts):
+        return None
+    shapes = {(p[0].shape, p[2].shape) for p in parts}
+    if len(shapes) != 1:
+        return None  # records of different lengths (measured records): no common bins
+    X = None if parts[0][1] is None else np.stack([p[1] for p in parts], -1)
+    return Excitations(np.stack([p[0] for p in parts], -1), X,
+                       np.stack([p[2] for p in parts], -1), nfft)
+
+
+def _coefficients(E: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``c = E⁺ e`` per bin (B, N), singular values below :data:`RCOND` × the largest of
+    all bins dropped."""
+    u, s, vh = np.linalg.svd(E, full_matrices=False)
+    top = float(np.max(s)) if s.size else 0.0
+    if top == 0:
+        return np.zeros((E.shape[0], E.shape[2]), dtype=E.dtype)
+    inv = np.where(s > RCOND * top, 1.0 / np.where(s > 0, s, 1.0), 0.0)
+    return np.einsum("bji,bj,bkj,bk->bi", vh.conj(), inv, u.conj(), e)
+
+
+def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetTerms:
+    E, R = ex.E[..., keep], ex.R[..., keep]
+    c = _coefficients(E, e)
+    power = np.sum(np.abs(R) ** 2, axis=1)  # (B, N)
+    num = float(np.sum(np.abs(c) ** 2 * power))
+    den = float(np.sum(np.abs(np.einsum("bqn,bn->bq", R, c)) ** 2))
+    lev2 = num / den if den > 0 else math.inf
+    blind2 = 0.0
+    if ex.X is not None and x is not None:
+        left = x - np.einsum("bmn,bn->bm", ex.X[..., keep], c)
+        if U_full is not None:  # a fold in fewer modes: only what the whole basis misses
+            left = left - (left @ U_full) @ U_full.T
+        inside = float(np.sum(np.abs(e) ** 2))
+        blind2 = float(np.sum(np.abs(left) ** 2)) / inside if inside > 0 else math.inf
+    return TargetTerms(lev2, blind2, rho)
+
+
+def _rho(model, record, U) -> float | None:
+    if kind_of(model) != "free" or getattr(model, "excitation", "displacement") != \
+            "displacement":
+        return None
+    x = _initial(model, record)
+    scale = float(np.linalg.norm(x))
+    if scale == 0:
+        return None
+    return float(np.linalg.norm(x - U @ (U.T @ x))) / scale
+
+
+def target_terms(model, ex: Excitations | None, record, U) -> TargetTerms | None:
+    """The terms of a target ``record`` against all training records ``ex`` (their
+    :func:`excitations` in ``U``); None when they cannot be computed."""
+    if ex is None:
+        return None
+    U = np.asarray(U, dtype=float)
+    part = _one(model, record, U, ex.nfft, response=False)
+    if part is None or part[0].shape != ex.E.shape[:2]:
+        return None
+    N = ex.E.shape[2]
+    return _terms(ex, list(range(N)), part[0], part[1], _rho(model, record, U))
+
+
+def fold_terms(model, records, U, U_full=None) -> list[TargetTerms] | None:
+    """The terms of each training record against the others (its fold), in the fold's
+    basis ``U``; the projection share and the blind spot outside ``U_full`` (default
+    ``U``): a fold refitted in fewer modes than the model is charged the whole basis's
+    projection error, not the mode it leaves out."""
+    ex = excitations(model, records, U)
+    if ex is None:
+        return None
+    U_full = np.asarray(U if U_full is None else U_full, dtype=float)
+    N = len(records)
+    out = []
+    for j in range(N):
+        keep = [i for i in range(N) if i != j]
+        x = None if ex.X is None else ex.X[..., j]
+        out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U_full),
+                          U_full if U_full.shape[1] > np.shape(U)[1] else None))
+    return out

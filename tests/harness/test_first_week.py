@@ -1,0 +1,195 @@
+"""A user's first week: regress judges one study, names are forgiving, hints for unit
+slips, and the command line starts without the heavy imports."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from podbench import cli
+
+ROOT = Path(__file__).resolve().parents[2]
+BASELINE = ROOT / "results" / "baseline.csv"
+CH4 = ROOT / "results" / "chapter4" / "summary.csv"
+
+
+@pytest.mark.parametrize("argv", [["regress", "chapter4", "--table", str(CH4)],
+                                  ["regress", "--table", str(CH4)]])
+def test_regress_of_one_study_judges_only_its_rows(argv, capsys):
+    assert cli.main([*argv, "--baseline", str(BASELINE)]) == 0
+    out = capsys.readouterr().out
+    n4 = len(pd.read_csv(CH4))
+    assert f"compared {n4} rows" in out
+    assert "not produced by this run" not in out and "no error got worse" in out
+
+
+def test_regress_of_one_study_still_catches_its_own_regression(tmp_path, capsys):
+    base = pd.read_csv(BASELINE)
+    ch4 = pd.read_csv(CH4)
+    worse = ch4.copy()
+    worse.loc[0, "total_error"] = worse.loc[0, "total_error"] * 1.5 + 1.0
+    (tmp_path / "t.csv").write_text(worse.to_csv(index=False))
+    assert cli.main(["regress", "chapter4", "--table", str(tmp_path / "t.csv"),
+                     "--baseline", str(BASELINE)]) == 1
+    assert "WORSE (1)" in capsys.readouterr().out
+    # a chapter4 row dropped from the table is missing; a chapter5 row never is
+    ch4.iloc[1:].to_csv(tmp_path / "short.csv", index=False)
+    assert cli.main(["regress", "chapter4", "--table", str(tmp_path / "short.csv"),
+                     "--baseline", str(BASELINE)]) == 1
+    out = capsys.readouterr().out
+    assert out.count("not produced by this run") == 1
+    # --update of one study keeps the other studies' rows
+    b2 = tmp_path / "b.csv"
+    b2.write_text(BASELINE.read_text())
+    assert cli.main(["regress", "chapter4", "--table", str(tmp_path / "t.csv"),
+                     "--baseline", str(b2), "--update"]) == 0
+    new = pd.read_csv(b2)
+    assert len(new) == len(base)
+    assert set(new["scenario"]) == set(base["scenario"])
+
+
+def test_the_command_line_imports_no_heavy_module_until_a_command_needs_it():
+    code = ("import sys, podbench, podbench.cli\n"
+            "print(sorted(m for m in ('scipy', 'pandas', 'matplotlib', 'numpy') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+    # every public name still imports (lazily) and is the object at its home
+    import podbench
+    from podbench.dynamics import simulate
+    from podbench.sysid import methods
+    assert podbench.simulate is simulate and podbench.methods is methods
+    for name in podbench.__all__:
+        assert getattr(podbench, name) is not None
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        podbench.nope  # noqa: B018
+
+
+def test_list_shows_each_structure_once_and_summarises_long_method_lists(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)  # the checkout: ./structures is the bundled folder
+    assert cli.main(["list"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n  lti_beam\n") == 1 and "structures in ./structures" not in out
+    line = next(ln for ln in out.splitlines() if ln.startswith("  linear_beam_noise_1pct:"))
+    from podbench.study.scenarios import load_scenario
+    n = len(load_scenario(ROOT / "scenarios" / "chapter5" / "linear_beam_noise_1pct.toml").methods)
+    assert n > 6 and f"{n} methods: SL-ls, SL-tls" in line and line.count(",") < 8
+    # a scenario inheriting its fields (scenario.base) shows its base's structures
+    line = next(ln for ln in out.splitlines() if ln.startswith("  beam_forced_noise1pct:"))
+    assert "[lti_beam, ltv_beam, nl_beam; SL, ML6, ML4]" in line
+
+
+def _documented(field: str) -> list[str]:
+    """The quoted values of a field's row(s) in the scenario reference's tables."""
+    text = (ROOT / "docs" / "reference" / "scenarios.md").read_text(encoding="utf-8")
+    rows = [ln for ln in text.splitlines() if ln.startswith(f"| `{field}` |")]
+    assert rows, field
+    return sorted({v for ln in rows for v in re.findall(r'`"(\w+)"`', ln.split("|")[2])})
+
+
+def test_every_documented_pulse_shape_and_location_reading_is_accepted():
+    import podbench as pb
+    from podbench.dynamics.excitations import excitation_from_dict
+
+    s = pb.load_structure("lti_beam")
+    shapes = _documented("shape")
+    assert shapes == ["half_sine", "rectangular", "triangle"]
+    for shape in shapes:
+        f = excitation_from_dict({"kind": "pulse", "location": 23.0, "amplitude": 500.0,
+                                  "duration": 1e-3, "shape": shape})
+        h = f.history(20, 1e-4)  # t = 0 … 1.9 ms; the pulse lasts 1 ms from t = 0
+        peak = {"rectangular": 500.0, "half_sine": 500.0 * np.sin(np.pi * 0.5),
+                "triangle": 500.0}[shape]
+        assert h.max() == pytest.approx(peak) and h[15] == 0.0
+        assert f.sample(s, 20, 1e-4).shape == (s.n_sensors, 20)
+    for by in _documented("by"):
+        excitation_from_dict({"kind": "pulse", "location": 2 if by == "dof" else 23.0,
+                              "amplitude": 1.0, "duration": 1e-3, "by": by})
+
+
+def test_a_wrong_sensor_label_lists_the_valid_ones():
+    import podbench as pb
+    from podbench.dynamics.excitations import resolve_sensor
+    from podbench.errors import InputError
+
+    s = pb.load_structure("chain_ideal")
+    assert resolve_sensor(s, "mass3") == 3
+    with pytest.raises(InputError, match=r"did you mean 'mass0'\? \(sensors: mass0, mass1, "
+                                         r"mass2, mass3, mass4\)"):
+        resolve_sensor(s, "Mass0")
+
+
+@pytest.mark.parametrize("method", ["ml", "Ml", "era", "ml-tc", "fir-ls"])
+def test_method_names_ignore_letter_case_on_the_command_line(method):
+    from podbench.sysid import registry
+
+    entry = registry.lookup(method)
+    assert entry.name.lower() == method.lower()
+
+
+def test_a_percentage_for_a_fraction_gets_a_hint(tmp_path, capsys):
+    from podbench.errors import InputError
+    from podbench.sysid.methods import ERA
+
+    with pytest.raises(InputError, match=r"got 25; a percentage\? 25 % is 0.25"):
+        ERA(holdout=25).fit([])
+    with pytest.raises(InputError, match=r"got 0.7$"):
+        ERA(holdout=0.7).fit([])
+    data = ROOT / "scenarios" / "examples" / "measured" / "data"
+    argv = ["predict", "--method", "ml", "--train", str(data / "f1.npz"), str(data / "f5.npz"),
+            str(data / "f2.mat"), "--target", str(data / "f6.csv"), "--out",
+            str(tmp_path / "p"), "--coverage", "90"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--coverage" in err and "a percentage? 90 % is 0.9" in err
+
+
+def _ignored(path: str) -> bool:
+    r = subprocess.run(["git", "check-ignore", "-q", path], cwd=ROOT)
+    assert r.returncode in (0, 1)
+    return r.returncode == 0
+
+
+@pytest.mark.skipif(not (ROOT / ".git").exists(), reason="not a git checkout")
+def test_example_outputs_are_ignored_and_every_committed_output_is_not():
+    import tomllib
+
+    manifest = tomllib.loads((ROOT / "results" / "MANIFEST.toml").read_text(encoding="utf-8"))
+    paths = [p for table in manifest.values() for p in table.get("paths", [])]
+    assert paths and not [p for p in paths if _ignored(p + ("/summary.csv" if Path(
+        p).suffix == "" else ""))]
+    for example in ("results/beam_forced/summary.csv", "results/measured_chain/summary.md",
+                    "results/my_study/fits.csv"):
+        assert _ignored(example)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".mat"])
+def test_an_empty_record_file_is_one_line_naming_it(suffix, tmp_path, capsys):
+    empty = tmp_path / f"empty{suffix}"
+    empty.write_bytes(b"")
+    data = ROOT / "scenarios" / "examples" / "measured" / "data"
+    argv = ["predict", "--method", "ML", "--train", str(data / "f1.npz"), str(data / "f5.npz"),
+            str(empty), "--target", str(data / "f6.csv"), "--out", str(tmp_path / "p")]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(empty) in err and "empty file (0 bytes)" in err
+    assert not (tmp_path / "p").exists()
+
+
+def test_more_modes_than_load_cases_is_refused_before_any_fit(tmp_path):
+    from podbench.errors import InputError
+    from podbench.study.scenarios import load_scenario
+
+    text = (ROOT / "scenarios" / "chapter4" / "beam_forced.toml").read_text(encoding="utf-8")
+    assert 'method = "ML"' in text
+    bad = text.replace('method = "ML"', 'method = "ML"\nn_modes = 6', 1)
+    f = tmp_path / "beam_forced.toml"
+    f.write_text(bad, encoding="utf-8")
+    with pytest.raises(InputError, match=r"beam_forced.toml.*n_modes.*6 modes from 4 training "
+                                         r"cases: ML .* k ≤ 4"):
+        load_scenario(f)

@@ -1,0 +1,104 @@
+"""The target terms of the error estimate (podbench.sysid.methods.band_target) against
+independent computations: a linear method's prediction is the combination of its training
+responses that the terms are built from, the leverage and blind spot by hand, and a
+method fitted on one design without a model-form term says it cannot estimate."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from podbench.methods import MDS, MultipleLoad
+
+from podbench import Record
+from podbench.sysid.methods import band_target
+
+from ._cases import forced_case, free_case
+
+
+def _free_records():
+    case = free_case("coupled", "displacement")
+    recs = [Record(W=W, w0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
+    return case, recs
+
+
+def test_mds_terms_by_hand():
+    """MDS with k = m = 5 (exact): c = (UᵀX0)⁻¹ Uᵀw̃0; Λ² = Σ c_l²‖UᵀW_l‖²/‖Σ c_l UᵀW_l‖²
+    and the prediction is U Σ c_l UᵀW_l; nothing is outside the basis (Δ = ρ = 0)."""
+    case, recs = _free_records()
+    model = MDS().fit(recs)
+    U = model.modes_
+    target = Record(W=case.W_new, w0=case.x0_new, dt=case.dt)
+    ex = band_target.excitations(model, recs, U)
+    t = band_target.target_terms(model, ex, target, U)
+    X0 = np.column_stack(case.x0)
+    c = np.linalg.solve(U.T @ X0, U.T @ case.x0_new)
+    V = [U.T @ W for W in case.W]
+    combo = sum(cl * Vl for cl, Vl in zip(c, V, strict=True))
+    np.testing.assert_allclose(U @ combo, model.predict(target), rtol=1e-9,
+                               atol=1e-12 * np.max(np.abs(case.W_new)))
+    lev2 = sum(cl ** 2 * np.sum(Vl ** 2) for cl, Vl in zip(c, V, strict=True)) \
+        / np.sum(combo ** 2)
+    assert t.leverage2 == np.float64(lev2) or math.isclose(t.leverage2, lev2, rel_tol=1e-9)
+    assert t.blind2 < 1e-20 and t.rho < 1e-12
+    # a target equal to a training record is that record: leverage 1, no blind spot
+    own = band_target.target_terms(model, ex, recs[2], U)
+    assert math.isclose(own.leverage2, 1.0, rel_tol=1e-9)
+
+
+def test_mds_blind_spot_and_projection_share_in_fewer_modes():
+    """k = 3 of 5: ρ = ‖(I − UUᵀ)w̃0‖/‖w̃0‖ and Δ² = ‖w̃0 − Σ c_l w0_l‖²/‖Uᵀw̃0‖² with the
+    least-squares c over the five records (by hand)."""
+    case, recs = _free_records()
+    model = MDS(n_modes=3).fit(recs)
+    U = model.modes_
+    target = Record(W=case.W_new, w0=case.x0_new, dt=case.dt)
+    t = band_target.target_terms(model, band_target.excitations(model, recs, U), target, U)
+    x = case.x0_new
+    assert math.isclose(t.rho, np.linalg.norm(x - U @ (U.T @ x)) / np.linalg.norm(x),
+                        rel_tol=1e-9)
+    X0 = np.column_stack(case.x0)
+    c = np.linalg.pinv(U.T @ X0) @ (U.T @ x)
+    blind2 = np.sum((x - X0 @ c) ** 2) / np.sum((U.T @ x) ** 2)
+    assert math.isclose(t.blind2, blind2, rel_tol=1e-8)
+    assert t.blind2 > 0
+
+
+def test_ml_leverage_of_a_combination_of_training_loads():
+    """ML (k = N = m, exact chain): a target load 2·F₁ − F₃ is expressed through the
+    training loads with c = (2, 0, −1, 0, 0) at every frequency, so its leverage is
+    (4‖V₁‖² + ‖V₃‖²)/‖2V₁ − V₃‖² over the frequency bins and its blind spot 0; a
+    training load's own is 1. (For any other load the frequency-domain combination is the
+    ML prediction only approximately: the records are finite, ML's convolution is
+    truncated at their length.)"""
+    case = forced_case("coupled")
+    recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
+    model = MultipleLoad(solver="block").fit(recs)
+    U = model.modes_
+    ex = band_target.excitations(model, recs, U)
+    target = Record(W=2 * case.W[1] - case.W[3], F=2 * case.F[1] - case.F[3], dt=case.dt)
+    t = band_target.target_terms(model, ex, target, U)
+    V1, V3 = (np.fft.rfft(U.T @ case.W[i], n=ex.nfft, axis=1) for i in (1, 3))
+    power = lambda X: float(np.sum(np.abs(X) ** 2))  # noqa: E731
+    lev2 = (4 * power(V1) + power(V3)) / power(2 * V1 - V3)
+    assert math.isclose(t.leverage2, lev2, rel_tol=1e-6)
+    assert t.blind2 < 1e-12 and t.rho is None
+    own = band_target.target_terms(model, ex, recs[4], U)
+    assert math.isclose(own.leverage2, 1.0, rel_tol=1e-6)
+
+
+def test_a_method_without_a_model_form_term_gives_no_estimate():
+    """MR takes exactly three records: none can be left out; its band has no model-form
+    part, so error_estimate is NaN and the note says why."""
+    from podbench.methods import MixedResponse
+
+    from ._cases import mixed_case
+
+    case = mixed_case("coupled")
+    recs = [Record(W=W, w0=a, v0=b, F=F, dt=case.dt)
+            for W, a, b, F in zip(case.W, case.w0, case.v0, case.F, strict=True)]
+    model = MixedResponse(n_modes=3, solver="block").fit(recs)
+    p = model.predict(Record(W=case.W_w0, w0=case.w0_new, v0=np.zeros_like(case.w0_new),
+                             F=np.zeros_like(case.W_w0), dt=case.dt), coverage=0.9)
+    assert math.isnan(p.error_estimate)
+    assert "no error estimate" in p.note and "left out" in p.note
