@@ -9,6 +9,7 @@ import pytest
 import scipy.signal
 
 import podbench as pb
+from podbench import api
 from podbench.core.recordfiles import read_record
 from podbench.core.records import Record
 from podbench.core.resources import bundled_scenarios
@@ -360,3 +361,43 @@ def test_rational_poles_recover_two_modes_and_their_shapes():
     assert np.allclose(fr[order], [5.0, 9.0], rtol=1e-8)
     assert np.allclose(zr[order], [0.01, 0.03], rtol=1e-6)
     assert misfit < 1e-8
+
+
+# ------------------------------------------------ podbench predict / fit on the files
+def test_predict_and_fit_take_the_period_from_the_files(tmp_path):
+    """`podbench predict/fit --method ML-periodic | BLA | ML-interp` on the shipped files
+    (shortened): the period is the files' `period_samples`, and the prediction is that of
+    the method fitted in Python with the period given."""
+    _copy_levels(tmp_path, levels=(1, 2, 3))
+    files = level_files(tmp_path / "data")
+    train, target = [files[1], files[3]], files[2]
+    direct = {"ML-periodic": MultipleLoad(inputs="periodic", period=N),
+              "BLA": BestLinearApproximation(period=N), "ML-interp": LevelInterpolatedML(period=N)}
+    for name, est in direct.items():
+        res = api.predict(name, train, [target], tmp_path / f"pred-{name}")
+        assert res.config["parameters"]["period"] == N
+        with np.load(tmp_path / f"pred-{name}" / f"{target.stem}.npz") as z:
+            got = z["y_hat"]
+        want = est.fit([_short(1), _short(3)]).predict(_short(2))
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
+    model = pb.fit("BLA", train, tmp_path / "fit-bla")
+    np.testing.assert_allclose(model.predict(_short(2)), direct["BLA"].predict(_short(2)),
+                               rtol=0, atol=1e-9 * np.abs(want).max())
+
+
+def test_a_periodic_method_without_a_period_is_one_line(tmp_path):
+    _copy_levels(tmp_path, levels=(1, 2, 3), level3={"period_samples": np.int64(4096)})
+    files = level_files(tmp_path / "data")
+    with pytest.raises(InputError) as err:
+        api.predict("ML-periodic", [files[1], files[3]], [files[2]], tmp_path / "p1")
+    text = str(err.value)
+    assert text.startswith(str(files[3])) and "field `period_samples`: 4096 differs" in text
+    for n in (1, 3):  # files without the field
+        with np.load(files[n], allow_pickle=False) as z:
+            v = {k: z[k] for k in z.files if k != "period_samples"}
+        np.savez(files[n], **v)
+    with pytest.raises(InputError, match=r"^Parameter `method`: BLA identifies the kernel over "
+                                         r"one period .* no training file carries "
+                                         r"`period_samples`"):
+        pb.fit("BLA", [files[1], files[3]], tmp_path / "f1")
+    assert not (tmp_path / "f1").exists() and not (tmp_path / "p1").exists()

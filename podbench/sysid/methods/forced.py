@@ -547,8 +547,14 @@ class MultipleLoad(_ForcedMethod):
         or more training records, else none), ``ls`` (no prior), ``tc`` (the TC prior),
         each a truncated kernel with its lags by leave-one-record-out; any other name is a
         deconvolution solver for the kernel over the whole record. On forces at the outputs
-        it is the deconvolution solver, as for every method."""
+        it is the deconvolution solver, as for every method. On a periodic excitation
+        (``inputs="periodic"``) only ``auto``: the kernel over one period is solved per line."""
         out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        if self.inputs == "periodic":
+            if solver != "auto":
+                raise InputError(f"Parameter `solver`: not with inputs='periodic' (the kernel "
+                                 f"over one period is solved line by line), got {solver!r}")
+            return {k: v for k, v in out.items() if k != "solver"}
         if self._modal(records):
             return out
         if solver in ("auto", "ls", "tc"):
