@@ -400,6 +400,57 @@ def level_modes(model, rec: Record, plan: F16Plan) -> list[dict]:
     return rows
 
 
+POLE_RANGE = tuple(range(16, 33, 2))
+"""Pole counts of the band fit over which the torsion mode is reported (:func:`pole_sweep`):
+the 24 poles of :data:`MODES_POLES` are one choice among them, so the verdict is given over
+the range (8 to 16 modes in 2-15 Hz)."""
+
+
+def _torsion_pole(modes: ModeSet, wing: int, dt: float, f: np.ndarray) -> int | None:
+    """The wing-torsion pole of a band fit: among its physical poles in the torsion band
+    (:data:`TORSION`), the one whose term ``r/(jω − s)`` carries the most of the fitted
+    wing response over the band's lines ``f`` (Hz), ``Σ |r_wing/(jω − s)|²``: neither a
+    near-undamped computational pole (a high, narrow peak between the lines) nor a broad
+    overdamped one (a residual term); None if the band holds none."""
+    _, lo, hi = TORSION
+    fr = modes.frequency_hz
+    ok = physical_mask(modes, dt) & (fr >= lo) & (fr <= hi)
+    if not np.any(ok):
+        return None
+    jw = 2j * np.pi * f[(f >= lo) & (f <= hi)]
+    terms = modes.shapes[wing][:, None] / (jw[None, :] - modes.poles[:, None])
+    energy = np.sum(np.abs(terms) ** 2, axis=1)
+    return int(np.flatnonzero(ok)[np.argmax(energy[ok])])
+
+
+def pole_sweep(model, rec: Record, plan: F16Plan) -> list[dict]:
+    """The torsion mode of one level's own BLA from the band fit (2-15 Hz) at every pole
+    count of :data:`POLE_RANGE`: frequency (Hz), damping ratio, the fit's misfit and whether
+    the mode is stable against the fits with two and four more poles
+    (:func:`podbench.sysid.modal.stability_mask`). An empty frequency: no physical pole in
+    the torsion band at that count."""
+    G = model.frequency_response()[:, 0]
+    f = model.frequencies_
+    channels = rec.output_channels or tuple(str(i) for i in range(G.shape[0]))
+    wing = channels.index(TORSION[0]) if TORSION[0] in channels else 0
+    counts = sorted(set(POLE_RANGE) | {n + s for n in POLE_RANGE for s in STABILITY_ORDERS})
+    fits = {n: _mode_set(G, f, n, channels) for n in counts}
+    rms = input_rms(rec.u, plan.period, plan.transient_periods)
+    rows = []
+    for n in POLE_RANGE:
+        modes, misfit = fits[n]
+        j = _torsion_pole(modes, wing, rec.dt, f)
+        row = {"input_rms": rms, "n_poles": n, "misfit": misfit, "frequency_Hz": None,
+               "damping_ratio": None, "stable": None}
+        if j is not None:
+            one = modes.subset(np.arange(len(modes)) == j)
+            stable = stability_mask(one, [fits[n + s][0] for s in STABILITY_ORDERS])
+            row.update(frequency_Hz=float(one.frequency_hz[0]),
+                       damping_ratio=float(one.damping_ratio[0]), stable=bool(stable[0]))
+        rows.append(row)
+    return rows
+
+
 COSTS = {"ERA-measured": 10.0, "mdof-SRIM": 4.0, "ML-TC": 2.0, "FIR-LS": 1.5}
 """Expected cost of a method per training record (relative; the periodic methods: 0.1),
 so that the executor starts the long tasks first. Only the schedule depends on it."""
@@ -479,9 +530,11 @@ def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
         bla = _bla_table(levels, own, plan)
         modes = [{**m, "level": n} for n in sorted(own)
                  for m in level_modes(own[n], levels[n], plan)]
+        poles = [{**m, "level": n} for n in sorted(own)
+                 for m in pole_sweep(own[n], levels[n], plan)]
     return {"rows": rows, "fits": fits, "skipped": skipped, "decomposition": decomposition,
             "levels": level_rows, "bla": bla, "figure": figure, "records": levels,
-            "own": own, "plan": plan, "modes": modes}
+            "own": own, "plan": plan, "modes": modes, "poles": poles}
 
 
 def _bla_table(levels, own, plan: F16Plan) -> list[dict]:

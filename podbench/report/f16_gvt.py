@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from podbench.core.atomic import replace_dir
+from podbench.harness.f16_gvt import MODES_POLES
 from podbench.harness.rewrite import unmoved
 
 __all__ = ["write_study", "CITATION"]
@@ -385,6 +386,7 @@ def _findings(res) -> str:
         "",
         *_peer_lines(res),
         *_modes_lines(res),
+        *_pole_lines(res),
         *_skipped_lines(res),
         *_not_done(),
     ]
@@ -455,6 +457,52 @@ def _modes_lines(res) -> list[str]:
         "and adds modes of 17–29 % damping at 61 N and above (docs/studies/f16_gvt.md). "
         "The BLA on the excited lines is what the data determine, so the poles are fitted "
         "to it.",
+        "",
+    ]
+
+
+def _monotone(per: dict, key: str, sign: int) -> bool:
+    """Whether ``key`` of the sweep's rows at one pole count moves with ``sign`` (+1 up,
+    -1 down) from each level to the next (levels without a torsion pole skipped)."""
+    vals = [per[n][key] for n in sorted(per) if per[n][key] is not None]
+    return all(sign * (b - a) > 0 for a, b in zip(vals, vals[1:], strict=False))
+
+
+def _pole_lines(res) -> list[str]:
+    """FINDINGS' verdict on the band fit's pole count (poles.csv): the torsion mode at every
+    count of the range, per level, and at how many counts the trend with force holds."""
+    rows = res.get("poles") or []
+    if not rows:
+        return []
+    counts = sorted({r["n_poles"] for r in rows})
+    by_level: dict = {}
+    for r in rows:
+        by_level.setdefault(r["level"], {})[r["n_poles"]] = r
+    ranges = []
+    for n, per in sorted(by_level.items()):
+        found = [r for r in per.values() if r["frequency_Hz"] is not None]
+        fr = [r["frequency_Hz"] for r in found]
+        z = [100 * r["damping_ratio"] for r in found]
+        stable = sum(bool(r["stable"]) for r in found)
+        ranges.append(f"level {n} ({found[0]['input_rms']:.0f} N): {min(fr):.3f}–{max(fr):.3f} "
+                      f"Hz, {min(z):.2f}–{max(z):.2f} % ({len(found)} of {len(per)} counts, "
+                      f"stable at {stable})" if found else f"level {n}: none")
+    by_count = {c: {n: per[c] for n, per in by_level.items() if c in per} for c in counts}
+    down = sum(_monotone(v, "frequency_Hz", -1) for v in by_count.values())
+    up = sum(_monotone(v, "damping_ratio", +1) for v in by_count.values())
+    lo, hi = min(by_level), max(by_level)
+    grows = sum(1 for v in by_count.values() if lo in v and hi in v
+                and v[lo]["damping_ratio"] is not None and v[hi]["damping_ratio"] is not None
+                and v[hi]["damping_ratio"] > 2 * v[lo]["damping_ratio"])
+    return [
+        f"- The pole count of the band fit ({MODES_POLES} poles, modes.csv) is one choice: over "
+        f"{counts[0]}–{counts[-1]} poles ({len(counts)} counts, poles.csv) the torsion mode "
+        "(the band pole carrying most of the fitted wing response on 6.5–8 Hz) is "
+        + "; ".join(ranges) + ".",
+        f"- Verdict over the range: the damping ratio at level {hi} is more than twice that at "
+        f"level {lo} at {grows} of {len(counts)} counts; it grows from each level to the next "
+        f"at {up} of {len(counts)}, and the frequency falls from each level to the next at "
+        f"{down} of {len(counts)} (adjacent levels whose ranges overlap swap at some counts).",
         "",
     ]
 
@@ -592,6 +640,10 @@ def write_study(res, out, *, figures: bool = True, figure_format: str = "png") -
     }
     if res.get("modes"):
         files["modes.csv"] = _csv(res["modes"], _columns(res["modes"], ["level"]))
+    if res.get("poles"):
+        files["poles.csv"] = _csv(res["poles"], ["level", "input_rms", "n_poles",
+                                                 "frequency_Hz", "damping_ratio", "stable",
+                                                 "misfit"])
     names = []
     with replace_dir(out, keep=unmoved) as tmp:
         for name, text in files.items():

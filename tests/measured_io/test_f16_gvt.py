@@ -268,7 +268,7 @@ def test_the_study_runs_on_shortened_records(tmp_path):
     res = pb.run(str(path), out=tmp_path / "out", figures=False, quiet=True)
     out = tmp_path / "out"
     for name in ("summary.csv", "bla.csv", "decomposition.csv", "levels.csv", "fits.csv",
-                 "skipped.csv", "FINDINGS.md"):
+                 "skipped.csv", "modes.csv", "poles.csv", "FINDINGS.md"):
         assert (out / name).is_file()
     findings = (out / "FINDINGS.md").read_text(encoding="utf-8")
     assert "Noël and M. Schoukens" in findings
@@ -401,3 +401,25 @@ def test_a_periodic_method_without_a_period_is_one_line(tmp_path):
                                          r"`period_samples`"):
         pb.fit("BLA", [files[1], files[3]], tmp_path / "f1")
     assert not (tmp_path / "f1").exists() and not (tmp_path / "p1").exists()
+
+
+def test_the_torsion_pole_is_the_one_carrying_the_wing_response():
+    """Of three poles in the torsion band, the sweep takes the lightly damped mode with the
+    response, not a near-undamped computational pole of large peak height between the
+    lines nor a broad overdamped residual term of large residue."""
+    from podbench.core.modeshapes import ModeSet
+    from podbench.harness.f16_gvt import _torsion_pole
+
+    def pole(f_hz, zeta):
+        w = 2 * np.pi * f_hz
+        return complex(-zeta * w, w * np.sqrt(1 - zeta ** 2))
+
+    f = np.arange(2.0, 15.0, 400 / 8192)  # the period's line spacing (Hz)
+    poles = np.array([pole(7.30, 0.006), pole(7.4512, 1e-6), pole(7.5, 0.9)])
+    shapes = np.array([[0.1, 0.1, 0.1], [1.0, 2e-4, 40.0], [0.1, 0.1, 0.1]], dtype=complex)
+    modes = ModeSet(poles, shapes, ("a", "wing", "b"), "test")
+    # the computational pole's peak |r|/|Re s| is the highest, the overdamped one's residue
+    peak = np.abs(shapes[1]) / np.abs(poles.real)
+    assert np.argmax(peak) == 1 and np.argmax(np.abs(shapes[1])) == 2
+    assert _torsion_pole(modes, 1, 1 / 400, f) == 0
+    assert _torsion_pole(modes.subset(np.array([False, False, False])), 1, 1 / 400, f) is None
