@@ -371,21 +371,33 @@ def _mode_set(G, f, n_poles: int, channels) -> tuple[ModeSet, float]:
     return ModeSet(poles[up], residues[:, up], channels, "rational fit of the BLA"), misfit
 
 
-def level_modes(model, rec: Record, plan: F16Plan) -> list[dict]:
+def _band_fit(cache: dict, G, f, n_poles: int, channels) -> tuple[ModeSet, float]:
+    """The rational fit of ``G`` over the whole band with ``n_poles`` poles, computed once
+    per level (``cache``: pole count → fit, shared by :func:`level_modes` and
+    :func:`pole_sweep`)."""
+    if n_poles not in cache:
+        cache[n_poles] = _mode_set(G, f, n_poles, channels)
+    return cache[n_poles]
+
+
+def level_modes(model, rec: Record, plan: F16Plan, fits: dict | None = None) -> list[dict]:
     """Modes of one level's own BLA (``model``, fitted on ``rec``) against force level: the
     stable physical modes of a rational fit over the excited band (:data:`MODES_POLES`), and
     the torsion mode of a one-mode fit (two poles, a real numerator of degree two for the
     modes outside) on the torsion band (:data:`TORSION`). Frequencies in Hz, damping
-    ratios, misfits ``‖N/D − G‖/‖G‖``; the input RMS in the input unit (N)."""
+    ratios, misfits ``‖N/D − G‖/‖G‖``; the input RMS in the input unit (N). ``fits``: the
+    level's band fits already made (pole count → fit), added to."""
+    fits = {} if fits is None else fits
     G = model.frequency_response()[:, 0]
     f = model.frequencies_
     channels = rec.output_channels or tuple(str(i) for i in range(G.shape[0]))
     rms = input_rms(rec.u, plan.period, plan.transient_periods)
     base = {"input_rms": rms}
-    modes, misfit = _mode_set(G, f, MODES_POLES, channels)
+    modes, misfit = _band_fit(fits, G, f, MODES_POLES, channels)
     keep = physical_mask(modes, rec.dt)
     modes = modes.subset(keep)
-    others = [_mode_set(G, f, MODES_POLES + step, channels)[0] for step in STABILITY_ORDERS]
+    others = [_band_fit(fits, G, f, MODES_POLES + step, channels)[0]
+              for step in STABILITY_ORDERS]
     stable = stability_mask(modes, others)
     rows = [{**base, "fit": f"2-15 Hz, {MODES_POLES} poles", "frequency_Hz": float(fr),
              "damping_ratio": float(z), "misfit": misfit}
@@ -423,18 +435,20 @@ def _torsion_pole(modes: ModeSet, wing: int, dt: float, f: np.ndarray) -> int | 
     return int(np.flatnonzero(ok)[np.argmax(energy[ok])])
 
 
-def pole_sweep(model, rec: Record, plan: F16Plan) -> list[dict]:
+def pole_sweep(model, rec: Record, plan: F16Plan, fits: dict | None = None) -> list[dict]:
     """The torsion mode of one level's own BLA from the band fit (2-15 Hz) at every pole
     count of :data:`POLE_RANGE`: frequency (Hz), damping ratio, the fit's misfit and whether
     the mode is stable against the fits with two and four more poles
     (:func:`podbench.sysid.modal.stability_mask`). An empty frequency: no physical pole in
-    the torsion band at that count."""
+    the torsion band at that count. ``fits``: as for :func:`level_modes`."""
+    fits = {} if fits is None else fits
     G = model.frequency_response()[:, 0]
     f = model.frequencies_
     channels = rec.output_channels or tuple(str(i) for i in range(G.shape[0]))
     wing = channels.index(TORSION[0]) if TORSION[0] in channels else 0
     counts = sorted(set(POLE_RANGE) | {n + s for n in POLE_RANGE for s in STABILITY_ORDERS})
-    fits = {n: _mode_set(G, f, n, channels) for n in counts}
+    for n in counts:
+        _band_fit(fits, G, f, n, channels)
     rms = input_rms(rec.u, plan.period, plan.transient_periods)
     rows = []
     for n in POLE_RANGE:
@@ -528,10 +542,11 @@ def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
                          for (train, n), role in pairs.items()]
         level_rows = [_level_row(n, levels[n], own, plan) for n in sorted(levels)]
         bla = _bla_table(levels, own, plan)
+        fits: dict = {n: {} for n in own}  # each level's band fits, made once
         modes = [{**m, "level": n} for n in sorted(own)
-                 for m in level_modes(own[n], levels[n], plan)]
+                 for m in level_modes(own[n], levels[n], plan, fits[n])]
         poles = [{**m, "level": n} for n in sorted(own)
-                 for m in pole_sweep(own[n], levels[n], plan)]
+                 for m in pole_sweep(own[n], levels[n], plan, fits[n])]
     return {"rows": rows, "fits": fits, "skipped": skipped, "decomposition": decomposition,
             "levels": level_rows, "bla": bla, "figure": figure, "records": levels,
             "own": own, "plan": plan, "modes": modes, "poles": poles}
