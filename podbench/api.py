@@ -46,6 +46,7 @@ from podbench.core.resources import (
 from podbench.errors import InputError, UnknownNameError
 from podbench.harness.base_excited import run_study as run_base_excited
 from podbench.harness.executor import resolve_jobs
+from podbench.harness.f16_gvt import run_study as run_f16_gvt
 from podbench.harness.fit import fit_files
 from podbench.harness.linked import linked_scenarios, run_linked
 from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
@@ -60,6 +61,7 @@ from podbench.harness.substructuring import run_substructuring
 from podbench.harness.sweep import run_sweep
 from podbench.harness.tables import summary_table, table_csv
 from podbench.report.base_excited import write_study as write_base_excited
+from podbench.report.f16_gvt import write_study as write_f16_gvt
 from podbench.report.figures import make_figure
 from podbench.report.painter_street import write_study as write_painter_street
 from podbench.report.study import figure_tasks, write_study
@@ -68,6 +70,7 @@ from podbench.report.sweep import write_sweep
 from podbench.study.base_excited import load_study as load_base_excited
 from podbench.study.claims import load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
+from podbench.study.f16_gvt import load_f16_gvt
 from podbench.study.nonlinearity import NonlinearitySpec
 from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
 from podbench.study.painter_street import load_painter_street
@@ -511,14 +514,15 @@ def load_model(path) -> Model:
 @dataclass(frozen=True)
 class RunnerOptions:
     """What :func:`run` hands a study's own runner: draw ``figures`` (as ``figure_format``),
-    ``say`` one line of progress (None: quiet), and the ``command`` that FINDINGS.md names
+    ``say`` one line of progress (None: quiet), the ``command`` that FINDINGS.md names
     (``podbench run <study>``, whatever the options, so that FINDINGS regenerates
-    byte-identically from the CLI and from Python)."""
+    byte-identically from the CLI and from Python) and the ``jobs`` it may use."""
 
     figures: bool
     figure_format: str
     say: Callable[[str], None] | None
     command: str
+    jobs: int | str = 1
 
 
 @dataclass(frozen=True)
@@ -538,6 +542,18 @@ def _run_painter_street(study: OwnStudy, out: Path, options: RunnerOptions) -> S
     res = run_painter_street(plan.data, progress=options.say)
     drawn = write_painter_street(res, out, figures=options.figures,
                                  figure_format=options.figure_format)
+    return StudyResult(out=out, summary=pd.read_csv(out / "summary.csv"),
+                       fits=pd.read_csv(out / "fits.csv"), claims=None, figures=drawn,
+                       scenarios={plan.name: plan}, seconds=0.0, simulated=0, cached=0)
+
+
+def _run_f16_gvt(study: OwnStudy, out: Path, options: RunnerOptions) -> StudyResult:
+    """The F-16 ground vibration test study (:mod:`podbench.harness.f16_gvt`): linear
+    models across force levels on the benchmark's records (Noël & Schoukens 2017)."""
+    plan = load_f16_gvt(study.path)
+    res = run_f16_gvt(plan, progress=options.say, jobs=options.jobs)
+    drawn = write_f16_gvt(res, out, figures=options.figures,
+                          figure_format=options.figure_format)
     return StudyResult(out=out, summary=pd.read_csv(out / "summary.csv"),
                        fits=pd.read_csv(out / "fits.csv"), claims=None, figures=drawn,
                        scenarios={plan.name: plan}, seconds=0.0, simulated=0, cached=0)
@@ -575,6 +591,8 @@ RUNNERS: dict[str, Runner] = {
                              "model", _run_substructuring),
     "base_excited": Runner("beams and truss shaken at the base: acceleration and strain "
                            "outputs (SI)", _run_base_excited),
+    "f16_gvt": Runner("F-16 ground vibration test: linear models across force levels "
+                      "(Noël & Schoukens 2017)", _run_f16_gvt),
 }
 """The runners a study file may name (``[study] runner = "<name>"``). A new study that is
 not scenarios of methods and targets adds its runner here (docs/ARCHITECTURE.md)."""
@@ -589,7 +607,8 @@ def _run_own(own: OwnStudy, out: Path, study, *, jobs, cache, engine, figures: b
                          f"({own.runner}), which takes no engine")
     _check_run_options(jobs, cache)
     options = RunnerOptions(figures=figures, figure_format=figure_format, say=say,
-                            command=command_line(["run", *map(str, _as_list(study))]))
+                            command=command_line(["run", *map(str, _as_list(study))]),
+                            jobs=jobs)
     t0 = time.perf_counter()
     res = RUNNERS[own.runner].run(own, out, options)
     res.seconds = time.perf_counter() - t0

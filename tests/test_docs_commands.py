@@ -87,6 +87,7 @@ COMMANDS: dict[str, object] = {
     'python -m pytest -m "not slow and not heavy"': _SUITE,
     "pip install .": _INSTALL,
     "pip install 'podbench[peers]'": _INSTALL,
+    "pip install 'podbench[mdof]'": _INSTALL,
     "pip install 'podbench[measured]'": _INSTALL,
     '.venv/bin/pip install -e ".[mdof]"': _INSTALL,
     "mkdocs serve": NOT_RUN("serves the site until stopped; the same site is built by "
@@ -154,6 +155,16 @@ COMMANDS: dict[str, object] = {
     "podbench sweep sweeps/beam_forced_noise": SLOW,
     "podbench sweep sweeps/peers_noise": SLOW,
     "podbench run base_excited": SLOW,
+    "podbench run f16_gvt": SLOW,
+    "podbench predict --method ML": SYNOPSIS,
+    ("podbench predict --method ML --train scenarios/f16_gvt/data/f16_fullmsine_level1_12N.npz "
+     "scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz scenarios/f16_gvt/data/"
+     "f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
+     "f16_fullmsine_level2_25N_validation.npz scenarios/f16_gvt/data/"
+     "f16_fullmsine_level4_61N_validation.npz --coverage 0.9 --out f16_ml"): SLOW,
+    "python benchmarks/study_time.py --study f16_gvt --jobs 2 --no-write": NOT_RUN(
+        "times a cold `podbench run f16_gvt` between two reference workloads (minutes on the "
+        "shared machine); the study command itself is run (slow)"),
     "python benchmarks/study_time.py --jobs 1,2": NOT_RUN(
         "times two cold runs of the whole Chapter 5 study (tens of minutes on the shared "
         "machine); the study command itself is run (slow)"),
@@ -253,6 +264,11 @@ BLOCKS: dict[tuple[str, str], object] = {
      "run chapter5, --jobs auto, no figures"): "shell",
     ("benchmarks/README.md", "python benchmarks/defaults.py                        # n = 1000, "
      "k = 4, dt = 1e-3 s"): "shell",
+    ("docs/studies/f16_gvt.md", "podbench predict --method ML --train scenarios/f16_gvt/data/"
+     "f16_fullmsine_level1_12N.npz scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz "
+     "scenarios/f16_gvt/data/f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
+     "f16_fullmsine_level2_25N_validation.npz scenarios/f16_gvt/data/"
+     "f16_fullmsine_level4_61N_validation.npz --coverage 0.9 --out f16_ml"): "shell",
     ("benchmarks/README.md", "python benchmarks/modal.py                 # chain_coupled and "
      "aluminium_beam, clean and 1 % noise"): "shell",
     # Python blocks

@@ -13,8 +13,9 @@ from podbench.errors import InputError
 __all__ = ["QUANTITIES", "UNITS", "LBF", "INCH", "normalize_unit", "unit_system",
            "system_unit", "unit_factor"]
 
-QUANTITIES = ("force", "displacement", "velocity", "acceleration", "strain")
-"""The quantities an input or output channel can measure."""
+QUANTITIES = ("force", "displacement", "velocity", "acceleration", "strain", "voltage")
+"""The quantities an input or output channel can measure (``voltage``: a signal such as a
+shaker generator's reference, in V, a unit of both systems)."""
 
 LBF = 4.4482216152605
 """One pound-force in newtons (exact by definition of the lbf and the standard gravity)."""
@@ -27,8 +28,9 @@ UNITS: dict[str, dict[str, tuple[str, float]]] = {
     "velocity": {"m/s": ("SI", 1.0), "in/s": ("inch-lbf", INCH)},
     "acceleration": {"m/s^2": ("SI", 1.0), "in/s^2": ("inch-lbf", INCH)},
     "strain": {"strain": ("any", 1.0)},
+    "voltage": {"V": ("any", 1.0)},
 }
-"""Quantity → unit → (unit system, factor to SI). ``"any"``: dimensionless, fits both."""
+"""Quantity → unit → (unit system, factor to SI). ``"any"``: fits both (strain, volts)."""
 
 _ALIASES = {"m/s2": "m/s^2", "m/s²": "m/s^2", "m s^-2": "m/s^2", "in/s2": "in/s^2",
             "in/s²": "in/s^2", "inch": "in", "inches": "in", "newton": "N", "lb": "lbf",

@@ -28,6 +28,7 @@ from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
 from podbench.harness.predict import (
     command_line_estimator,
+    file_period,
     fit_records,
     fitted_config,
     method_entry,
@@ -72,7 +73,8 @@ def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,
     entry = method_entry(method)
     kw = dict(input_units=input_units, output_units=output_units, system=units)
     tr = [read_any(p, **kw, require_outputs=True) for p in train]
-    est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes)
+    est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes,
+                                 period=file_period(train))
     check_records(tr, min_samples=min_samples_of(est, tr[0].dt))
     with single_blas_thread():
         fit_records(est, tr)

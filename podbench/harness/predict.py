@@ -7,7 +7,9 @@ layout and the input/output layout alike, free responses included) and checked a
 first training file (``dt``, channels, quantities, units, NaN/Inf, length) before any
 fitting: the first problem is one line naming the file and the field. ``--solver`` and
 ``--n-modes`` become the method's parameters through
-:meth:`~podbench.sysid.methods.PODMethod.command_line_params`.
+:meth:`~podbench.sysid.methods.PODMethod.command_line_params`. A method on a periodic
+excitation (ML-periodic, BLA, ML-interp) takes its period from the training files'
+``period_samples`` (:func:`file_period`).
 
 The output folder ``OUT`` (built beside its place and swapped in whole: nothing half-written
 is left):
@@ -116,20 +118,68 @@ def _same_files(train, targets) -> list[str]:
             "prediction" for p in targets if Path(p).resolve() in seen]
 
 
-def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes):
+PERIOD_FIELD = "period_samples"
+"""The variable of a record file (``.npz``) that holds the samples per period of a periodic
+excitation: the period a method on a periodic excitation (``inputs="periodic"``: ML-periodic,
+BLA, ML-interp) takes on the command line."""
+
+
+def file_period(paths) -> int | None:
+    """The samples per period the training files carry (:data:`PERIOD_FIELD` of their
+    ``.npz``), None if none carries it; files that disagree, or a value that is not an
+    integer of at least 2, are one line naming the file and the field."""
+    found: list[tuple[str, int]] = []
+    for path in paths:
+        if Path(path).suffix.lower() != ".npz":
+            continue
+        with np.load(path, allow_pickle=False) as z:
+            if PERIOD_FIELD not in z.files:
+                continue
+            v = np.asarray(z[PERIOD_FIELD])
+        if v.ndim != 0 or v.dtype.kind not in "iu" or int(v) < 2:
+            raise InputError(f"{path}: field `{PERIOD_FIELD}`: expected an integer >= 2 (samples "
+                             f"per period), got {v.tolist()!r}")
+        if found and int(v) != found[0][1]:
+            raise InputError(f"{path}: field `{PERIOD_FIELD}`: {int(v)} differs from "
+                             f"{found[0][0]}'s {found[0][1]} samples per period")
+        found.append((str(path), int(v)))
+    return found[0][1] if found else None
+
+
+def _periodic_params(entry, est, period) -> dict:
+    """``{"period": period}`` for a method on a periodic excitation whose period is open
+    (the configuration leaves it, or the class's ``period`` is None), else ``{}``; one line
+    if the period is needed and no training file carries it."""
+    wants = "period" in entry.supplied or (
+        getattr(est, "inputs", None) == "periodic" and est.get_params().get("period") is None)
+    if not wants:
+        return {}
+    if period is None:
+        raise InputError(f"Parameter `method`: {entry.name} identifies the kernel over one "
+                         f"period of a periodic excitation: no training file carries "
+                         f"`{PERIOD_FIELD}` (the samples per period)")
+    return {"period": period}
+
+
+def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes,
+                           period: int | None = None):
     """The estimator of ``entry`` with the parameters ``--solver`` and ``--n-modes`` mean
-    for these training records; the number of training files checked against the
-    method's."""
+    for these training records (and ``period``, the samples per period the training files
+    carry, for a method on a periodic excitation); the number of training files checked
+    against the method's."""
     if entry.cls.composite:
         raise InputError(f"Parameter `method`: {entry.name}: a sum of methods, each fitted "
                          "on its own training records; predict with its parts")
     given = {} if n_modes is None else {"n_modes": n_modes}
+    if "period" in entry.supplied:
+        given.update(_periodic_params(entry, None, period))
     missing = [p for p in entry.supplied if p not in given]
     if missing:
         raise InputError(f"Parameter `method`: {entry.name}: the configuration leaves "
                          f"{', '.join(missing)} to its caller; name a method that fixes it")
     est = entry.build(**{p: given[p] for p in entry.supplied})
     cli = est.command_line_params(train, solver=solver, n_modes=n_modes)
+    cli.update(_periodic_params(entry, est, period))
     est = entry.build(**{**est.get_params(deep=False), **cli, **entry.params})
     est._validate_params()
     lo, hi = est.n_records
@@ -233,7 +283,8 @@ def predict_files(method: str | None, train, targets, out, *, solver: str = "aut
     kw = dict(input_units=input_units, output_units=output_units, system=units)
     tr = [read_any(p, **kw, require_outputs=True) for p in train]
     tg = [read_any(p, **kw, default_output_units=tr[0].output_units) for p in targets]
-    est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes)
+    est = command_line_estimator(entry, tr, solver=solver, n_modes=n_modes,
+                                 period=file_period(train))
     check_records(tr, tg, min_samples=min_samples_of(est, tr[0].dt))
     if coverage is not None and tr[0].u is not None and not tr[0].collocated and \
             len(tr) < MIN_BAND_RECORDS:

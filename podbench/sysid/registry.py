@@ -41,6 +41,7 @@ from podbench.sysid.methods import (
     Superposition,
 )
 from podbench.sysid.methods.peers import ERA_BLOCKS
+from podbench.sysid.methods.periodic import BestLinearApproximation, LevelInterpolatedML
 
 __all__ = ["Entry", "ENTRIES", "REGISTRY", "BUILTIN_METHODS", "lookup", "resolve", "names",
            "is_user_method"]
@@ -88,6 +89,10 @@ ENTRIES: tuple[Entry, ...] = (
     Entry("DMDc", DMDc, summary="DMD with control (PyDMD)"),
     Entry("OpInf", OpInf, summary="operator inference (opinf)"),
     Entry("mdof", Mdof, summary="mdof's SRIM or OKID-ERA (measured inputs)"),
+    Entry("BLA", BestLinearApproximation,
+          summary="best linear approximation on a periodic excitation (Pintelon & Schoukens)"),
+    Entry("ML-interp", LevelInterpolatedML,
+          summary="ML's periodic kernel per force level, interpolated in input RMS"),
     # configurations: a registered name with parameters
     Entry("ML-lags", MultipleLoad, _MEASURED_LAGS,
           summary="ML on measured inputs, lags by leave-one-record-out"),
@@ -95,6 +100,9 @@ ENTRIES: tuple[Entry, ...] = (
           summary="ML on measured inputs, lags and TC prior by leave-one-record-out"),
     Entry("ML-whole", MultipleLoad, _WHOLE,
           summary="ML on measured inputs, the kernel over the whole record"),
+    Entry("ML-periodic", MultipleLoad, {"inputs": "periodic"}, supplied=("period",),
+          summary="ML on a periodic excitation, the kernel over one period (its excited "
+                  "lines)"),
     Entry("ML-k", MultipleLoad, _WHOLE, supplied=("n_modes",),
           summary="ML-whole in k POMs, k given by the study (its training records)"),
     Entry("FIR-LS-whole", FIRLeastSquares, {"n_lags": None},

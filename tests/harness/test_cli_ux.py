@@ -80,7 +80,7 @@ def test_bundled_data_are_the_checkouts_top_level_folders():
     assert root.joinpath("scenarios", "sweeps", "beam_forced_noise.toml").is_file()
     assert bundled_structures() == bundled_root() / "structures"
     assert list(bundled_studies()) == ["base_excited", "calibration", "chapter4",
-                                      "chapter4_variants", "chapter5",
+                                      "chapter4_variants", "chapter5", "f16_gvt",
                                       "mr_designs", "painter_street", "peers", "sensitivity",
                                       "substructuring", "sweeps"]
     assert len(list((bundled_scenarios() / "chapter4").glob("*.toml"))) == 8
@@ -103,8 +103,8 @@ def test_an_unknown_name_is_one_line_naming_the_bundled_studies(tmp_path, monkey
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert "chapter9: no such file or folder, nor a bundled study or scenario" in err
-    assert ("base_excited, calibration, chapter4, chapter4_variants, chapter5, mr_designs, "
-            "painter_street, peers, "
+    assert ("base_excited, calibration, chapter4, chapter4_variants, chapter5, f16_gvt, "
+            "mr_designs, painter_street, peers, "
             "sensitivity, substructuring, sweeps") in err
     assert not (tmp_path / "results").exists()
 

@@ -51,7 +51,7 @@ def test_the_bundled_studies_name_their_runners():
             owns[name] = own.runner
     # every registered runner has its bundled study, and every such study a runner
     assert owns == {"painter_street": "painter_street", "substructuring": "substructuring",
-                    "base_excited": "base_excited"}
+                    "base_excited": "base_excited", "f16_gvt": "f16_gvt"}
     assert set(owns.values()) == set(api.RUNNERS)
     # the scenario studies are not own-runner studies
     assert api.own_study(find_scenarios([bundled_scenarios() / "chapter4"])) is None

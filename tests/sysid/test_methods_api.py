@@ -41,4 +41,5 @@ def test_public_names():
     assert abbreviations == ["POVR", "MDS", "SL", "ML", "MR"]
     assert {k: c.abbreviation for k, c in methods.BUILTIN_METHODS.items()
             if k not in ("superposition", "mdof")} == {
-        k: k for k in ("POVR", "MDS", "SL", "ML", "MR", "FIR-LS", "ERA", "DMDc", "OpInf")}
+        k: k for k in ("POVR", "MDS", "SL", "ML", "MR", "FIR-LS", "ERA", "DMDc", "OpInf", "BLA",
+                       "ML-interp")}

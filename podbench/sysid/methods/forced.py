@@ -3,7 +3,8 @@
 Both take records whose inputs are forces at the output sensors (the dissertation's); ML
 also takes measured inputs elsewhere (a base acceleration, ground motion: Chapter 6,
 :mod:`podbench.sysid.methods.inputs`), where SL's diagonal assumption has no meaning and SL
-refuses them with that reason.
+refuses them with that reason; and measured inputs of a periodic excitation in steady
+state (``inputs="periodic"``: the kernel over one period, :mod:`podbench.sysid.periodic`).
 
 The structure starts at rest and the scaled POC histories are the convolution of a modal
 impulse-response kernel ``C(t) = Φ12(t) M⁻¹`` (``k × k``) with the modal forces
@@ -25,7 +26,7 @@ from typing import cast
 
 import numpy as np
 
-from podbench.core.records import Record, check_compatible, is_record
+from podbench.core.records import Record, as_record, check_compatible, check_records, is_record
 from podbench.core.validation import as_finite_array
 from podbench.errors import DimensionError, IllConditionedError, InputError
 from podbench.sysid.deconvolution import convolution_product, convolve, convolve_kernel
@@ -57,6 +58,15 @@ from podbench.sysid.methods.base import (
 )
 from podbench.sysid.methods.inputs import LAG_GRID, fit_fir, fit_whole, given_basis, measured_basis
 from podbench.sysid.params import Boolean, InstanceOf, Interval, Options, check_param
+from podbench.sysid.periodic import (
+    choose_lines,
+    period_convolution,
+    period_kernel,
+    period_spectra,
+    periodic_prediction,
+    pooled_noise,
+    pooled_response,
+)
 
 __all__ = ["SingleLoad", "MultipleLoad", "KERNEL_TAIL", "kernel_lags", "INPUTS"]
 
@@ -95,6 +105,9 @@ INPUTS: list = [Options("auto", "modal", "measured")]
 """``inputs``: the modal forces ``Uᵀ F`` of forces at the output sensors (``"modal"``, the
 dissertation's Eq. 3.47), the inputs as measured (``"measured"``, Chapter 6), or
 ``"auto"``: modal when every training record's inputs are forces at its output channels."""
+ML_INPUTS: list = [Options("auto", "modal", "measured", "periodic")]
+"""ML's ``inputs``: :data:`INPUTS` and ``"periodic"``, measured inputs of a periodic
+excitation in steady state (the kernel over one period)."""
 
 #: The dissertation's array forms: ``SingleLoad().fit(W, F, dt=…)``,
 #: ``MultipleLoad().fit([W…], [F…], dt=…)``, ``predict(F_new)``.
@@ -433,10 +446,23 @@ class MultipleLoad(_ForcedMethod):
         or given.
     feedthrough : "auto", True or False
         Keep lag 0 on measured inputs (``"auto"``: for acceleration outputs).
-    inputs : {"auto", "modal", "measured"}
-        :data:`INPUTS`: the modal forces ``Uᵀ F`` of forces at the output sensors
+    inputs : {"auto", "modal", "measured", "periodic"}
+        :data:`ML_INPUTS`: the modal forces ``Uᵀ F`` of forces at the output sensors
         (``"modal"``), the inputs as measured (``"measured"``), or ``"auto"`` (default):
         modal when every training record's inputs are forces at its output channels.
+        ``"periodic"``: measured inputs of a periodic excitation (a multisine repeated
+        over periods of ``period`` samples) in steady state, and the kernel over one
+        period — a circular convolution, i.e. the frequency response on the excited lines
+        pooled over the records by least squares (:mod:`podbench.sysid.periodic`): every
+        lag up to one period, the structure's whole memory, from the steady-state periods.
+    period : int, optional
+        Samples per period of the excitation; required with ``inputs="periodic"``.
+    transient_periods : int
+        Leading periods of every record left out of a periodic fit (the start-up).
+    lines : "auto" or sequence of int
+        The lines (DFT indices over one period) a periodic fit identifies: ``"auto"``, those
+        whose input power summed over the training records is at least
+        :data:`~podbench.sysid.periodic.LINE_THRESHOLD` × the strongest line's; or given.
 
     Attributes
     ----------
@@ -456,7 +482,16 @@ class MultipleLoad(_ForcedMethod):
     inputs_ : str
         ``"modal"`` or ``"measured"``: how this fit read its records' inputs.
     info_ : dict
-        Measured inputs: ``n_lags``, ``first_lag``, ``cv_error`` and the prior's choice.
+        Measured inputs: ``n_lags``, ``first_lag``, ``cv_error`` and the prior's choice;
+        periodic: ``n_lines``, ``f_min_Hz``, ``f_max_Hz``, ``period``, ``steady_periods``.
+    lines_, frequencies_ : (L,) ndarray
+        Periodic: the identified lines (DFT indices) and their frequencies (Hz).
+    response_ : (k, n_in, L) complex ndarray
+        Periodic: the frequency response in the POC coordinates (the DFT of ``Δt·kernel_``
+        over one period on ``lines_``); ``kernel_`` is then (k, n_in, period).
+    noise_variance_ : (k, L) ndarray
+        Periodic: variance of ``response_`` from the spread over the periods (one input;
+        NaN otherwise).
     condition_number_ : float
         Condition number of the load cases' modal-force histories (see ``max_cond``).
     fit_residual_ : float
@@ -474,17 +509,23 @@ class MultipleLoad(_ForcedMethod):
         "basis": BASES, "n_lags": N_LAGS,
         "lag_grid": [InstanceOf((tuple, list), "a sequence of lag lengths (s)")],
         "prior": [None, Options("tc"), InstanceOf((tuple, list), "(tau_s, gamma) > 0")],
-        "feedthrough": [Options("auto"), Boolean()], "inputs": INPUTS}
+        "feedthrough": [Options("auto"), Boolean()], "inputs": ML_INPUTS,
+        "period": [None, Interval("integer", 2)], "transient_periods": [Interval("integer", 0)],
+        "lines": [Options("auto"), InstanceOf((tuple, list, np.ndarray),
+                                              "a sequence of DFT line indices")]}
 
     def __init__(self, *, n_modes=None, solver="auto", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None, lag_grid=LAG_GRID, prior=None,
-                 feedthrough="auto", inputs="auto"):
-        # the dissertation's hyperparameters (§3.3.2), then the kernel's length and prior
+                 feedthrough="auto", inputs="auto", period=None, transient_periods=1,
+                 lines="auto"):
+        # the dissertation's hyperparameters (§3.3.2), then the kernel's length and prior,
+        # then a periodic excitation's
         self.n_modes, self.basis, self.inputs = n_modes, basis, inputs
         self.solver, self.solver_options = solver, solver_options
         self.max_cond, self.max_growth = max_cond, max_growth
         self.n_lags, self.lag_grid, self.prior = n_lags, lag_grid, prior
         self.feedthrough = feedthrough
+        self.period, self.transient_periods, self.lines = period, transient_periods, lines
 
     @property
     def records_per_mode(self) -> bool:  # type: ignore[override]
@@ -494,8 +535,8 @@ class MultipleLoad(_ForcedMethod):
     def required_fields(self) -> tuple[str, ...]:
         """``W, F, dt`` (modal forces), ``u, y, dt`` (measured inputs); ``W, dt`` and inputs
         of either kind with ``inputs="auto"``."""
-        return {"modal": ("W", "F", "dt"), "measured": ("u", "y", "dt")}.get(
-            self.inputs, ("W", "dt"))
+        return {"modal": ("W", "F", "dt"), "measured": ("u", "y", "dt"),
+                "periodic": ("u", "y", "dt")}.get(self.inputs, ("W", "dt"))
 
     def refusal(self, records) -> str | None:
         """Free responses (no inputs); modal forces asked of inputs elsewhere."""
@@ -506,8 +547,14 @@ class MultipleLoad(_ForcedMethod):
         or more training records, else none), ``ls`` (no prior), ``tc`` (the TC prior),
         each a truncated kernel with its lags by leave-one-record-out; any other name is a
         deconvolution solver for the kernel over the whole record. On forces at the outputs
-        it is the deconvolution solver, as for every method."""
+        it is the deconvolution solver, as for every method. On a periodic excitation
+        (``inputs="periodic"``) only ``auto``: the kernel over one period is solved per line."""
         out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        if self.inputs == "periodic":
+            if solver != "auto":
+                raise InputError(f"Parameter `solver`: not with inputs='periodic' (the kernel "
+                                 f"over one period is solved line by line), got {solver!r}")
+            return {k: v for k, v in out.items() if k != "solver"}
         if self._modal(records):
             return out
         if solver in ("auto", "ls", "tc"):
@@ -521,7 +568,10 @@ class MultipleLoad(_ForcedMethod):
         return measured_basis(recs, self.n_modes)
 
     def _fit(self, records, basis) -> None:
-        if self._modal(records):
+        if self.inputs == "periodic":
+            self.inputs_ = "periodic"
+            self._fit_periodic(records, basis)
+        elif self._modal(records):
             self.inputs_ = "modal"
             Ws, Fs = [r.W for r in records], [cast(np.ndarray, r.F) for r in records]
             self._identify(Ws, Fs, records[0].dt, basis)
@@ -559,8 +609,73 @@ class MultipleLoad(_ForcedMethod):
         self.info_ = info
         self.reference_ = recs[0]
 
+    def _period(self) -> tuple[int, int]:
+        """``(period, transient_periods)`` of a periodic fit, checked (``period`` required
+        and the truncated kernel's ``n_lags`` and ``prior`` refused: the kernel over one
+        period has every lag up to the period)."""
+        params = self._params()
+        if params["period"] is None:
+            raise InputError("Parameter `period`: required with inputs='periodic' (the "
+                             "samples per period of the excitation)")
+        for name in ("n_lags", "prior"):
+            if getattr(self, name, None) is not None:
+                raise InputError(f"Parameter `{name}`: not with inputs='periodic' (the kernel "
+                                 "over one period has every lag up to the period)")
+        return params["period"], params["transient_periods"]
+
+    def _fit_periodic(self, recs, basis) -> None:
+        """The kernel over one period from the steady-state periods of measured inputs
+        (``inputs="periodic"``): the POC and input spectra averaged over the periods of each
+        record, the response on the lines pooled by least squares."""
+        P, T = self._period()
+        check_records(recs, min_samples=(T + 1) * P)
+        U, povs = self._measured_basis(recs) if basis is None else given_basis(recs, basis)
+        spectra = [period_spectra(r.u, U.T @ r.y, P, T, r.name) for r in recs]
+        lines = choose_lines(self.lines, [s.U_mean for s in spectra], P)
+        self.modes_, self.povs_, self.n_modes_ = U, povs, U.shape[1]
+        self.dt_ = recs[0].dt
+        self.reference_ = recs[0]
+        self.lines_ = lines
+        self.frequencies_ = lines / (P * self.dt_)
+        self.first_lag_ = 0  # kernel_[:, :, p] is lag p (the realization reads it)
+        self._fit_response(recs, spectra, lines)
+        self.info_ = {"n_lines": int(lines.size), "f_min_Hz": float(self.frequencies_[0]),
+                      "f_max_Hz": float(self.frequencies_[-1]), "period": P,
+                      "steady_periods": int(min(s.n_periods for s in spectra))}
+
+    def _fit_response(self, recs, spectra, lines) -> None:
+        """The pooled response on the lines, its noise variance and its kernel over one
+        period (a subclass's rule across records may differ)."""
+        self.response_ = pooled_response([s.U_mean for s in spectra],
+                                         [s.Y_mean for s in spectra], lines)
+        self.noise_variance_ = pooled_noise(spectra, lines)
+        self.kernel_ = period_kernel(self.response_, lines, int(self.period), self.dt_)
+
+    def _response_for(self, record) -> np.ndarray:
+        """The POC frequency response (k, n_in, L) a periodic fit predicts ``record`` with."""
+        return self.response_
+
+    def frequency_response(self, record=None) -> np.ndarray:
+        """A periodic fit's frequency response in the output channels (n_out, n_in, L) on
+        ``lines_``: ``U·response_`` (in (output unit)/(input unit); a subclass's at
+        ``record``'s level)."""
+        self._check_is_fitted()
+        if self.inputs_ != "periodic":
+            raise InputError("frequency_response: needs a fit with inputs='periodic'")
+        G = self.response_ if record is None else self._response_for(as_record(record))
+        return np.einsum("ok,kil->oil", self.modes_, G)
+
+    def predict_periodic(self, record) -> np.ndarray:
+        """One steady-state period (n_out × period) of a target's response to a periodic
+        excitation: the frequency response times the target's period-averaged input
+        spectrum on the lines (the best linear approximation's own prediction)."""
+        rec = as_record(record)
+        P, T = self._period()
+        spec = period_spectra(rec.u, None, P, T, rec.name)
+        return periodic_prediction(self.frequency_response(rec), self.lines_, spec.U_mean, P)
+
     def _measured(self) -> bool:
-        return getattr(self, "inputs_", "modal") == "measured"
+        return getattr(self, "inputs_", "modal") in ("measured", "periodic")
 
     def _predict(self, record) -> np.ndarray:
         if not self._measured():
@@ -571,6 +686,11 @@ class MultipleLoad(_ForcedMethod):
         """The predicted POC histories ``v̂`` (k × n) of a target's measured inputs."""
         self._check_is_fitted()
         check_compatible(self.reference_, record, min_samples=1)
+        if self.inputs_ == "periodic":
+            G = self._response_for(record)
+            H = self.kernel_ if G is self.response_ else \
+                period_kernel(G, self.lines_, int(self.period), self.dt_)
+            return period_convolution(H, record.u, self.dt_)
         return lag_response(self.theta_, record.u, record.n_inputs, self.first_lag_)
 
     def frozen_params(self) -> dict:
@@ -582,6 +702,8 @@ class MultipleLoad(_ForcedMethod):
         self._check_is_fitted()
         params = self.get_params(deep=False)
         out: dict = {}
+        if self.inputs_ == "periodic" and isinstance(params.get("lines"), str):
+            out["lines"] = tuple(int(k) for k in self.lines_)
         if params.get("n_lags") == "auto":
             out["n_lags"] = int(self.info_["n_lags"])
         if params.get("prior") == "tc" and "tc_tau" in self.info_:

@@ -54,7 +54,7 @@ from podbench.sysid.methods.base import ArrayForm
 from podbench.sysid.methods.free import MDS, first_column_w0
 from podbench.sysid.methods.peers._common import HOLDOUT, INPUTS, INT_OR_NONE, PeerMethod, simulate
 from podbench.sysid.params import Interval, Options
-from podbench.sysid.statespace import era_realization, realize
+from podbench.sysid.statespace import era_realization, realize, simulate_blocks
 
 __all__ = ["ERA", "okid_markov", "era_realization", "free_markov", "excited_inputs",
            "ERA_BLOCKS"]
@@ -384,9 +384,9 @@ class ERA(PeerMethod):
             h, _, (P, sv, Qt, H1) = factors["f"]
             return realize(P, sv, Qt, H1, h[0], min(cand, int(np.sum(sv > 0))))
 
-        def respond(mdl, Uin):
+        def respond(mdl, Uin):  # every candidate order: by blocks (the loop's result)
             A, B, C, D = mdl
-            return simulate(A, B, C, D, Uin)
+            return simulate_blocks(A, B, C, D, Uin)
 
         order, errors = self._order(Ys, Us, blocks * k, identify, respond,
                                     f"the Hankel matrix ({blocks} blocks of {k})")
