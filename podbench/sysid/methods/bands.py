@@ -316,13 +316,19 @@ def _sensor_rms(records) -> np.ndarray:
                            axis=0))
 
 
-def _envelope(W_hat: np.ndarray, reference=None) -> np.ndarray:
+def _local_rms(W_hat: np.ndarray) -> np.ndarray:
+    """The envelope's moving RMS before its floor (window ENVELOPE_FRACTION of the record)."""
+    return _moving_rms(W_hat, max(3, round(ENVELOPE_FRACTION * W_hat.shape[-1])))
+
+
+def _envelope(W_hat: np.ndarray, reference=None, local=None) -> np.ndarray:
     """Local RMS envelope of a prediction at each sensor, with a floor (FLOOR × the larger
     of the sensor's overall RMS in the prediction and, given, in the training records
     ``reference`` (m,): a prediction of almost nothing still gets a band on the scale of
-    what the model was fitted on; and 1e-12 × the whole prediction's RMS)."""
-    n = W_hat.shape[-1]
-    env = _moving_rms(W_hat, max(3, round(ENVELOPE_FRACTION * n)))
+    what the model was fitted on; and 1e-12 × the whole prediction's RMS). ``local``: the
+    prediction's :func:`_local_rms` when it is already computed (the floors differ between
+    the folds' scores and their difficulty, the moving RMS does not)."""
+    env = _local_rms(W_hat) if local is None else local
     rms_i = np.sqrt(np.mean(W_hat ** 2, axis=-1, keepdims=True))
     if reference is not None and TRAINING_FLOOR:
         rms_i = np.maximum(rms_i, np.asarray(reference, dtype=float)[..., None])
@@ -465,12 +471,13 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
             for j in range(len(recs))]
 
 
-def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float]]:
-    """``(envelopes, excursions)``: each fold's envelope of its prediction, floored by the
+def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float], list[np.ndarray]]:
+    """``(envelopes, excursions, local)``: each fold's envelope of its prediction, floored by the
     per-sensor RMS of the records it was fitted on (computed for all folds at once where
     the predictions share a shape), and how far its level lies outside the others'
     (:func:`extrapolation` of :func:`levels`: the left-out record's input RMS against the
-    others', both ways, or its prediction's RMS against the others' responses)."""
+    others', both ways, or its prediction's RMS against the others' responses), and each
+    prediction's moving RMS before the floor (:func:`_local_rms`, reused by the scores)."""
     N = len(recs)
     ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
     rule, amps = levels(recs)
@@ -483,14 +490,19 @@ def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float]]:
         excursions.append(extrapolation(own, min(rest_lv), max(rest_lv),
                                         below=True if rule == "input" else None))
     if len({Wh.shape for Wh in Whs}) == 1:
-        return list(_envelope(np.stack(Whs), np.stack(refs))), excursions
-    return [_envelope(Wh, ref) for Wh, ref in zip(Whs, refs, strict=True)], excursions
+        stack = np.stack(Whs)
+        local = _local_rms(stack)
+        return list(_envelope(stack, np.stack(refs), local)), excursions, list(local)
+    local = [_local_rms(Wh) for Wh in Whs]
+    return ([_envelope(Wh, ref, lr) for Wh, ref, lr in zip(Whs, refs, local, strict=True)],
+            excursions, local)
 
 
 def _residuals(model, recs, U, can_split: bool, frozen=None):
-    """``(source, residuals, envelopes, cv_modes, predictions, excursions)``: leave-one-record-out
-    residuals where the records allow a split, else the in-sample residuals."""
-    residuals, envs, excursions = [], [], []
+    """``(source, residuals, envelopes, cv_modes, predictions, excursions, local)``:
+    leave-one-record-out residuals where the records allow a split, else the in-sample
+    residuals; ``local`` the folds' :func:`_local_rms` (empty in-sample)."""
+    residuals, envs, excursions, local = [], [], [], []
     source = "in-sample"
     cv_modes = None
     Whs: list = []
@@ -501,7 +513,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
-        envs, excursions = _fold_envelopes(Whs, recs)
+        envs, excursions, local = _fold_envelopes(Whs, recs)
         for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
@@ -520,7 +532,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             envs.append(_envelope(Wh))
             Whs.append(Wh)
             excursions.append(1.0)
-    return source, residuals, envs, cv_modes, Whs, excursions
+    return source, residuals, envs, cv_modes, Whs, excursions, local
 
 
 def _time_profile(residuals, envs) -> np.ndarray:
@@ -576,8 +588,8 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     if not cross_validate:
         return BandCalibration("noise", np.zeros(0), 0.0, np.ones(N_TIME_BINS), sig, 0,
                                len(noise_models), None, noise_models)
-    source, residuals, envs, cv_modes, Whs, excursions = _residuals(model, recs, U, can_split,
-                                                                     frozen)
+    source, residuals, envs, cv_modes, Whs, excursions, local = _residuals(
+        model, recs, U, can_split, frozen)
     g = _time_profile(residuals, envs)
     rule, amps = levels(recs)
     cal = BandCalibration(source, np.zeros(0), 0.0, g, sig,
@@ -585,20 +597,24 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
                           len(noise_models), cv_modes, noise_models,
                           (min(amps), max(amps)), _sensor_rms(recs), level_rule=rule)
     if source == "cross-validation":
-        _fold_estimate(cal, model, recs, U, residuals, Whs, excursions)
+        _fold_estimate(cal, model, recs, U, residuals, Whs, excursions, local)
     else:
         _in_sample_scale(cal, residuals, envs)
     return cal
 
 
-def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursions) -> None:
+def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursions,
+                   local) -> None:
     """The target-aware estimate's gains, each fold's estimate and the band's normalized
     scores (docs/bands.md, *The estimate*): each fold's realized error against its
     :func:`~podbench.sysid.methods.band_target.fold_terms`, the gains fitted to them
     (:func:`fit_gains`), and every residual sample over the fold's difficulty — its
     estimate spread over the prediction's envelope."""
     U_cv = U if cal.cv_modes is None else U[:, :cal.cv_modes]
-    terms = band_target.fold_terms(model, recs, U_cv, U)
+    cal.excitations = band_target.excitations(model, recs, U)
+    # the folds' excitations are the model's own when the folds keep every mode
+    terms = band_target.fold_terms(model, recs, U_cv, U,
+                                   cal.excitations if cal.cv_modes is None else None)
     if terms is None:  # no excitation to compare: one number per model
         terms = [TargetTerms(0.0, 0.0, None)] * len(recs)
     errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
@@ -612,10 +628,9 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursi
     cal.fold_errors = errors
     cal.fold_estimates = np.array([estimate(cal.gains, t, f)
                                    for t, f in zip(terms, d, strict=True)])
-    cal.excitations = band_target.excitations(model, recs, U)
     scores = []
-    for R, Wh, e in zip(residuals, Whs, cal.fold_estimates, strict=True):
-        S = _difficulty(Wh, cal, e)
+    for R, Wh, e, lr in zip(residuals, Whs, cal.fold_estimates, local, strict=True):
+        S = _difficulty(Wh, cal, e, lr)
         scores.append((np.abs(R) / S).ravel())
     cal.scores = np.concatenate(scores)
     cal.mean_square_score = float(np.mean(cal.scores ** 2))
@@ -696,22 +711,26 @@ def _fit(errors, terms, factors) -> tuple[float, float, float]:
     if np.any(D > 0):
         base = float(np.median(y[D > 0] / D[D > 0]))
         cands += list(base * np.logspace(-4, 1, GAIN_GRID))
+    b = np.array(cands)[:, None]
+    # every candidate at once, one row each (the rows reduce as the single vectors would)
+    ratio = np.maximum(y - b * D, 1e-12 * y) / L
+    a = np.exp(np.mean(np.log(ratio), axis=1)) if np.all(ratio > 0) else \
+        np.array([_geometric_mean(r) for r in ratio])
+    losses = np.sum((np.log(y) - np.log(a[:, None] * L + b * D)) ** 2, axis=1)
     best = None
-    for b in cands:
-        a = _geometric_mean(np.maximum(y - b * D, 1e-12 * y) / L)
-        loss = float(np.sum((np.log(y) - np.log(a * L + b * D)) ** 2))
+    for loss, ai, bi in zip(losses.tolist(), a.tolist(), cands, strict=True):
         if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
-            best = (loss, a, b)
+            best = (loss, ai, bi)
     return best
 
 
-def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float) -> np.ndarray:
+def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float, local=None) -> np.ndarray:
     """The band's difficulty of a prediction ``Ŵ`` whose relative error is estimated as
     ``err``: its envelope (floored by the training records' per-sensor RMS) times the time
     profile ``g``, scaled so that its Frobenius norm is the absolute error that ``err``
     means, ``‖Ŵ‖ err/sqrt(1 + err²)`` (the truth's norm is ``‖Ŵ‖/sqrt(1 + err²)`` for an
-    error uncorrelated with it)."""
-    E = _envelope(Wh, cal.reference_rms) * cal.time_profile[_bins(Wh.shape[1])][None, :]
+    error uncorrelated with it). ``local``: ``Ŵ``'s :func:`_local_rms` if computed."""
+    E = _envelope(Wh, cal.reference_rms, local) * cal.time_profile[_bins(Wh.shape[1])][None, :]
     norm_e = float(np.linalg.norm(E))
     if not (math.isfinite(err) and norm_e > 0):
         return E
