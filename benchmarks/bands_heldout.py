@@ -197,6 +197,33 @@ def make_method(d: Design):
     return MDS(n_modes=d.n_modes)
 
 
+FEATURES = False
+"""``--features``: each row also carries the estimate's terms and the fold data it was
+calibrated on (to study other estimators offline; the scores do not read them)."""
+
+
+def _features(model, p) -> dict:
+    """The target's terms, the calibration's gains and its folds (``;``-joined)."""
+    cal = model.band_calibration_
+    det = p.details
+    out = {k: det.get(k, math.nan) for k in ("leverage", "blind_spot", "projection_share",
+                                             "level_excursion", "level_power",
+                                             "conformal_quantile")}
+    out.update(n_modes=int(model.modes_.shape[1]), n_sensors=int(model.modes_.shape[0]),
+               source=cal.source, cv_modes=cal.cv_modes if cal.cv_modes is not None else -1,
+               noise_std_max=det.get("noise_std_max", math.nan))
+    if cal.gains is not None:
+        out.update(gain_lev=cal.gains[0], gain_blind=cal.gains[1])
+    join = lambda xs: ";".join(f"{float(x):.6g}" for x in xs)  # noqa: E731
+    if cal.fold_errors is not None:
+        out.update(fold_errors=join(cal.fold_errors), fold_estimates=join(cal.fold_estimates),
+                   fold_factors=join(cal.fold_factors))
+        out.update(fold_lev2=join(t.leverage2 for t in cal.fold_terms),
+                   fold_blind2=join(t.blind2 for t in cal.fold_terms),
+                   fold_rho=join((t.rho or 0.0) for t in cal.fold_terms))
+    return out
+
+
 def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
     """One row per target: realized error, estimate, coverage, interval scores."""
     from podbench.harness.bands import band_stats
@@ -234,6 +261,8 @@ def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
         row["constant_interval_score"] = st["constant_interval_score"]
         row["relative_half_width"] = st["relative_half_width"]
         row["note"] = getattr(p, "note", "") or ""
+        if FEATURES:
+            row.update(_features(model, p))
         rows.append(row)
     return rows
 
@@ -316,7 +345,11 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", nargs="*", default=list(METHODS))
     ap.add_argument("--per-cell", type=int, default=MODELS_PER_CELL)
     ap.add_argument("--rows", default=None, help="write every prediction's row to this CSV")
+    ap.add_argument("--features", action="store_true",
+                    help="the rows also carry the estimate's terms and fold data")
     args = ap.parse_args(argv)
+    global FEATURES
+    FEATURES = args.features
     df = evaluate(args.set, classes=tuple(args.classes), methods=tuple(args.methods),
                   per_cell=args.per_cell, progress=True)
     if args.rows:

@@ -198,12 +198,14 @@ def target_terms(model, ex: Excitations | None, record, U) -> TargetTerms | None
     return _terms(ex, list(range(N)), part[0], part[1], _rho(model, record, U))
 
 
-def fold_terms(model, records, U, U_full=None) -> list[TargetTerms] | None:
+def fold_terms(model, records, U, U_full=None, ex=None) -> list[TargetTerms] | None:
     """The terms of each training record against the others (its fold), in the fold's
     basis ``U``; the projection share and the blind spot outside ``U_full`` (default
     ``U``): a fold refitted in fewer modes than the model is charged the whole basis's
-    projection error, not the mode it leaves out."""
-    ex = excitations(model, records, U)
+    projection error, not the mode it leaves out. ``ex``: the records'
+    :func:`excitations` in ``U`` when already computed."""
+    if ex is None:
+        ex = excitations(model, records, U)
     if ex is None:
         return None
     U_full = np.asarray(U if U_full is None else U_full, dtype=float)
