@@ -130,6 +130,8 @@ def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes):
                          f"{', '.join(missing)} to its caller; name a method that fixes it")
     est = entry.build(**{p: given[p] for p in entry.supplied})
     cli = est.command_line_params(train, solver=solver, n_modes=n_modes)
+    if "n_lags" in entry.params and entry.params["n_lags"] is None:
+        cli.pop("prior", None)  # a configuration of the whole-record kernel: no lag prior
     est = entry.build(**{**est.get_params(deep=False), **cli, **entry.params})
     est._validate_params()
     lo, hi = est.n_records
