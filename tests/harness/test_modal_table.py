@@ -74,3 +74,26 @@ def test_a_method_without_state_space_form_gets_one_row_with_the_reason():
     rows = modal_rows(NoForm(), chain, {"scenario": "s", "structure": "c", "method": "X"},
                       recs, dt)
     assert len(rows) == 1 and rows[0]["status"].startswith("no modes: ")
+
+
+def test_the_report_section_counts_the_modes_found_and_lists_every_row():
+    import pandas as pd
+
+    from podbench.harness.modal import POM_COLUMNS
+    from podbench.report.modal import modal_html
+
+    rows = [{"scenario": "s", "structure": "c", "method": "ML", "mode": i + 1,
+             "frequency_hz": f, "damping_ratio": 0.01, "identified_frequency_hz": f * 1.001,
+             "identified_damping_ratio": 0.011, "frequency_error_pct": 0.1,
+             "damping_error": 0.001, "mac": 0.999, "truth": "finite-element modes",
+             "status": "ok"} for i, f in enumerate((2.0, 5.0))]
+    rows.append({**rows[0], "mode": 3, "frequency_hz": 9.0, "mac": float("nan"),
+                 "identified_frequency_hz": float("nan"), "status": "unmatched"})
+    modal = pd.DataFrame(rows, columns=list(MODAL_COLUMNS))
+    poms = pd.DataFrame([{"scenario": "s", "structure": "c", "method": "ML", "pom": 1,
+                          "mode": 1, "frequency_hz": 2.0, "mac": 0.98}],
+                        columns=list(POM_COLUMNS))
+    page = modal_html(modal, poms, None)
+    assert "2 of 3 band modes found" in page and "median MAC 0.999" in page
+    assert page.count("<tr><td>") == 3 + 1  # every modal row and the POM row
+    assert modal_html(None, None, None) == ""
