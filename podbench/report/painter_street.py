@@ -221,7 +221,7 @@ def _mode_lines(res) -> list[str]:
         lines.append(
             f"- mode {ref['mode']} ({ref['frequency_hz']:.2f} Hz, ζ {ref['damping_ratio']:.3f} "
             f"together): found in {len(sub)} of 14 events; frequency {f.min():.2f}–"
-            f"{f.max():.2f} Hz (lowest {f[np.argmax(pga)]:.2f} Hz at the largest PGA, "
+            f"{f.max():.2f} Hz ({f[np.argmax(pga)]:.2f} Hz at the largest PGA, "
             f"{pga.max():.3f} g), damping ratio {z.min():.3f}–{z.max():.3f}; ρ(PGA, f) = "
             f"{rho_f:+.2f}, ρ(PGA, ζ) = {rho_z:+.2f}.")
     return [*lines, ""]
