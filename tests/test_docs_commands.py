@@ -259,6 +259,8 @@ BLOCKS: dict[tuple[str, str], object] = {
      "k = 4, dt = 1e-3 s"): "shell",
     ("benchmarks/README.md", "python benchmarks/modal.py                 # chain_coupled and "
      "aluminium_beam, clean and 1 % noise"): "shell",
+    ("benchmarks/README.md", "python benchmarks/model_file.py --repeat 3"): "shell",
+    ("docs/models.md", "python benchmarks/long_memory.py --structure S"): "shell",
     # Python blocks
     ("docs/studies/calibration.md", "p = model.predict(target, coverage=0.9)     # "
      "model.predict(target) still returns the array"): "python",
