@@ -10,6 +10,11 @@ training records and one target of ``--samples`` samples at ``dt`` = 0.002 s. Bo
 timed in the same process, each the best of ``--repeat`` runs; the ratio is what the target
 reads.
 
+Saving writes the arrays and the JSON header; it does not realize the model
+(:data:`podbench.sysid.models.NOT_REALIZED`): the realization and modes in ``model.json``
+are those computed before saving (``podbench fit``, ``model.modes()``). Measured: ratio
+1.07 (2.07 when the save realized; benchmarks/README.md).
+
 Run: ``python benchmarks/model_file.py`` (prints one line; ``--samples``, ``--repeat``).
 """
 

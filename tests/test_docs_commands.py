@@ -219,6 +219,14 @@ COMMANDS: dict[str, object] = {
         "clean form below is run (slow), the realizations and modes are tested in "
         "tests/sysid/test_modal.py"),
     "python benchmarks/modal.py --structures chain_coupled --levels 0 --no-write": SLOW,
+    "python benchmarks/long_memory.py --structure S": NOT_RUN(
+        "fits ML-TC with lags up to 2400 columns and ERA on 40-s records (minutes per "
+        "structure; the errors are measured, never asserted); the lengthening rule is tested "
+        "in tests/measured_io/test_io_methods.py"),
+    "podbench fit": SYNOPSIS,
+    "python benchmarks/model_file.py --repeat 3": NOT_RUN(
+        "times fit + save + load + predict against fit + predict (a minute; the ratio is "
+        "measured, never asserted); saved = fresh is tested in tests/sysid/test_models.py"),
     "python benchmarks/study_time.py": NOT_RUN(
         "times a cold `podbench run chapter5` (35 min on the shared 2-core machine) and "
         "appends to results/benchmarks.csv; `podbench run chapter5` itself is run (slow)"),
@@ -271,6 +279,8 @@ BLOCKS: dict[tuple[str, str], object] = {
      "f16_fullmsine_level4_61N_validation.npz --coverage 0.9 --out f16_ml"): "shell",
     ("benchmarks/README.md", "python benchmarks/modal.py                 # chain_coupled and "
      "aluminium_beam, clean and 1 % noise"): "shell",
+    ("benchmarks/README.md", "python benchmarks/model_file.py --repeat 3"): "shell",
+    ("docs/models.md", "python benchmarks/long_memory.py --structure S"): "shell",
     # Python blocks
     ("docs/studies/calibration.md", "p = model.predict(target, coverage=0.9)     # "
      "model.predict(target) still returns the array"): "python",

@@ -14,6 +14,10 @@ outputs and the whole record. Every hyper-parameter (lag length, prior, model or
 chosen by a rule on the thirteen training events only (leave-one-event-out among them, or
 the peers' hold-out rule), never on the held-out event.
 
+The deck modes per event (:func:`deck_modes`): ERA/OKID of a fixed order on each event
+alone, its physical modes matched by MAC to those of all events together, with the event's
+peak ground acceleration: how the modes move with the shaking level.
+
 Harness layer: it runs the methods on the data (the methods see only records) and returns
 the numbers; :mod:`podbench.report.painter_street` writes the tables, FINDINGS.md and the
 figures, and ``scenarios/painter_street/painter_street.toml`` names this runner
@@ -36,8 +40,11 @@ from podbench.core.threads import single_blas_thread
 from podbench.errors import InputError
 from podbench.sysid import registry
 from podbench.sysid.methods.inputs import clear_grams
+from podbench.sysid.modal import match_modes
+from podbench.sysid.realize import to_statespace
 
-__all__ = ["data_folder", "load_events", "events_table", "CONFIGS", "run_study", "TARGETS"]
+__all__ = ["data_folder", "load_events", "events_table", "CONFIGS", "run_study", "TARGETS",
+           "deck_modes", "DECK_CHANNELS", "MODES_ORDER", "MODES_BAND_HZ"]
 
 TARGETS = {"fir_three_inputs_baseline": 0.399, "fir_ground_baseline": 0.343,
            "best_factor": 0.9, "seconds": 10.0}
@@ -175,6 +182,52 @@ def _band_summary(errs, band) -> dict:
             "estimate_within_2": float(np.mean((ratio >= 0.5) & (ratio <= 2.0)))}
 
 
+DECK_CHANNELS = ("7", "9")
+"""The deck's output channels (transverse deck accelerations; ch 4 is the column top)."""
+MODES_ORDER = 20
+"""State dimension of the ERA/OKID realizations the deck modes are read from (mdof's
+default order of the peers' rows, fixed in advance)."""
+MODES_BAND_HZ = 10.0
+"""Upper frequency (Hz) of the deck modes reported."""
+
+
+def _era_modes(recs):
+    """The physical modes of ERA/OKID of order :data:`MODES_ORDER` on ``recs`` (three
+    inputs): hard criteria and stabilization at orders 22 and 24
+    (:mod:`podbench.sysid.modal`)."""
+    model = registry.lookup("ERA-measured").build().set_params(order=MODES_ORDER).fit(recs)
+    return to_statespace(model).modes()
+
+
+def deck_modes(recs) -> tuple[list[dict], list[dict]]:
+    """The deck modes identified from each event alone, and their reference.
+
+    The reference: ERA/OKID (:data:`MODES_ORDER`) on the 14 events together, its physical
+    modes below :data:`MODES_BAND_HZ` whose largest shape component is at a deck channel
+    (:data:`DECK_CHANNELS`). Each event: the same identification on that event alone, its
+    physical modes matched to the reference by MAC
+    (:func:`podbench.sysid.modal.match_modes`). Returns ``(rows, reference)``: one row per
+    (event, reference mode) with the identified frequency (Hz), damping ratio and MAC (NaN
+    when no mode of the event has MAC ≥ 0.5 with it), and the reference modes."""
+    joint = _era_modes(recs)
+    chans = np.array(joint.channels)
+    top = chans[np.argmax(np.abs(joint.shapes), axis=0)] if len(joint) else chans[:0]
+    ref = joint.subset((joint.frequency_hz < MODES_BAND_HZ) & np.isin(top, DECK_CHANNELS))
+    reference = [{"mode": i + 1, "frequency_hz": float(f), "damping_ratio": float(z)}
+                 for i, (f, z) in enumerate(zip(ref.frequency_hz, ref.damping_ratio,
+                                                strict=True))]
+    rows = []
+    for rec in recs:
+        table = match_modes(_era_modes([rec]), ref)
+        for _, m in table.iterrows():
+            rows.append({"event": rec.name, "mode": int(m["mode"]),
+                         "reference_frequency_hz": float(m["frequency_hz"]),
+                         "frequency_hz": float(m["identified_frequency_hz"]),
+                         "damping_ratio": float(m["identified_damping_ratio"]),
+                         "mac": float(m["mac"])})
+    return rows, reference
+
+
 def run_study(folder=None, progress=None, methods=None) -> dict:
     """Run every configuration (``methods``: only these labels) on the records of ``folder``
     (default: the bundled ones); returns the results: ``rows`` (per event), ``fits``,
@@ -214,5 +267,9 @@ def run_study(folder=None, progress=None, methods=None) -> dict:
                             "median_error": float(np.median(errs)),
                             "max_error": float(np.max(errs)), "seconds": secs,
                             **_band_summary(errs, band), "note": cfg.note})
+        if progress:
+            progress("deck modes per event (ERA/OKID)")
+        modes, reference = deck_modes(data["three"])
     return {"rows": rows, "fits": fits, "summary": summary, "preds": preds,
-            "records": data, "events": events_table(folder)}
+            "records": data, "events": events_table(folder), "modes": modes,
+            "modes_reference": reference}

@@ -180,6 +180,8 @@ def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes,
     est = entry.build(**{p: given[p] for p in entry.supplied})
     cli = est.command_line_params(train, solver=solver, n_modes=n_modes)
     cli.update(_periodic_params(entry, est, period))
+    if "n_lags" in entry.params and entry.params["n_lags"] is None:
+        cli.pop("prior", None)  # a configuration of the whole-record kernel: no lag prior
     est = entry.build(**{**est.get_params(deep=False), **cli, **entry.params})
     est._validate_params()
     lo, hi = est.n_records

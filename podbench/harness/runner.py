@@ -33,6 +33,7 @@ from podbench.harness.cache import TruthCache, structure_fingerprint
 from podbench.harness.digits import diagnostic_digits, estimator_writer
 from podbench.harness.executor import execute
 from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, decompose, norm_summaries
+from podbench.harness.modal import modal_rows, pom_rows
 from podbench.harness.progress import as_stage
 from podbench.harness.series import prediction_series, truth_series
 from podbench.structures.files import structure_length_unit
@@ -71,6 +72,8 @@ class UnitResult:
     timing: list = field(default_factory=list)  # per method: fit and total wall seconds
     simulated_keys: list = field(default_factory=list)  # cache keys of the responses simulated
     cached_keys: list = field(default_factory=list)  # and of those read from the cache
+    modal: list = field(default_factory=list)  # modal.csv rows (podbench.harness.modal)
+    pom_modes: list = field(default_factory=list)  # pom_modes.csv rows
 
 
 def _references(case) -> dict[str, str]:
@@ -202,6 +205,7 @@ class _Truth:
         self.noise = noise
         self.conditioning = conditioning
         self._refs: dict = {}
+        self.fe_modes: dict = {}  # the structure's finite-element modes by dt (modal.csv)
         self._store: dict = {}
         self._noisy: dict = {}
         self.simulated = 0
@@ -481,6 +485,8 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
     # every number at the digits the fit determines, as the estimator declares them
     written = estimator_writer(est, keep=_NOT_FLOORED) or (lambda row: row)
     res.fits.append(written({**base, **diag}))
+    if not sweep and not measured:  # the modes against the finite-element model's
+        _add_modal(res, est, spec, scenario, truth, base)
     if sweep:  # a sweep point: what the solver chose, on every row
         base = {**base, **{k: diagnostic_digits(k, diag.get(k, float("nan")))
                            for k in SWEEP_DIAGNOSTICS}}
@@ -513,6 +519,16 @@ def _fit_and_score(res: UnitResult, spec, scenario: Scenario, truth: _Truth, *, 
             res.series[t].update(prediction_series(spec.label, Wh, truth.get(t).dt,
                                                    res.series[t]["sensors"]))
     return t_fit
+
+
+def _add_modal(res: UnitResult, est, spec, scenario: Scenario, truth: _Truth,
+               base: dict) -> None:
+    """The fit's modes against the structure's (:mod:`podbench.harness.modal`)."""
+    recs = training_records(spec, scenario.method, truth.get)  # the band: clean records
+    flat = [r for x in recs for r in (x if isinstance(x, list) else [x])]
+    res.modal.extend(modal_rows(est, truth.structure, base, flat, scenario.dt,
+                                reference=truth.fe_modes))
+    res.pom_modes.extend(pom_rows(est, truth.structure, base))
 
 
 def _add_band(res: UnitResult, row: dict, est, target, plain_seconds: float, *,

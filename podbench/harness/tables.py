@@ -1,5 +1,6 @@
 """A run's results as tables: ``summary.csv`` (one row per scenario × structure × method ×
-target), ``fits.csv`` (what each fit measured about itself), and the one CSV format of
+target), ``fits.csv`` (what each fit measured about itself), ``modal.csv`` and
+``pom_modes.csv`` (the modes against the finite-element model's), and the one CSV format of
 every table podbench writes (fixed digits, fixed row order, so a rerun is byte-identical)."""
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from podbench.harness.digits import DIAGNOSTIC_COLUMNS, ESTIMATE_COLUMNS, diagnostic_digits
+from podbench.harness.modal import MODAL_COLUMNS, POM_COLUMNS
 from podbench.harness.runner import COLUMNS
 
 FLOAT_FORMAT = "%.6g"
@@ -99,3 +101,15 @@ def slowest_method(path) -> tuple[str, float, float] | None:
     if per.empty or not np.isfinite(per.max()):
         return None
     return str(per.idxmax()), float(per.max()), float(per.sum())
+
+
+def modal_tables(results) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
+    """``(modal.csv, pom_modes.csv)`` of a run (:mod:`podbench.harness.modal`), in the
+    runner's order; ``(None, None)`` when no fit was compared with finite-element modes (a
+    study of measured records)."""
+    modal = [r for u in results for r in getattr(u, "modal", [])]
+    if not modal:
+        return None, None
+    poms = [r for u in results for r in getattr(u, "pom_modes", [])]
+    return (pd.DataFrame(modal, columns=list(MODAL_COLUMNS)),
+            pd.DataFrame(poms, columns=list(POM_COLUMNS)))

@@ -26,7 +26,14 @@ from podbench.harness.progress import as_stage
 from podbench.harness.rewrite import unmoved
 from podbench.harness.runner import response_counts
 from podbench.harness.seeds import seed_table
-from podbench.harness.tables import TIMING_FILE, fits_table, summary_table, table_csv, timing_table
+from podbench.harness.tables import (
+    TIMING_FILE,
+    fits_table,
+    modal_tables,
+    summary_table,
+    table_csv,
+    timing_table,
+)
 from podbench.report.calibration import (
     calibration_figure,
     calibration_html,
@@ -37,6 +44,7 @@ from podbench.report.calibration import (
 from podbench.report.decomposition import decomposition_figure
 from podbench.report.figures import FIGURE_FORMATS, FigureTask, describe_case, draw_figure
 from podbench.report.html import render_report
+from podbench.report.modal import modal_figure, modal_html
 from podbench.report.nonlinearity import write_outputs
 from podbench.study.claims import (
     Verdict,
@@ -404,6 +412,19 @@ def _calibration_section(cal_rows, cal_md: str, tmp: Path, figures: bool, figure
     return calibration_html(cal_rows, uri)
 
 
+def _modes_section(modal, poms, tmp: Path, figures: bool, figure_format: str) -> str:
+    """The report's modes section (:mod:`podbench.report.modal`), its MAC figure drawn into
+    ``tmp/figures``; empty without ``modal.csv``."""
+    if modal is None:
+        return ""
+    uri = None
+    if figures and bool((modal["mode"] > 0).any()):
+        (tmp / "figures").mkdir(exist_ok=True)
+        png = modal_figure(modal, tmp / "figures" / f"modes_mac.{figure_format}")
+        uri = "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+    return modal_html(modal, poms, uri)
+
+
 def _decomposition_figures(df, scenarios: dict, fdir: Path, fmt: str) -> dict:
     """One stacked-bar figure of the error decomposition per scenario
     (:mod:`podbench.report.decomposition`), ``figures/<scenario>__decomposition.<fmt>``;
@@ -463,6 +484,11 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
         (tmp / "fits.csv").write_text(table_csv(fits), encoding="utf-8", newline="\n")
         (tmp / TIMING_FILE).write_text(timing_table(results).to_csv(
             index=False, float_format="%.3f", lineterminator="\n"), encoding="utf-8")
+        modal, poms = modal_tables(results)
+        if modal is not None:
+            (tmp / "modal.csv").write_text(table_csv(modal), encoding="utf-8", newline="\n")
+            (tmp / "pom_modes.csv").write_text(table_csv(poms), encoding="utf-8",
+                                               newline="\n")
         evaluated, remarks = _write_findings(tmp, df, scenarios, claims_path, figures=figures,
                                              figure_format=figure_format,
                                              sensitivity=sensitivity,
@@ -483,12 +509,13 @@ def write_study(results, out_dir, *, scenarios: dict, claims_path=None, figures:
                     "wide": "sensors" in task.series, "unit": task.series.get("unit")})
         decompositions = (_decomposition_figures(df, scenarios, tmp / "figures", figure_format)
                           if figures else {})
+        modes_section = _modes_section(modal, poms, tmp, figures, figure_format)
         cal_section = _calibration_section(cal_rows, cal_md, tmp, figures, figure_format,
                                            Path(out_dir).name)
         page = render_report(study=Path(out_dir).name, df=df, fits=fits, scenarios=scenarios,
                              evaluated=evaluated, remarks=remarks, claims_path=claims_path,
                              figures=embedded, figure_format=figure_format if figures else None,
-                             command=command, calibration=cal_section,
+                             command=command, calibration=cal_section, modes=modes_section,
                              decompositions=decompositions, seconds=seconds,
                              figure_seconds=time.perf_counter() - t_figures if figures else None,
                              responses=response_counts(results))

@@ -44,7 +44,7 @@ from podbench.core.modeshapes import ModeSet, frequency_damping, mac
 from podbench.errors import DimensionError, InputError
 
 __all__ = ["discrete_modes", "physical_mask", "stability_mask", "physical_modes",
-           "match_modes", "STABILITY", "STABILITY_ORDERS", "MAC_FLOOR"]
+           "match_modes", "STABILITY", "STABILITY_ORDERS", "MAC_FLOOR", "ZETA_ROUNDOFF"]
 
 STABILITY = {"frequency": 0.01, "damping": 0.05, "mac": 0.97}
 """The stabilization criterion (module docstring): largest relative frequency difference,
@@ -96,10 +96,18 @@ def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
     return ModeSet(s, C @ V[:, up], names, source, notes)
 
 
+ZETA_ROUNDOFF = 1e-6
+"""Damping ratios within this of zero are zero to round-off: an undamped structure's poles
+identified from exact records lie on the unit circle to about ``1e-9``, on either side. The
+hard criterion reads ``ζ ≥ −ZETA_ROUNDOFF``, and the stabilization criterion's damping
+difference is met when within ``max(5 % of ζ, ZETA_ROUNDOFF)``."""
+
+
 def physical_mask(modes: ModeSet, dt: float) -> np.ndarray:
-    """The hard criteria: ``0 < f < 1/(2Δt)`` and ``0 ≤ ζ < 1`` (module docstring)."""
+    """The hard criteria: ``0 < f < 1/(2Δt)`` and ``0 ≤ ζ < 1`` (module docstring; ``ζ``
+    within :data:`ZETA_ROUNDOFF` of zero counts as zero)."""
     f, z = frequency_damping(modes.poles)
-    return (f > 0) & (f < 0.5 / dt) & (z >= 0) & (z < 1)
+    return (f > 0) & (f < 0.5 / dt) & (z >= -ZETA_ROUNDOFF) & (z < 1)
 
 
 def _counterpart_ok(f0, z0, phi0, other: ModeSet, crit: dict) -> bool:
@@ -109,7 +117,7 @@ def _counterpart_ok(f0, z0, phi0, other: ModeSet, crit: dict) -> bool:
     j = int(np.argmin(np.abs(f - f0)))
     if abs(f[j] - f0) > crit["frequency"] * f0:
         return False
-    if abs(z[j] - z0) > crit["damping"] * abs(z0):
+    if abs(z[j] - z0) > max(crit["damping"] * abs(z0), ZETA_ROUNDOFF):
         return False
     return bool(mac(phi0[:, None], other.shapes[:, j : j + 1])[0, 0] >= crit["mac"])
 

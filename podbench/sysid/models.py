@@ -21,7 +21,11 @@ format cannot hold (a third-party object) is refused when saving, in one line na
 
 ``model.json`` beside the archive is the readable summary: the header with the arrays
 described by dtype and shape instead of their values, and the model's state-space
-realization and modes where it has one (:mod:`podbench.sysid.realize`).
+realization and modes where it has one (:mod:`podbench.sysid.realize`) *when they were
+made before saving* (``podbench fit`` makes them for ``modes.csv``; ``Model.modes()`` or
+``Model.to_statespace()`` before ``save``); otherwise ``realization`` is null and
+``realization_note`` says it was not computed: saving writes the arrays only, the
+realization (about as long as the fit: every order of the lag rule) is made on demand.
 
 Loading reads the archive with ``np.load(allow_pickle=False)``; a file that is not a
 podbench model, has an unknown ``format_version``, or holds pickled objects is refused in
@@ -50,7 +54,7 @@ from podbench.errors import InputError
 from podbench.sysid.realize import to_statespace
 
 __all__ = ["Model", "save_model", "load_model", "read_header", "file_sha256", "FORMAT",
-           "FORMAT_VERSION"]
+           "FORMAT_VERSION", "NOT_REALIZED", "realization_summary"]
 
 FORMAT = "podbench-model"
 """The header's ``format``: what marks an archive as a podbench model."""
@@ -229,12 +233,12 @@ def _readable(v):
     return {k: _readable(x) for k, x in v.items()}
 
 
-def realization_summary(method):
-    """``(summary, table)``: the state-space realization and modes of ``method`` for
-    ``model.json`` and the modes table; ``table`` None (and the summary's ``reason``) where
-    the method has no state-space form."""
+def realization_summary(method, ss=None):
+    """``(summary, table)``: the state-space realization and modes of ``method`` (or of its
+    realization ``ss`` already made) for ``model.json`` and the modes table; ``table`` None
+    (and the summary's ``reason``) where the method has no state-space form."""
     try:
-        ss = to_statespace(method)
+        ss = to_statespace(method) if ss is None else ss
         modes = ss.modes()
     except InputError as exc:
         return {"realization": None, "reason": str(exc)}, None
@@ -244,12 +248,15 @@ def realization_summary(method):
             "modes_rule": list(modes.notes), "modes": table.to_dict(orient="records")}, table
 
 
-def _realization_summary(method) -> dict:
-    return realization_summary(method)[0]
+NOT_REALIZED = ("not computed when saving (a realization tries every order of the lag rule, "
+                "as long as the fit itself): Model.modes() and Model.to_statespace() compute "
+                "it from the saved model, and podbench fit writes it here with modes.csv")
+"""``model.json``'s ``realization_note`` when the realization was not made before saving."""
 
 
 def save_model(method, path, *, training_files: Sequence = (), include_records: bool = True,
-               summary: bool = True, extra: dict | None = None) -> Path:
+               summary: bool = True, extra: dict | None = None,
+               realize: bool = False) -> Path:
     """Save a fitted method to ``path`` (``.npz``) and its summary beside it (``.json``).
 
     Parameters
@@ -267,6 +274,10 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
     extra : dict, optional
         More entries for the summary (JSON values: e.g. what the fit chose); with a
         ``realization`` entry, the realization summary the caller made (not made again).
+    realize : bool
+        Without a ``realization`` entry in ``extra``: realize the model now for the summary
+        (default False: the summary says it was not computed, :data:`NOT_REALIZED`; the
+        realization costs about as much as the fit, the archive alone is cheap).
 
     Returns
     -------
@@ -297,7 +308,8 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
         readable["arrays"] = {k: f"{a.dtype} {list(a.shape)}" for k, a in enc.arrays.items()}
         extra = dict(extra or {})
         if "realization" not in extra:  # a caller that realized already passes its summary
-            readable.update(_realization_summary(method))
+            readable.update(realization_summary(method)[0] if realize else
+                            {"realization": None, "realization_note": NOT_REALIZED})
         readable.update(extra)
         atomic_write_text(path.with_suffix(".json"),
                           json.dumps(readable, indent=1, ensure_ascii=False, default=str) + "\n")
@@ -389,9 +401,10 @@ class Model:
             raise InputError(f"{type(method).__name__}: not fitted; fit before making a Model")
         self.method = method
         self.training_files = tuple(str(p) for p in training_files)
+        self._statespace = None  # the default realization, made once (to_statespace)
 
     def __getattr__(self, name: str):
-        if name == "method":  # not set yet (unpickling, copying): no recursion
+        if name in ("method", "_statespace"):  # not set yet (unpickling, copying)
             raise AttributeError(name)
         return getattr(self.method, name)
 
@@ -411,8 +424,13 @@ class Model:
 
     def to_statespace(self, *, order: int | None = None, dt: float | None = None):
         """The discrete state-space model (:func:`podbench.sysid.realize.to_statespace`):
-        ``A, B, C, D, dt``; ``.to_dlti()``, ``.to_control()`` export it."""
-        return to_statespace(self.method, order=order, dt=dt)
+        ``A, B, C, D, dt``; ``.to_dlti()``, ``.to_control()`` export it. The default
+        realization (no ``order``, ``dt``) is made once and kept."""
+        if order is not None or dt is not None:
+            return to_statespace(self.method, order=order, dt=dt)
+        if self._statespace is None:
+            self._statespace = to_statespace(self.method)
+        return self._statespace
 
     def modes(self, criteria: dict | None = None):
         """The identified physical modes as a DataFrame: ``mode, frequency_hz,
@@ -432,7 +450,12 @@ class Model:
 
     def save(self, path, *, include_records: bool = True, extra: dict | None = None) -> Path:
         """Write the model file ``path`` (``.npz``) and its summary ``<stem>.json``
-        (:func:`save_model`)."""
+        (:func:`save_model`). The summary holds the realization and modes when they were
+        made before saving (``modes()``, ``to_statespace()``), else says that they were not
+        computed (:data:`NOT_REALIZED`): saving does not realize."""
+        extra = dict(extra or {})
+        if self._statespace is not None and "realization" not in extra:
+            extra.update(realization_summary(self.method, self._statespace)[0])
         return save_model(self.method, path, training_files=self.training_files,
                           include_records=include_records, extra=extra)
 

@@ -289,6 +289,10 @@ def _reproduction_error(factors, order: int, h: np.ndarray) -> float:
 def _kernel_order(order, factors, rank: int, h: np.ndarray) -> tuple[int, str]:
     """The realization order: given, or the lag rule (module docstring)."""
     rows = factors[1].size
+    if isinstance(order, str) and order == "rank":
+        N = max(2, min(rank, rows, MAX_ORDER) // 2 * 2)
+        return N, (f"order {N} (the numerical rank of the kernel's Hankel matrix, even, at "
+                   f"most {MAX_ORDER})")
     if order is not None:
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 1:
             raise InputError(f"Parameter `order`: expected an integer >= 1, got {order!r}")
@@ -424,9 +428,11 @@ def to_statespace(method, *, order: int | None = None,
     ----------
     method : fitted estimator
         A fitted podbench method (or any class with the same fitted attributes).
-    order : int, optional
+    order : int or "rank", optional
         Realization order of a kernel or free-decay sequence (default: the module
-        docstring's rule). Not used for a method that is a state-space model itself (ERA).
+        docstring's lag rule; ``"rank"``: the numerical rank of the Hankel matrix, even, at
+        most :data:`MAX_ORDER`, one realization instead of the lag rule's one per order).
+        Not used for a method that is a state-space model itself (ERA).
     dt : float, optional
         Sampling interval (s) of a free-response method whose records carry none.
 

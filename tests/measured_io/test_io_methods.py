@@ -168,3 +168,44 @@ def test_the_peers_take_the_same_records():
     era = ERA(inputs="measured", max_order=10, blocks=0.3).fit(tr)
     err = np.linalg.norm(era.predict(target) - target.y) / np.linalg.norm(target.y)
     assert era.info_["order"] == 6 and err < 1e-6
+
+
+def _ringing_records(zeta: float, n_rec: int = 4, n: int = 3000, dt: float = 0.01):
+    """A single mode at 2 Hz with damping ratio ``zeta`` (decay time 1/(ζω)), driven by white
+    noise: exact discrete recursion, outputs the displacement."""
+    from podbench.core.records import Record
+
+    w = 2 * np.pi * 2.0
+    r, th = np.exp(-zeta * w * dt), w * np.sqrt(1 - zeta**2) * dt
+    a1, a2 = 2 * r * np.cos(th), -r * r
+    rng = np.random.default_rng(7)
+    recs = []
+    for j in range(n_rec):
+        u = rng.normal(size=n)
+        y = np.zeros(n)
+        for s in range(2, n):
+            y[s] = a1 * y[s - 1] + a2 * y[s - 2] + dt * u[s - 1]
+        recs.append(Record(u=u[None, :], y=y[None, :], dt=dt, input_units="lbf",
+                           output_units="in", name=f"r{j}.npz"))
+    return recs
+
+
+def test_auto_lags_lengthen_past_the_grid_while_the_held_out_error_falls():
+    from podbench.sysid.methods import MultipleLoad
+    from podbench.sysid.methods.inputs import LAG_GAIN, LAG_GROWTH
+
+    # ζ = 5 % at 2 Hz: decay time 1/(ζω) = 1.6 s, far beyond the grid's 0.4 s (40 lags)
+    est = MultipleLoad(inputs="measured", n_lags="auto", solver="ls", lag_grid=(0.2, 0.4))
+    est.fit(_ringing_records(0.05))
+    L = est.info_["n_lags"]
+    cv = {k[1]: v for k, v in est.cv_errors_.items() if k[0] == "lags"}
+    steps = [40]
+    while steps[-1] < L:
+        steps.append(int(np.ceil(LAG_GROWTH * steps[-1])))
+    assert L > 40 and steps[-1] == L  # lengthened by the stated factor
+    for a, b in zip(steps, steps[1:], strict=False):
+        assert cv[a] - cv[b] >= LAG_GAIN * cv[40]  # each step kept brought the stated fall
+    assert cv[L] < 0.1 * cv[40]  # the long memory is what the grid missed
+    # ζ = 30 % (decay 0.27 s): a grid reaching 2 s (7 decay times) holds the memory
+    short = MultipleLoad(inputs="measured", n_lags="auto", solver="ls", lag_grid=(1.0, 2.0))
+    assert short.fit(_ringing_records(0.3)).info_["n_lags"] in (100, 200)

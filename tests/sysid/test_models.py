@@ -147,3 +147,27 @@ def test_saving_refuses_what_the_format_cannot_hold(tmp_path):
         save_model(MultipleLoad(), tmp_path / "model.npz")
     with pytest.raises(InputError, match=".npz"):
         save_model(est, tmp_path / "model.pkl")
+
+
+def test_saving_does_not_realize_and_the_summary_says_what_was_computed(tmp_path):
+    from podbench.sysid.models import NOT_REALIZED, Model
+    from podbench.sysid.realize import to_statespace
+
+    train, _ = _forced()
+    est = MultipleLoad(solver="block").fit(train)
+    model = Model(est)
+    model.save(tmp_path / "plain.npz")
+    plain = json.loads((tmp_path / "plain.json").read_text())
+    assert plain["realization"] is None and plain["realization_note"] == NOT_REALIZED
+    assert model._statespace is None  # saving made no realization
+    # after modes(): the realization made for them is written, the same as a fresh one
+    table = model.modes()
+    model.save(tmp_path / "realized.npz")
+    done = json.loads((tmp_path / "realized.json").read_text())
+    fresh = to_statespace(est)
+    assert done["realization"] == fresh.realization and done["order"] == fresh.order
+    assert [m["frequency_hz"] for m in done["modes"]] == list(table["frequency_hz"])
+    # save_model(realize=True) realizes for the summary
+    save_model(est, tmp_path / "now.npz", realize=True)
+    now = json.loads((tmp_path / "now.json").read_text())
+    assert now["realization"] == fresh.realization and "realization_note" not in now

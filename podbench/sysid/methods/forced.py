@@ -432,7 +432,9 @@ class MultipleLoad(_ForcedMethod):
         identified kernel is set to zero from lag ``n_lags`` on; ``"auto"``: the rule
         :data:`KERNEL_TAIL` on the fitted kernel. Measured inputs: a kernel of ``n_lags``
         lags fitted by least squares; ``"auto"``: the lag length from ``lag_grid`` with the
-        smallest leave-one-record-out error. With a truncated kernel ``predict`` accepts
+        smallest leave-one-record-out error, lengthened beyond the grid while that error
+        keeps falling when the grid's longest is the best (long memories:
+        :func:`~podbench.sysid.methods.inputs.fit_fir`). With a truncated kernel ``predict`` accepts
         records of any length (``Ṽ = Δt Σ_{p<n_lags} C(t_p) q̃[s−p]`` is defined for every
         ``s``); without it a record longer than the training ones is refused (the kernel is
         unknown beyond).

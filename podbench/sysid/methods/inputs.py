@@ -18,8 +18,12 @@ start at lag 1. The kernel over the whole record is solved by a deconvolution so
 (:func:`fit_whole`); a kernel of ``L`` lags by least squares from per-record Grams
 (:func:`fit_fir`, :mod:`podbench.sysid.deconvolution.lagged`), ``L`` chosen from a grid of
 lag lengths by leave-one-record-out on the training records, optionally with the TC prior
-(its decay and weight chosen the same way over a grid fixed in advance). With ``k = n_out``
-and no prior ML equals the FIR least-squares baseline
+(its decay and weight chosen the same way over a grid fixed in advance). Where the grid's
+longest kernel is the best, the memory may be longer than the grid (a lightly damped
+structure rings for 1/(ζω), seconds to tens of seconds): the kernel is lengthened by
+:data:`LAG_GROWTH` while the leave-one-record-out error keeps falling (by
+:data:`LAG_GAIN` of the grid's best at each step), and the TC prior's decay times scale
+with the length found. With ``k = n_out`` and no prior ML equals the FIR least-squares baseline
 (:class:`~podbench.sysid.methods.FIRLeastSquares`) to round-off: ``U`` is then a rotation of
 the outputs.
 
@@ -39,13 +43,22 @@ from podbench.core.records import Record
 from podbench.errors import InputError
 from podbench.sysid.deconvolution.lagged import record_grams, solve_ls
 
-__all__ = ["LAG_GRID", "TC_GRID", "CV_FLOOR", "measured_basis", "given_basis", "first_lag",
-           "fit_fir", "fit_whole"]
+__all__ = ["LAG_GRID", "TC_GRID", "CV_FLOOR", "LAG_GROWTH", "LAG_GAIN", "MAX_LAG_COLUMNS",
+           "measured_basis", "given_basis", "first_lag", "fit_fir", "fit_whole"]
 
 LAG_GRID = (0.25, 0.5, 1.0, 1.5, 2.0)
 """Lag lengths (s) that ``n_lags="auto"`` chooses from (fixed in advance)."""
 TC_GRID = tuple((tau, g) for tau in (0.1, 0.2, 0.4) for g in (1e-3, 1e-2, 1e-1))
 """(decay time τ in s, relative weight γ) of the TC prior that ``prior="tc"`` chooses from."""
+
+LAG_GROWTH = 1.5
+"""Factor by which ``n_lags="auto"`` lengthens the kernel beyond the grid (below)."""
+LAG_GAIN = 0.01
+"""Fall of the leave-one-record-out error a longer kernel must bring to be kept, as a
+fraction of the error of the grid's longest kernel."""
+MAX_LAG_COLUMNS = 2400
+"""Largest kernel (lags × inputs) the lengthening tries: its Gram's solve per fold costs
+seconds beyond."""
 
 CV_FLOOR = 1e-9
 """Leave-one-record-out errors that differ by less than this (relative to the best, or
@@ -189,7 +202,32 @@ def _choose_lags(recs, U, Ls: list[int], first: int, cv: dict):
                          "and needs at least 2 training records; give an integer")
     for L in Ls:
         cv[("lags", L)] = _cv_error(grams, L * n_in)
-    return _simplest([(x, cv[("lags", x)]) for x in Ls]), grams
+    best = _simplest([(x, cv[("lags", x)]) for x in Ls])
+    if best == max(Ls):  # the longest is best: the memory may be longer than the grid
+        best, grams = _lengthen(recs, U, best, first, cv, grams)
+    return best, grams
+
+
+def _lengthen(recs, U, L: int, first: int, cv: dict, grams):
+    """Kernels longer than the grid's longest (long memories, lightly damped structures):
+    ``L`` grows by :data:`LAG_GROWTH` while each step lowers the leave-one-record-out error
+    by at least :data:`LAG_GAIN` × the grid's longest kernel's error (a fall relative to the
+    error reached would keep lengthening an exact kernel's round-off), the records hold
+    twice the lags and the kernel has at most
+    :data:`MAX_LAG_COLUMNS` columns; returns the last length that brought the fall and its
+    Grams."""
+    n_in = recs[0].n_inputs
+    n_min = min(r.n_samples for r in recs)
+    ref = cv[("lags", L)]
+    while True:
+        nxt = int(np.ceil(LAG_GROWTH * L))
+        if 2 * (nxt + first) > n_min or nxt * n_in > MAX_LAG_COLUMNS:
+            return L, grams
+        longer = [_grams_in(r, U, nxt, first) for r in recs]
+        cv[("lags", nxt)] = _cv_error(longer, nxt * n_in)
+        if cv[("lags", L)] - cv[("lags", nxt)] < LAG_GAIN * ref:
+            return L, grams
+        L, grams = nxt, longer
 
 
 def _tc_solve(grams, rows: int, L: int, n_in: int, dt: float, grid, cv: dict):
@@ -237,6 +275,9 @@ def fit_fir(recs, U, *, n_lags, lag_grid, prior, feedthrough):
         theta = solve_ls(sum(g[0][:rows, :rows] for g in grams), sum(g[1][:rows] for g in grams))
     elif prior == "tc" or _fixed_tc(prior):
         grid = TC_GRID if prior == "tc" else (tuple(float(v) for v in prior),)
+        top = max(Ls) if n_lags == "auto" else L
+        if prior == "tc" and L > top:  # a lengthened kernel: the decay times scale with it
+            grid = tuple((tau * L / top, g) for tau, g in grid)
         if len(grid) > 1 and len(recs) < 2:
             raise InputError("Parameter `prior`: 'tc' chooses its weight by "
                              "leave-one-record-out and needs at least 2 training records")
