@@ -73,6 +73,7 @@ cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regulariza
 from podbench.sysid.deconvolution._api import (
     RENAMED,
     available_solvers,
+    current_name,
     deconvolve,
     get_solver,
     make_solver,
@@ -135,6 +136,7 @@ from podbench.sysid.deconvolution.tikhonov import (
 
 __all__ = [
     "RENAMED",
+    "current_name",
     # convolution
     "convolution_matrix",
     "block_convolution_matrix",
