@@ -93,3 +93,20 @@ def test_a_sweep_file_naming_tls_is_read_as_tls_dt(write_scenario, fresh_alias):
     assert [(c.label, c.solver) for c in sc.sweep.solvers] == [("tls-dt", "tls-dt"),
                                                               ("mine", "tls-dt")]
     assert len(_alias_warnings(caught)) == 1
+
+
+def test_worker_processes_do_not_warn_again(write_scenario, tmp_path, pool_at_once,
+                                            fresh_alias, capfd):
+    """The calling process reads every file (and warns) before any task; the spawned
+    workers, which read the files again, take the former names as warned about."""
+    from podbench.harness.runner import run_study
+
+    paths = [write_scenario(_forced("tls"), f"chain_forced_{i}") for i in (1, 2)]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for p in paths:
+            load_scenario(p)
+        res = run_study(paths, jobs=2, cache_dir=tmp_path / "cache")
+    assert len(_alias_warnings(caught)) == 1
+    assert {r["method"] for u in res for r in u.rows} == {"SL", "ML"}
+    assert "is now named" not in capfd.readouterr().err

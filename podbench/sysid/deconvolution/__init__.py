@@ -77,6 +77,7 @@ from podbench.sysid.deconvolution._api import (
     deconvolve,
     get_solver,
     make_solver,
+    renamed_warned,
     solve,
     structured_solvers,
 )
@@ -137,6 +138,7 @@ from podbench.sysid.deconvolution.tikhonov import (
 __all__ = [
     "RENAMED",
     "current_name",
+    "renamed_warned",
     # convolution
     "convolution_matrix",
     "block_convolution_matrix",

@@ -41,6 +41,7 @@ __all__ = [
     "deconvolve",
     "RENAMED",
     "current_name",
+    "renamed_warned",
 ]
 
 _BUILTIN: dict[str, type[Solver]] = {
@@ -89,6 +90,13 @@ def current_name(name, *, stacklevel: int = 3):
         warnings.warn(f"solver {name!r} is now named {new!r} ({what}); {name!r} runs "
                       f"it as {new!r}", PodbenchWarning, stacklevel=stacklevel)
     return new
+
+
+def renamed_warned() -> None:
+    """Take every former name as already warned about in this process: for the worker
+    processes of a run whose calling process read (and warned about) every file before
+    handing out any task, so that a former name warns once per run, not once per worker."""
+    _WARNED.update(RENAMED)
 
 
 def available_solvers() -> tuple[str, ...]:
