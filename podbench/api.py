@@ -76,7 +76,7 @@ from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
 from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.study.substructuring import load_substructuring
-from podbench.sysid.deconvolution import RENAMED, available_solvers
+from podbench.sysid.deconvolution import RENAMED, available_solvers, current_name
 from podbench.sysid.models import Model
 from podbench.sysid.registry import lookup
 
@@ -734,8 +734,8 @@ def sweep(study=None, *, out=DEFAULT_RESULTS, noise=None, n_modes=None, seeds=No
                 raise UnknownNameError(f"{_param('solvers')}: unknown solver {name!r}"
                                        f"{did_you_mean(name, available_solvers())} "
                                        f"(solvers: {', '.join(available_solvers())})")
-        axes["solvers"] = [SolverChoice(label=n, solver=RENAMED.get(n.lower(), (n,))[0])
-                           for n in solvers]  # a former name: the solver it runs
+        names = [current_name(n) for n in solvers]  # a former name: its new one (warns)
+        axes["solvers"] = [SolverChoice(label=n, solver=n) for n in names]
     _, files = resolve_study(study, default=(SWEEPS_STUDY,))
     cache_dir = None if cache is None else writable_folder(cache, "cache")
     writable_folder(out, "out")

@@ -268,12 +268,12 @@ def _add_sweep(sub) -> None:
 Examples:
   podbench sweep                                   # the bundled sweeps, --jobs auto
   podbench sweep sweeps/beam_forced_noise --jobs 1
-  podbench sweep chapter4/beam_forced --noise 0,0.01 --seeds 0-4 --solvers ls,tls
+  podbench sweep chapter4/beam_forced --noise 0,0.01 --seeds 0-4 --solvers ls,tls-dt
   podbench sweep --scheduler tcp://10.0.0.5:8786   # needs pip install 'podbench[dask]'
 
 [sweep] table of a scenario file (every field optional):
   noise = [0.0, 0.01, 0.05]   seeds = [0, 1, 2]   n_modes = [3, 4]
-  solvers = ["ls", "tls"]     noise_on = ["W", "F"]   coupled_train = "first"
+  solvers = ["ls", "tls-dt"]  noise_on = ["W", "F"]   coupled_train = "first"
 n_modes replaces every method's k; MDS and ML (k = number of training sets) train on their
 first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
 """)
@@ -294,7 +294,7 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
     w.add_argument("--seeds", default=None, metavar="LIST",
                    help="noise seeds: comma-separated integers and ranges (e.g. 0-4 or 0,3,7)")
     w.add_argument("--solvers", default=None, metavar="LIST",
-                   help="deconvolution solvers for SL, ML and MR, comma-separated (e.g. ls,tls; "
+                   help="deconvolution solvers for SL, ML and MR, comma-separated (e.g. ls,tls-dt; "
                         "podbench list shows them)")
     w.add_argument("-o", "--out", default="results", metavar="DIR",
                    help="output root: each scenario writes DIR/<scenario name>/sweep.csv and "
@@ -482,7 +482,7 @@ def _entry_name(name: str) -> str:
     """The :func:`entries` name ``name`` means (a class name or another letter case is
     accepted when it is unambiguous)."""
     known = entries()
-    name = _deconvolution.RENAMED.get(name.lower(), (name,))[0]  # a former name: its solver
+    name = _deconvolution.current_name(name)  # a former name: its solver (warns)
     if name in known:
         return name
     found = [k for k in known if name.lower() == k.lower()] or [

@@ -101,7 +101,7 @@ COMMANDS: dict[str, object] = {
     "podbench sweep [PATH ...] [--jobs N | --scheduler ADDRESS] [--noise ...] [--n-modes ...] "
     "[--seeds ...]": SYNOPSIS,
     "podbench sweep [PATH ...] [--jobs N | --scheduler tcp://host:8786] [--noise 0,0.01,0.05] "
-    "[--n-modes 3,4,5] [--seeds 0-4] [--solvers ls,tls] [--out DIR]": SYNOPSIS,
+    "[--n-modes 3,4,5] [--seeds 0-4] [--solvers ls,tls-dt] [--out DIR]": SYNOPSIS,
     "podbench experiment PATH [--check]": SYNOPSIS,
     "podbench <command>": SYNOPSIS,
     "podbench run <study>": SYNOPSIS,

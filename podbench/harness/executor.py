@@ -327,6 +327,15 @@ def _feed(queue: _Queue, func: Callable, tasks: list) -> None:
         queue.report(i, out)
 
 
+def _worker_start() -> None:
+    """A spawned worker's set-up: warnings on one line; the former solver names taken as
+    warned about (the calling process read every file, and warned, before any task)."""
+    from podbench.sysid.deconvolution import renamed_warned  # the worker imports it anyway
+
+    one_line_warnings()
+    renamed_warned()
+
+
 def _start_workers(queue: _Queue, func: Callable, tasks: list, workers: int,
                    script: str | None) -> None:
     """After :data:`POOL_AFTER` seconds, unless the caller is done: up to ``workers``
@@ -349,7 +358,7 @@ def _start_workers(queue: _Queue, func: Callable, tasks: list, workers: int,
                 f"under one to use more processes", PodbenchWarning, stacklevel=1)
             return
         queue.pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"),
-                                         initializer=one_line_warnings)
+                                         initializer=_worker_start)
     lanes = [threading.Thread(target=_feed, args=(queue, func, tasks), daemon=True)
              for _ in range(n - 1)]
     for t in lanes:

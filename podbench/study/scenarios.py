@@ -104,7 +104,7 @@ from podbench.study.estimators import (
 from podbench.study.own_runner import read_requires
 from podbench.sysid import registry
 from podbench.sysid.conditioning import DETREND_KINDS, Conditioning
-from podbench.sysid.deconvolution import make_solver
+from podbench.sysid.deconvolution import current_name, make_solver
 from podbench.sysid.noise import NOISE_MODELS, level_from_snr_db
 
 __all__ = [
@@ -502,6 +502,9 @@ def _parse_method(mt: Table, cases: dict) -> MethodSpec:
     options = mt.raw("options", {})
     if not isinstance(options, dict):
         mt.fail("options", f"expected a table of keyword arguments, got {options!r}")
+    options = dict(options)
+    if isinstance(options.get("solver"), str):  # a former solver name: its new one (warns)
+        options["solver"] = current_name(options["solver"])
     twin = mt.string("twin", None)
     report = mt.boolean("report", True)
     mt.close()
@@ -648,10 +651,11 @@ def _sweep_solvers(t: Table, folder: Path) -> tuple[SolverChoice, ...] | None:
 
 def _solver_choice(t: Table, where: str, item, folder: Path) -> SolverChoice:
     if isinstance(item, str):
-        name, options, label = item, {}, item
+        name = current_name(item)  # a former name: its new one (warns), shown as that
+        options, label = {}, name
     elif isinstance(item, dict):
         st = Table(item, file=t.file, prefix=t.field(where))
-        name = st.string("solver")
+        name = current_name(st.string("solver"))
         options = st.raw("options", {})
         if not isinstance(options, dict):
             st.fail("options", f"expected a table of solver keyword options, got "

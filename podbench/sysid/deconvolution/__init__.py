@@ -73,9 +73,11 @@ cross-validation unless given (``reg="gcv"``, the default; :func:`gcv_regulariza
 from podbench.sysid.deconvolution._api import (
     RENAMED,
     available_solvers,
+    current_name,
     deconvolve,
     get_solver,
     make_solver,
+    renamed_warned,
     solve,
     structured_solvers,
 )
@@ -135,6 +137,8 @@ from podbench.sysid.deconvolution.tikhonov import (
 
 __all__ = [
     "RENAMED",
+    "current_name",
+    "renamed_warned",
     # convolution
     "convolution_matrix",
     "block_convolution_matrix",

@@ -40,6 +40,8 @@ __all__ = [
     "solve",
     "deconvolve",
     "RENAMED",
+    "current_name",
+    "renamed_warned",
 ]
 
 _BUILTIN: dict[str, type[Solver]] = {
@@ -72,6 +74,31 @@ SOLVER_OPTIONS = [None, InstanceOf(Mapping, "a dict of keyword options")]
 """What a method's ``solver_options`` (and :func:`make_solver`'s ``options``) admits."""
 
 
+def current_name(name, *, stacklevel: int = 3):
+    """The solver name ``name`` stands for: itself, or for a former name of :data:`RENAMED`
+    its new name, with one :class:`~podbench.errors.PodbenchWarning` per former name and
+    process that gives the new name (every place that takes a solver name by the user —
+    a scenario's ``options.solver``, ``sweep.solvers``, ``--solver``, ``--solvers``,
+    :func:`make_solver` — passes through here). Letter case of a former name aside;
+    anything else is returned as it is."""
+    if not isinstance(name, str) or name.lower() not in RENAMED:
+        return name
+    old = name.lower()
+    new, what = RENAMED[old]
+    if old not in _WARNED:
+        _WARNED.add(old)
+        warnings.warn(f"solver {name!r} is now named {new!r} ({what}); {name!r} runs "
+                      f"it as {new!r}", PodbenchWarning, stacklevel=stacklevel)
+    return new
+
+
+def renamed_warned() -> None:
+    """Take every former name as already warned about in this process: for the worker
+    processes of a run whose calling process read (and warned about) every file before
+    handing out any task, so that a former name warns once per run, not once per worker."""
+    _WARNED.update(RENAMED)
+
+
 def available_solvers() -> tuple[str, ...]:
     """Names of the built-in deconvolution solvers (dense first, then structured)."""
     return tuple(_BUILTIN)
@@ -85,13 +112,7 @@ def structured_solvers() -> tuple[str, ...]:
 def get_solver(name: str) -> type[Solver]:
     """The built-in solver class named ``name`` (:class:`UnknownNameError` if none; a former
     name of :data:`RENAMED` warns once and gives its solver)."""
-    if isinstance(name, str) and name in RENAMED:
-        new, what = RENAMED[name]
-        if name not in _WARNED:
-            _WARNED.add(name)
-            warnings.warn(f"solver {name!r} is now named {new!r} ({what}); {name!r} runs "
-                          f"it as {new!r}", PodbenchWarning, stacklevel=3)
-        name = new
+    name = current_name(name, stacklevel=4)
     try:
         return _BUILTIN[name]
     except (KeyError, TypeError):

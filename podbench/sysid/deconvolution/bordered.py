@@ -47,17 +47,18 @@ def toeplitz_gram(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``T(u)ᵀ T(v)`` for the lower-triangular Toeplitz matrices ``T(u)``, ``T(v)``
     (``T(u)[i, j] = u[i − j]``, ``n × n``) from lagged products, ``O(n²)``:
     ``(T(u)ᵀT(v))[j + l, j] = Σ_{m < n−j−l} u[m] v[m + l]`` (a reversed cumulative sum per
-    lag ``l``), and the mirror with ``u`` and ``v`` exchanged above the diagonal."""
+    lag ``l``), and the mirror with ``u`` and ``v`` exchanged above the diagonal. Each
+    diagonal is written through a strided view of the flat array (element ``(j + l, j)`` is
+    ``l·n + j·(n + 1)``, ``(i, i + l)`` is ``l + i·(n + 1)``), not by a gather of indices."""
     u = np.asarray(u, dtype=float)
     v = np.asarray(v, dtype=float)
     n = u.size
     out = np.empty((n, n))
+    flat = out.reshape(-1)
     for lag in range(n):
-        below = np.cumsum(u[:n - lag] * v[lag:])[::-1]  # rows j + lag, columns j
-        above = np.cumsum(u[lag:] * v[:n - lag])[::-1]  # rows i, columns i + lag
-        idx = np.arange(n - lag)
-        out[idx + lag, idx] = below
-        out[idx, idx + lag] = above
+        m = n - lag
+        flat[lag * n:lag * n + m * (n + 1):n + 1] = np.cumsum(u[:m] * v[lag:])[::-1]  # below
+        flat[lag:lag + m * (n + 1):n + 1] = np.cumsum(u[lag:] * v[:m])[::-1]  # above
     return out
 
 
