@@ -542,11 +542,11 @@ def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
                          for (train, n), role in pairs.items()]
         level_rows = [_level_row(n, levels[n], own, plan) for n in sorted(levels)]
         bla = _bla_table(levels, own, plan)
-        fits: dict = {n: {} for n in own}  # each level's band fits, made once
+        band_fits: dict = {n: {} for n in own}  # each level's rational fits, made once
         modes = [{**m, "level": n} for n in sorted(own)
-                 for m in level_modes(own[n], levels[n], plan, fits[n])]
+                 for m in level_modes(own[n], levels[n], plan, band_fits[n])]
         poles = [{**m, "level": n} for n in sorted(own)
-                 for m in pole_sweep(own[n], levels[n], plan, fits[n])]
+                 for m in pole_sweep(own[n], levels[n], plan, band_fits[n])]
     return {"rows": rows, "fits": fits, "skipped": skipped, "decomposition": decomposition,
             "levels": level_rows, "bla": bla, "figure": figure, "records": levels,
             "own": own, "plan": plan, "modes": modes, "poles": poles}
