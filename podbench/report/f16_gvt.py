@@ -116,9 +116,10 @@ def _ml_against(res, role: str) -> tuple[list, list]:
         others = {m: _err(_row(res, train, target, m)) for m in (FIR_ROW, *PEERS)}
         beaten = [f"{m} {v:.3f}" for m, v in others.items() if np.isfinite(v) and
                   v <= _err(ml)]
-        best = min((v, m) for m, v in others.items() if np.isfinite(v))
-        margin.append((_err(ml) / best[0], f"{train.replace('+', ', ')} → {target}: ML "
-                       f"{_err(ml):.3f}, {best[1]} {best[0]:.3f}"))
+        best = min(((v, m) for m, v in others.items() if np.isfinite(v)), default=None)
+        if best is not None:  # none when the study runs without FIR-LS and the peers
+            margin.append((_err(ml) / best[0], f"{train.replace('+', ', ')} → {target}: "
+                           f"ML {_err(ml):.3f}, {best[1]} {best[0]:.3f}"))
         if beaten:
             worse.append(f"{train.replace('+', ', ')} → {target}: ML {_err(ml):.3f}, "
                          f"{', '.join(beaten)}")
