@@ -72,7 +72,13 @@ from podbench.study.claims import load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.f16_gvt import load_f16_gvt
 from podbench.study.nonlinearity import NonlinearitySpec
-from podbench.study.own_runner import OwnStudy, load_own_study, own_study_file
+from podbench.study.own_runner import (
+    STUDY_TABLE,
+    OwnStudy,
+    check_requires,
+    load_own_study,
+    own_study_file,
+)
 from podbench.study.painter_street import load_painter_street
 from podbench.study.scenarios import CLAIMS_FILE, SolverChoice, find_scenarios, load_scenario
 from podbench.study.substructuring import load_substructuring
@@ -353,9 +359,12 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
     output_folder(out, "out", "summary.csv")
     own = own_study(files)
     if own is not None:  # a study file naming its own runner ([study] runner = "...")
+        check_requires(own.path, STUDY_TABLE, own.requires)
         return _run_own(own, out, study, jobs=jobs, cache=cache, engine=engine, figures=figures,
                         figure_format=figure_format, say=_say(progress, quiet, own.name))
     scenarios = load_scenarios(files)
+    for sc in scenarios.values():
+        check_requires(sc.path, "scenario", sc.requires)
     _refuse_partial_over(out, scenarios, "out")
     claims = _claims_path(paths)
     claims_file = load_claims_file(claims) if claims is not None else None  # before any work

@@ -49,6 +49,7 @@ from multiprocessing import get_context
 from podbench.core.threads import single_blas_thread
 from podbench.core.warnfmt import one_line_warnings
 from podbench.errors import InputError, PodbenchError, PodbenchWarning
+from podbench.sysid.deconvolution import renamed_warned
 
 __all__ = ["MAX_AUTO_JOBS", "POOL_AFTER", "execute", "resolve_jobs", "unguarded_main_script"]
 
@@ -330,8 +331,6 @@ def _feed(queue: _Queue, func: Callable, tasks: list) -> None:
 def _worker_start() -> None:
     """A spawned worker's set-up: warnings on one line; the former solver names taken as
     warned about (the calling process read every file, and warned, before any task)."""
-    from podbench.sysid.deconvolution import renamed_warned  # the worker imports it anyway
-
     one_line_warnings()
     renamed_warned()
 

@@ -39,7 +39,7 @@ from podbench.errors import ScenarioFileError, StructureFileError
 from podbench.structures.spec import Table
 
 __all__ = ["OwnStudy", "STUDY_TABLE", "own_study_file", "load_own_study", "read_toml",
-           "read_requires"]
+           "read_requires", "check_requires"]
 
 STUDY_TABLE = "study"
 """The top-level table that names a study's own runner."""
@@ -69,15 +69,14 @@ def read_toml(path: Path) -> dict | None:
 
 def read_requires(t: Table, default=()) -> tuple[str, ...]:
     """The ``requires`` field of a study's ``[study]`` or ``[scenario]`` table ``t``: the
-    extras of podbench its committed tables need (default ``default``), each a known extra,
-    each installed.
+    extras of podbench its committed tables need (default ``default``), each a known extra.
+    Whether they are installed is checked when the study is run (:func:`check_requires`),
+    not when it is read: listing or inspecting a study needs no extra.
 
     Raises
     ------
     StructureFileError
-        ``<file>: field `<table>.requires`: ...`` — an unknown extra (with the closest name),
-        or one that is not installed (naming its packages and the install command), before
-        any work.
+        ``<file>: field `<table>.requires`: ...`` — an unknown extra (with the closest name).
     """
     requires = tuple(t.strings("requires", list(default)))
     known = known_extras()
@@ -85,10 +84,16 @@ def read_requires(t: Table, default=()) -> tuple[str, ...]:
         if known and extra not in known:
             t.fail(f"requires[{i}]", f'unknown extra "{extra}"{did_you_mean(extra, known)} '
                                      f"(podbench's extras: {', '.join(sorted(known))})")
+    return requires
+
+
+def check_requires(path, table: str, requires) -> None:
+    """Refuse to run the study file ``path`` whose ``[table]`` requires extras that are not
+    installed: one line naming the file, the field, the missing packages and the install
+    command (:class:`ScenarioFileError`), before any work."""
     unmet = unmet_extras_message(requires)
     if unmet is not None:
-        t.fail("requires", unmet)
-    return requires
+        raise ScenarioFileError(f"{display_path(Path(path))}: field `{table}.requires`: {unmet}")
 
 
 def _declares(path: Path, runners: list[str]) -> bool:

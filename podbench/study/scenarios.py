@@ -266,7 +266,7 @@ class Scenario:
     every training record of ``podbench run`` (targets stay noise-free)."""
     requires: tuple[str, ...] = ()
     """``scenario.requires``: the extras of podbench its committed tables need (checked
-    installed at load, :func:`podbench.study.own_runner.read_requires`)."""
+    installed when run, :func:`podbench.study.own_runner.check_requires`)."""
 
     @property
     def folder(self) -> Path:

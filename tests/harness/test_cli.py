@@ -26,13 +26,13 @@ def test_run_writes_tables_figures_and_is_byte_identical_when_repeated(study, tm
     assert cli.main(args) == 0
     files = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     assert "summary.csv" in files and "summary.md" in files
-    # two prediction figures, the calibration plot (issue 21) and each scenario's stacked-bar
-    # error decomposition (issue 23)
+    # two prediction figures, the calibration plot, each scenario's stacked-bar error
+    # decomposition and the modes' MAC figure
     figs = sorted(f for f in files if f.startswith("figures/") and f.endswith(".png"))
     assert figs == ["figures/calibration.png", "figures/chain_forced__chain_coupled__f6.png",
                     "figures/chain_forced__decomposition.png",
                     "figures/chain_free__chain_coupled__x6.png",
-                    "figures/chain_free__decomposition.png"]
+                    "figures/chain_free__decomposition.png", "figures/modes_mac.png"]
     assert "CALIBRATION.md" in files and "calibration.csv" in files
     timing = pd.read_csv(out / "timing.csv")  # wall clock per method, one row per fit
     assert list(timing.columns) == ["scenario", "structure", "method", "fit_seconds", "seconds"]

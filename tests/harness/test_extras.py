@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+import podbench as pb
 from podbench import cli
 from podbench.core import extras
 from podbench.core.resources import bundled_scenarios
@@ -64,7 +65,8 @@ def test_run_without_the_extra_refuses_in_one_line_before_any_work(monkeypatch, 
     assert sorted(p.name for p in committed.parent.iterdir()) == ["summary.csv"]
 
 
-def test_a_scenario_requires_is_checked_at_load_and_inherited(monkeypatch, tmp_path):
+def test_a_scenario_requires_is_read_at_load_inherited_and_checked_when_run(monkeypatch,
+                                                                           tmp_path):
     base = bundled_scenarios() / "chapter4" / "beam_free_displacement.toml"
     f = tmp_path / "mine.toml"
     f.write_text(f'[scenario]\nname = "mine"\nbase = "{base.as_posix()}"\n'
@@ -74,9 +76,11 @@ def test_a_scenario_requires_is_checked_at_load_and_inherited(monkeypatch, tmp_p
     child.write_text('[scenario]\nname = "child"\nbase = "mine.toml"\n', encoding="utf-8")
     assert load_scenario(child).requires == ("peers", "measured")
     _without(monkeypatch, "pyuff")
+    assert load_scenario(f).requires == ("peers", "measured")  # reading needs no extra
     with pytest.raises(ScenarioFileError, match=r'mine.toml: field `scenario.requires`: .*'
                        r'extra "measured" \(pyuff not installed\).*\[measured\]'):
-        load_scenario(f)
+        pb.run(str(f), out=tmp_path / "out", quiet=True, figures=False)
+    assert not (tmp_path / "out").exists()
 
 
 def test_an_unknown_extra_is_named_with_the_closest(tmp_path):

@@ -94,11 +94,12 @@ def test_the_python_api_page_block_runs_as_a_plain_script(scripts):
     assert (folder / "results" / "beam_forced" / "summary.csv").is_file()
     assert got["rows"] == 12 and got["methods"] == ["ML", "SL"]
     assert got["html"].startswith("<!DOCTYPE")
-    # 6 targets' figures, the scenario's error decomposition and the bands' calibration plot
+    # 6 targets' figures, the error decomposition, the calibration plot and the modes' MAC
     assert got["fig_axes"] > 0
     figures = got["figures"]
-    assert [f for f in figures if not f.startswith("beam_forced__")] == ["calibration.png"]
-    assert len(figures) == 8 and figures.count("beam_forced__decomposition.png") == 1
+    assert [f for f in figures if not f.startswith("beam_forced__")] == ["calibration.png",
+                                                                          "modes_mac.png"]
+    assert len(figures) == 9 and figures.count("beam_forced__decomposition.png") == 1
     # the numbers the block's comments state
     assert got["f1"] == pytest.approx(41.376, abs=1e-3)
     assert got["error"] == pytest.approx(0.033, abs=5e-4)  # = the study's ML load5 row

@@ -319,9 +319,9 @@ def test_the_report_is_one_wellformed_self_contained_page(study, tmp_path):
     assert len(p.ids) == len(set(p.ids))  # unique anchors
     assert '<html lang="en">' in page and '<meta charset="utf-8">' in page
     # nothing loaded from elsewhere: images are data: URIs, links are anchors in the page
-    # two prediction figures, one error-decomposition figure per scenario and the
-    # calibration plot (issue 21)
-    assert len(p.imgs) == 5 and all(i["src"].startswith("data:image/png;base64,")
+    # two prediction figures, one error-decomposition figure per scenario, the
+    # calibration plot and the modes' MAC figure
+    assert len(p.imgs) == 6 and all(i["src"].startswith("data:image/png;base64,")
                                     for i in p.imgs)
     assert all(r.startswith(("data:", "#")) for r in p.refs)
     assert all("#" + r[1:] in {"#" + i for i in p.ids} for r in p.refs if r.startswith("#"))
@@ -349,12 +349,12 @@ def test_the_report_embeds_vector_figures_and_tables_do_not_change(study, tmp_pa
     out = tmp_path / "results" / "small"
     page = _run(study, out, "--figure-format", "svg")
     # the calibration plot is a file in the chosen format and embedded as PNG
-    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg"] * 5
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".svg"] * 6
     assert page.count('src="data:image/svg+xml;base64,') == 2
     table = (out / "summary.csv").read_bytes()
     page = _run(study, out, "--figure-format", "pdf")
-    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf"] * 5
-    assert page.count('src="data:image/png;base64,') == 5
+    assert sorted(f.suffix for f in (out / "figures").iterdir()) == [".pdf"] * 6
+    assert page.count('src="data:image/png;base64,') == 6
     assert (out / "summary.csv").read_bytes() == table
     page = _run(study, out, "--no-figures")
     assert "<img" not in page and "Figures not drawn" in page
