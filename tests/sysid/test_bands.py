@@ -274,18 +274,18 @@ def test_single_load_band_carries_the_diagonal_term(monkeypatch):
 
 
 @pytest.mark.heavy
-@pytest.mark.parametrize("power", [None, 1.0])
+@pytest.mark.parametrize("rule", ["gains", "folds"])
 def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitude(
-        monkeypatch, power):
+        monkeypatch, rule):
     """ML on the coupled chain (exact): a target 10× a training load gets, besides the
     10× prediction, a band widened by how far its RMS lies beyond the training records'
-    RMS range (:func:`extrapolation`) to the power the calibration holds — by default
-    none for a response level (``RESPONSE_LEVEL_POWER = 0``: a linear model's relative
-    error is the same for 10× the load), 1 when set."""
+    RMS range (:func:`extrapolation`) to the power the calibration holds: ``AMPLITUDE_POWER``
+    under the ``"gains"`` rule, ``RESPONSE_LEVEL_POWER`` (0: a linear model's relative error
+    is the same for 10× the load) under the ``"folds"`` variant."""
     from podbench.sysid.methods import bands
 
-    if power is not None:
-        monkeypatch.setattr(bands, "RESPONSE_LEVEL_POWER", power)
+    monkeypatch.setattr(bands, "ESTIMATE_RULE", rule)
+    power = bands.AMPLITUDE_POWER if rule == "gains" else bands.RESPONSE_LEVEL_POWER
     case = forced_case("coupled")
     recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
     model = MultipleLoad(n_modes=4, solver="ls").fit(recs)
@@ -297,7 +297,7 @@ def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitu
     d_base = bands.extrapolation(rms(pb_.mean), lo, hi)
     d_big = bands.extrapolation(rms(pg.mean), lo, hi)
     assert d_big > 1
-    assert model.band_calibration_.level_power == (power or 0.0)
+    assert model.band_calibration_.level_power == power
     ratio = (d_big / d_base) ** model.band_calibration_.level_power
     # the estimate's part beyond the projection share scales by d (the terms of the target
     # are scale-free: 10× the load has the same leverage and blind spot)

@@ -8,14 +8,13 @@ returns the array. Everything is built from the training records, never from the
 * **Cross-validation** (a method whose records allow leaving one out): each training record
   is predicted by the method refitted on the others in the fitted basis (at the full fit's
   regularization, :meth:`~podbench.sysid.methods.base.PODMethod.frozen_params`). The error
-  estimate of a prediction is ``sqrt((d·s·((Δ² + τ)/(Δ_ref² + τ))^γ)² + ρ²)``
-  (:func:`folds_estimate`): ``s`` the median of the folds' realized errors inside the
-  basis, the target's blind spot ``Δ`` against the folds' median ``Δ_ref`` and its
-  projection share ``ρ`` (:mod:`~podbench.sysid.methods.band_target`), the level factor
-  ``d`` (:func:`levels`, :func:`extrapolation`: a measured input's RMS outside the training
-  inputs' range, above or below, else the prediction's RMS above the training
-  responses'); :data:`ESTIMATE_RULE` keeps the former two-gain rule (:func:`fit_gains`)
-  as a variant. The band is normalized conformal: each fold's residual in units of
+  estimate of a prediction is ``sqrt(d²(κ_Λ²(Λ² + 1) + κ_Δ²Δ²) + ρ²)``: the target's
+  leverage ``Λ``, blind spot ``Δ`` and projection share ``ρ``
+  (:mod:`~podbench.sysid.methods.band_target`), the level factor ``d`` (:func:`levels`,
+  :func:`extrapolation`: a measured input's RMS outside the training inputs' range, above
+  or below, else the prediction's RMS above the training responses'), and two gains
+  fitted to the folds' realized errors (:func:`fit_gains`); :data:`ESTIMATE_RULE` names
+  the variant ``"folds"`` (:func:`folds_estimate`). The band is normalized conformal: each fold's residual in units of
   its own estimate spread over its prediction's envelope, the conformal quantile of the
   pooled scores scaling the target's difficulty (:func:`_difficulty`).
 * **One design only** (POVR, SL: one record; MR: exactly three): the in-sample residual,
@@ -671,14 +670,15 @@ def estimate(gains, terms: TargetTerms, factor: float = 1.0) -> float:
 FLOOR_SHARE = 0.01
 """A fold's error left after its projection share ρ is at least this share of its error²
 (the gains are fitted on logarithms)."""
-ESTIMATE_RULE = "folds"
+ESTIMATE_RULE = "gains"
 """How the folds' realized errors become a target's estimate (docs/bands.md, *The
-estimate*): ``"folds"`` the median of the folds' errors inside the basis (each over its
-level factor), times the target's blind spot against the folds' median blind spot to the
-power :data:`BLIND_POWER`, times the target's level factor; ``"gains"`` the two gains
-κ_Λ², κ_Δ² of :func:`fit_gains` fitted to the folds of each model (the former rule: three
-to seven folds fix two gains poorly, and a target far outside the folds' blind-spot range
-is then extrapolated by a gain fitted where the blind spot barely varies)."""
+estimate*): ``"gains"`` the two gains κ_Λ², κ_Δ² of :func:`fit_gains` fitted to the folds
+of each model, the target's leverage and blind spot scaled by them; ``"folds"`` (a
+variant) the median of the folds' errors inside the basis (each over its level factor),
+times the target's blind spot against the folds' median blind spot to the power
+:data:`BLIND_POWER`, times the target's level factor. The variant is better on the held-out
+benchmark's random designs and much worse where a target's leverage exceeds every fold's
+(Chapter 5's ML: it drops the leverage); docs/bands.md has both measured."""
 BLIND_POWER = 0.4
 """γ of the ``"folds"`` rule's blind-spot factor ``(Δ²/median_j Δ_j²)^γ``: chosen on the
 held-out benchmark's dev set over 0–0.5 (docs/bands.md gives the verdicts over that range
