@@ -77,7 +77,7 @@ def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,
                                  period=file_period(train))
     check_records(tr, min_samples=min_samples_of(est, tr[0].dt))
     with single_blas_thread():
-        fit_records(est, tr)
+        fit_records(est, tr, train)
         table, summary = modes_table(est)
     model = Model(est, training_files=train)
     config = fitted_config(entry, est, train, [])

@@ -40,6 +40,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -200,14 +201,43 @@ def min_samples_of(est, dt: float) -> int:
     return 2
 
 
-def fit_records(est, train) -> None:
+_RECORD_PARAMETER = re.compile(r"`records\[(\d+)\]\.(\w+)`")
+
+
+def _name_files(message: str, files) -> str:
+    """An estimator's message about ``records[j].field`` said about the files: "Parameter
+    `records[1].W`: shape … differs from `records[0].W` …" becomes "b.npz: field `W`: shape …
+    differs from a.npz's `W` …" (the command line's user gave files, not a list)."""
+    first = _RECORD_PARAMETER.search(message)
+    if not message.startswith("Parameter `records[") or first is None:
+        return message
+    j, name = int(first.group(1)), first.group(2)
+    if j >= len(files):
+        return message
+    rest = message[message.index(":", first.end()) + 1:].strip()
+    rest = _RECORD_PARAMETER.sub(
+        lambda m: (f"{Path(files[int(m.group(1))]).name}'s `{m.group(2)}`"
+                   if int(m.group(1)) < len(files) else m.group(0)), rest)
+    return f"{files[j]}: field `{name}`: {rest}"
+
+
+def fit_records(est, train, files=None) -> None:
     """``est.fit(train)``; a record too short for the model (:class:`RecordTooShortError`)
-    is one line naming the shortest training file and its length."""
+    is one line naming the shortest training file and its length, and, with ``files`` (the
+    paths ``train`` was read from), an estimator's error about ``records[j]`` names the
+    j-th file."""
     try:
         est.fit(train)
     except RecordTooShortError as exc:
         short = min(train, key=lambda r: r.n_samples or 0)
         raise RecordTooShortError(f"{short.name}: {exc}", exc.samples, exc.needed) from None
+    except InputError as exc:
+        if files is None:
+            raise
+        said = _name_files(str(exc), [str(f) for f in files])
+        if said == str(exc):
+            raise
+        raise type(exc)(said) from None
 
 
 def _fmt(x: float) -> str:
@@ -298,7 +328,7 @@ def predict_files(method: str | None, train, targets, out, *, solver: str = "aut
     for text in said:
         warnings.warn(text, PodbenchWarning, stacklevel=2)
     with single_blas_thread():
-        fit_records(est, tr)
+        fit_records(est, tr, train)
         preds = [est.predict(r, coverage=coverage) for r in tg]
     channels = tr[0].output_channels or ()
     rows = [_row(stem, entry.name, rec, channels, p, coverage)

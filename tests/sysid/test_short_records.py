@@ -87,3 +87,26 @@ def test_fit_and_predict_share_their_fit_arguments():
     for d in shared:
         assert fit[d].help == pred[d].help and fit[d].default == pred[d].default, d
     assert fit["method"].required and not pred["method"].required  # predict: or --model
+
+
+@pytest.mark.parametrize("command", ["fit", "predict"])
+def test_training_files_of_different_lengths_are_named(tmp_path, capsys, command):
+    # MDS stacks its records' snapshots: every training file needs the first one's shape,
+    # and the error names the file that differs and the one it differs from
+    rng = np.random.default_rng(0)
+    paths = []
+    for j, n in enumerate((400, 300, 400)):
+        p = tmp_path / f"free{j}.npz"
+        np.savez(p, W=np.cumsum(rng.standard_normal((3, n)), axis=1) * 1e-3,
+                 F=rng.standard_normal((3, n)), dt=1e-3)
+        paths.append(str(p))
+    argv = [command, "--method", "MDS", "--train", paths[0], paths[1],
+            "--out", str(tmp_path / "out")]
+    if command == "predict":
+        argv += ["--target", paths[2]]
+    assert main(argv) != 0
+    err = _one_line_error(capsys)
+    said = r"\S*free1\.npz: field `W`: shape \(3, 300\) differs from free0\.npz's `W` \(3, 400\)"
+    assert re.search(said, err), err
+    assert "records[" not in err
+    assert not (tmp_path / "out").exists()
