@@ -217,6 +217,7 @@ COMMANDS: dict[str, object] = {
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),
     "python benchmarks/dense_tls.py": SLOW,
+    "python benchmarks/tls_route.py": SLOW,
     "python benchmarks/modal.py": NOT_RUN(
         "fits ML and ERA on two structures at two noise levels (minutes; accuracy is measured, "
         "never asserted) and rewrites its rows of results/benchmarks.csv; its one-structure "

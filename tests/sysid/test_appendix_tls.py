@@ -214,6 +214,53 @@ def test_the_bordered_route_is_the_svd_of_x_y_at_every_tol(tol):
     assert np.linalg.norm(res.X - h_ref) <= 1e-8 * np.linalg.norm(h_ref)
 
 
+@pytest.mark.parametrize("noise", [0.0, 0.01, 0.05])
+def test_the_factored_eigenvectors_are_syevds(noise):
+    """gram_eigh keeps Q = HZ factored (sytrd's reflectors, stevd's Z). Against the dense
+    route (LAPACK syevd of the same XᵀX, Q formed), kept as the reference, on an ML system
+    (two modes, two load cases; clean and noisy forces): μ bit for bit, Q up to each
+    column's sign, Qᵀb and Qz to round-off, the appendix TLS's h and kept count at two tol;
+    each route as close to the full SVD of [X y] as the other, within a factor 10."""
+    from podbench.sysid.deconvolution import bordered
+
+    n = 150
+    rng = np.random.default_rng(3)
+    q1, y1 = _noisy_pulse_system(n, 11, noise=noise)
+    q2, y2 = _noisy_pulse_system(n, 12, noise=noise)
+    G = np.zeros((n, 2, 2))  # (samples, load cases, modes)
+    G[:, 0, 0], G[:, 1, 1] = q1, q2
+    G[:, 0, 1], G[:, 1, 0] = 0.3 * np.roll(q2, 2), -0.5 * np.roll(q1, 1)
+    X = np.block([[form_conv_mat(G[:, j, i]) for i in range(2)] for j in range(2)])
+    y = np.concatenate([y1, y2 + 0.5 * y1])
+    A = np.block([[sum(bordered.toeplitz_gram(G[:, j, i], G[:, j, i2]) for j in range(2))
+                   for i2 in range(2)] for i in range(2)])  # XᵀX as gram_eigh forms it
+    np.testing.assert_allclose(A, X.T @ X, rtol=0, atol=1e-13 * np.abs(A).max())
+    mu_d, Q_d = scipy.linalg.eigh(A, driver="evd")  # the dense route: syevd, Q formed
+    bordered._CACHE.clear()
+    mu, Q = bordered.gram_eigh(G)
+    assert isinstance(Q, bordered.FactoredQ)
+    Qa = Q.dense()
+    signs = np.sign(np.sum(Qa * Q_d, axis=0))
+    assert np.abs(signs).min() == 1
+    np.testing.assert_allclose(Qa * signs, Q_d, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(Qa.T @ Qa, np.eye(2 * n), rtol=0, atol=1e-13)
+    np.testing.assert_array_equal(mu, mu_d)
+    b = bordered.border(G, y)
+    z = rng.standard_normal(2 * n)
+    np.testing.assert_allclose(Q.T @ b, Qa.T @ b, rtol=0, atol=1e-13 * np.linalg.norm(b))
+    np.testing.assert_allclose(Q @ z, Qa @ z, rtol=0, atol=1e-13 * np.linalg.norm(z))
+    mu_f, _ = bordered.gram_eigh(G)
+    assert mu_f is mu  # kept per process
+    for tol in (30.0, 1000.0):
+        h_d, r_d, _ = bordered.bordered_tls(mu_d, Q_d, b, float(y @ y), tol, 2 * n)
+        h, r, _ = bordered.bordered_tls(mu, Q, b, float(y @ y), tol, 2 * n)
+        h_s, r_s = tlsdeconv(y, X, tol)
+        assert r == r_d == r_s
+        assert np.linalg.norm(h - h_d) <= 1e-9 * np.linalg.norm(h_d)
+        d_dense = np.linalg.norm(h_d - h_s)
+        assert np.linalg.norm(h - h_s) <= 10 * d_dense + 1e-12 * np.linalg.norm(h_s)
+
+
 def test_correlations_give_the_gram_matrix_and_the_border():
     from podbench.sysid.deconvolution.bordered import border, toeplitz_gram, toeplitz_rmatvec
 

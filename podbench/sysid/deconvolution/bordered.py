@@ -15,9 +15,13 @@ one root between consecutive ``μ_k`` (and one below ``μ_1``, one above ``μ_M`
 So ``h = −Q Σ_j s_j² β/(λ_j − μ) / Σ_j s_j²`` over the roots below ``λ_1/tol²``, and the
 only cubic work is the eigendecomposition of ``A``, which every right-hand side, every
 ``tol``, every unit scale (``ρX``: ``ρ²μ``) and every refit on the same forces shares
-(:func:`gram_eigh`, kept per process). ``A`` and ``b`` come from correlations of the force
-samples (``X`` is block lower-triangular Toeplitz: :func:`toeplitz_gram`), ``O(n²)``; the
-dense ``X`` is never formed.
+(:func:`gram_eigh`, kept per process). ``Q`` is used only on vectors (``β = Qᵀb``, ``h``
+from ``Qz``), so it is kept factored as ``Q = H Z``: ``H`` the Householder reflectors that
+reduce ``A`` to tridiagonal ``T = HᵀAH`` (LAPACK ``sytrd``) and ``Z`` the eigenvectors of
+``T`` (divide and conquer, ``stevd``): the same ``μ`` as ``syevd``'s, bit for bit, without
+its back-transformation ``HZ`` (the largest dense product of the route). ``A`` and ``b``
+come from correlations of the force samples (``X`` is block lower-triangular Toeplitz:
+:func:`toeplitz_gram`), ``O(n²)``; the dense ``X`` is never formed.
 
 Components with ``|β_k| <= 8 ε ‖G‖`` are deflated (Dongarra & Sorensen 1987): ``μ_k`` is
 then an eigenvalue of ``G`` to working precision with no weight on ``y`` (``s = 0``), which
@@ -34,8 +38,8 @@ from collections import OrderedDict
 import numpy as np
 import scipy.linalg
 
-__all__ = ["toeplitz_gram", "toeplitz_rmatvec", "gram_eigh", "border", "secular", "bordered_tls",
-           "convolution_svd", "EIGH_CACHE_SIZE", "SVD_CACHE_SIZE"]
+__all__ = ["toeplitz_gram", "toeplitz_rmatvec", "gram_eigh", "FactoredQ", "border", "secular",
+           "bordered_tls", "convolution_svd", "EIGH_CACHE_SIZE", "SVD_CACHE_SIZE"]
 
 _EPS = np.finfo(float).eps
 _DEFLATE = 8.0
@@ -87,18 +91,76 @@ def _key(G: np.ndarray, weights: np.ndarray | None) -> str:
     return h.hexdigest()
 
 
+class FactoredQ:
+    """The eigenvectors ``Q = H Z`` of ``A = XᵀX`` kept factored (module docstring): ``H``
+    the product of the Householder reflectors of LAPACK's ``sytrd`` (lower storage: the
+    reflector ``i`` below the subdiagonal of column ``i``), ``Z`` the eigenvectors of the
+    tridiagonal ``T = HᵀAH``. ``Q @ z`` and ``Q.T @ b`` act on vectors (``O(M²)`` each);
+    :meth:`dense` forms ``Q``."""
+
+    def __init__(self, reflectors: np.ndarray, tau: np.ndarray, Z: np.ndarray,
+                 transposed: bool = False):
+        self._v, self._tau, self._Z, self._t = reflectors, tau, Z, transposed
+        self.shape = Z.shape
+
+    @property
+    def T(self) -> FactoredQ:
+        return FactoredQ(self._v, self._tau, self._Z, not self._t)
+
+    def _h(self, x: np.ndarray, trans: str) -> np.ndarray:
+        """``H x`` (``trans="N"``) or ``Hᵀx`` (``"T"``): ``H = diag(1, H̃)`` with ``H̃`` the
+        QR-stored reflectors of ``sytrd`` (LAPACK ``ormtr``'s lower case, by ``ormqr``)."""
+        out = np.array(x, dtype=float, copy=True).reshape(x.shape[0], -1)
+        if out.shape[0] > 1:
+            v = self._v[1:, :-1]
+            lwork = max(1, 64 * out.shape[1])
+            res, _, info = scipy.linalg.lapack.dormqr("L", trans, v, self._tau, out[1:],
+                                                      lwork=lwork)
+            if info != 0:
+                raise RuntimeError(f"LAPACK dormqr failed (info={info})")
+            out[1:] = res
+        return out.reshape(x.shape)
+
+    def __matmul__(self, x):
+        x = np.asarray(x, dtype=float)
+        if self._t:  # Qᵀx = Zᵀ(Hᵀx)
+            return self._Z.T @ self._h(x, "T")
+        return self._h(self._Z @ x, "N")
+
+    def dense(self) -> np.ndarray:
+        """``Q`` (or ``Qᵀ``) as an array."""
+        Q = self._h(self._Z, "N")
+        return Q.T if self._t else Q
+
+
+def _tridiagonal_eigh(A: np.ndarray) -> tuple:
+    """``(μ, Q)`` of the symmetric ``A`` (ascending ``μ``, ``Q`` a :class:`FactoredQ`):
+    ``sytrd`` then ``stevd`` (the steps of ``syevd`` but its back-transformation)."""
+    M = A.shape[0]
+    lapack = scipy.linalg.lapack
+    lwork = int(lapack.dsytrd_lwork(M, lower=1)[0])
+    refl, d, e, tau, info = lapack.dsytrd(A, lower=1, lwork=max(lwork, 1), overwrite_a=1)
+    if info != 0:
+        raise RuntimeError(f"LAPACK dsytrd failed (info={info})")
+    mu, Z, info = lapack.dstevd(d, e, compute_v=1)
+    if info != 0:
+        raise scipy.linalg.LinAlgError(f"LAPACK dstevd did not converge (info={info})")
+    return mu, FactoredQ(refl, tau, Z)
+
+
 def gram_eigh(G: np.ndarray, weights: np.ndarray | None = None) -> tuple:
     """``(μ, Q)`` of ``A = XᵀX`` (ascending ``μ``) for the block convolution matrix ``X``
     of the raw force samples ``G`` (``(n, n_cases, k)``, block ``(j, i)`` = ``T(G[:, j, i])``)
-    with its column block ``i`` multiplied by ``weights[i]`` (default 1), by LAPACK's
-    divide and conquer (``syevd``); kept per process (:data:`EIGH_CACHE_SIZE`)."""
+    with its column block ``i`` multiplied by ``weights[i]`` (default 1): LAPACK's
+    tridiagonal reduction and divide and conquer, ``Q`` kept factored (:class:`FactoredQ`:
+    ``Q @ z``, ``Q.T @ b``); kept per process (:data:`EIGH_CACHE_SIZE`)."""
     n, n_cases, k = G.shape
     key = _key(G, weights)
     hit = _CACHE.get(key)
     if hit is not None:
         _CACHE.move_to_end(key)
         return hit
-    A = np.zeros((k * n, k * n))
+    A = np.zeros((k * n, k * n), order="F")
     for i in range(k):
         for i2 in range(i, k):
             blk = sum(toeplitz_gram(G[:, j, i], G[:, j, i2]) for j in range(n_cases))
@@ -107,11 +169,11 @@ def gram_eigh(G: np.ndarray, weights: np.ndarray | None = None) -> tuple:
             A[i * n:(i + 1) * n, i2 * n:(i2 + 1) * n] = blk
             if i2 != i:
                 A[i2 * n:(i2 + 1) * n, i * n:(i + 1) * n] = blk.T
-    mu, Q = scipy.linalg.eigh(A, driver="evd")
-    _CACHE[key] = (mu, Q)
+    out = _tridiagonal_eigh(A)
+    _CACHE[key] = out
     while len(_CACHE) > EIGH_CACHE_SIZE:
         _CACHE.popitem(last=False)
-    return mu, Q
+    return out
 
 
 SVD_CACHE_SIZE = 4

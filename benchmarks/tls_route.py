@@ -1,0 +1,153 @@
+"""The appendix TLS's eigendecomposition of ``XᵀX``: the factored route against the dense one.
+
+Chapter 5's rows are the dissertation's TLS (``tls-appendix``), solved through the
+eigendecomposition ``(μ, Q)`` of ``A = XᵀX`` bordered by ``Xᵀy``
+(``podbench.sysid.deconvolution.bordered``); one per set of noisy forces, the largest
+dense item of a cold ``podbench run chapter5``. Two routes, timed in one process on
+systems shaped like Chapter 5's (``benchmarks/dense_tls.py``'s: n = 1024 samples, SL one
+mode and one load case, ``A`` 1024 × 1024; ML two modes and two load cases, 2048 × 2048;
+5 % per-channel noise), one BLAS thread:
+
+* dense (the former route): LAPACK ``syevd`` of ``A`` (``scipy.linalg.eigh(driver="evd")``),
+  ``Q`` formed;
+* factored (``bordered.gram_eigh``): ``sytrd`` + ``stevd``, ``Q = HZ`` kept factored and
+  applied to vectors only (no back-transformation).
+
+Each includes forming ``A`` from correlations and one ``tlsdeconv`` at tol = 1000 and at
+tol = 20 (the 5 % SNR rule) on the first right-hand side. Printed per system: best-of
+seconds of each, their ratio, the reference workload of ``benchmarks/study_time.py`` timed
+in the same process (so the seconds read as reference units on another day), and the
+largest relative difference of ``h`` between the routes and of each from the full SVD of
+``[X y]`` (the appendix as written). Times are CPU seconds of this process
+(``time.process_time``), which a loaded machine inflates far less than wall seconds::
+
+    python benchmarks/tls_route.py               # repeat 3
+    python benchmarks/tls_route.py --repeat 5 --noise 0.01
+
+Speed is measured here only, never asserted in the tests
+(``tests/sysid/test_appendix_tls.py`` checks the factored route against the dense one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+ROOT = Path(__file__).resolve().parents[1]
+if __package__ in (None, ""):
+    sys.path.insert(0, str(ROOT))
+
+
+def _reference() -> float:
+    """One pass of ``study_time.REFERENCE``'s workload (CPU seconds), in this process."""
+    import numpy as np
+    import scipy.linalg as sl
+
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((800, 800))
+    t = time.process_time()
+    sl.svd(A, lapack_driver="gesdd")
+    sl.eigh(A + A.T)
+    x = 0.0
+    for i in range(1_000_000):
+        x += i * 1e-9
+    return time.process_time() - t
+
+
+def _dense_eigh(G):
+    """The former route: ``A`` assembled as ``gram_eigh`` does, then ``syevd``, ``Q`` formed."""
+    import numpy as np
+    import scipy.linalg
+
+    from podbench.sysid.deconvolution.bordered import toeplitz_gram
+
+    n, n_cases, k = G.shape
+    A = np.zeros((k * n, k * n))
+    for i in range(k):
+        for i2 in range(i, k):
+            blk = sum(toeplitz_gram(G[:, j, i], G[:, j, i2]) for j in range(n_cases))
+            A[i * n:(i + 1) * n, i2 * n:(i2 + 1) * n] = blk
+            A[i2 * n:(i2 + 1) * n, i * n:(i + 1) * n] = blk.T
+    return scipy.linalg.eigh(A, driver="evd")
+
+
+def _solve(eig, G, y, n_rows):
+    from podbench.sysid.deconvolution import bordered
+
+    mu, Q = eig
+    b = bordered.border(G, y)
+    return [bordered.bordered_tls(mu, Q, b, float(y @ y), tol, n_rows)[0]
+            for tol in (1000.0, 20.0)]
+
+
+def _svd_h(system, tols):
+    """``tlsdeconv`` as the appendix writes it (the full SVD of ``[X y]``), at each tol."""
+    import numpy as np
+
+    from benchmarks.dense_tls import DT
+
+    X = system.dense() / DT
+    y = system._B2[:, 0]
+    _, S, Vt = np.linalg.svd(np.hstack([X, y[:, None]]))
+    V = Vt.T
+    n = V.shape[0] - 1
+    out = []
+    for tol in tols:
+        r = min(int(np.count_nonzero(S[0] / S <= tol)), X.shape[0])
+        out.append((V[n, :r] * V[:n, :r]).sum(axis=1) / (1 - np.sum(V[n, :r] ** 2)))
+    return out
+
+
+def _rel(a, b) -> float:
+    import numpy as np
+
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def run(noise: float, repeat: int) -> list[str]:
+    from benchmarks.dense_tls import DT, _system
+    from podbench.sysid.deconvolution import ConvolutionSystem, bordered
+
+    ref = min(_reference() for _ in range(repeat))
+    lines = [f"noise {noise:g}, one BLAS thread, best of {repeat}, CPU seconds; reference "
+             f"workload {ref:.3f} s",
+             f"{'system':<9}{'dense':>7}{'factored':>10}{'ratio':>7}{'dense u':>9}"
+             f"{'fact. u':>9}{'h: fact-dense':>15}{'dense-svd':>11}{'fact-svd':>10}"]
+    for label, k, cases in (("SL 1024", 1, 1), ("ML 2048", 2, 2)):
+        Q, B = _system(k, cases, noise)
+        system = ConvolutionSystem(Q, B, DT)
+        G, y, n_rows = system.G, system._B2[:, 0], cases * system.G.shape[0]
+        t_d, t_f = float("inf"), float("inf")
+        for _ in range(repeat):
+            t0 = time.process_time()
+            h_d = _solve(_dense_eigh(G), G, y, n_rows)
+            t_d = min(t_d, time.process_time() - t0)
+            bordered._CACHE.clear()
+            t0 = time.process_time()
+            h_f = _solve(bordered.gram_eigh(G), G, y, n_rows)
+            t_f = min(t_f, time.process_time() - t0)
+        one = ConvolutionSystem(Q, B[:, 0], DT)
+        h_s = _svd_h(one, (1000.0, 20.0))
+        diff = max(_rel(a, b) for a, b in zip(h_f, h_d, strict=True))
+        d_ds = max(_rel(a, b) for a, b in zip(h_d, h_s, strict=True))
+        d_fs = max(_rel(a, b) for a, b in zip(h_f, h_s, strict=True))
+        lines.append(f"{label:<9}{t_d:>7.2f}{t_f:>10.2f}{t_d / t_f:>7.2f}{t_d / ref:>9.2f}"
+                     f"{t_f / ref:>9.2f}{diff:>15.1e}{d_ds:>11.1e}{d_fs:>10.1e}")
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--noise", type=float, default=0.05, help="per-channel noise (default 0.05)")
+    ap.add_argument("--repeat", type=int, default=3, help="best of N (default 3)")
+    args = ap.parse_args(argv)
+    print("\n".join(run(args.noise, args.repeat)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
