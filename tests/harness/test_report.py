@@ -512,8 +512,9 @@ def test_the_report_names_the_command_that_made_it(study, tmp_path):
 
 
 def test_fits_table_writes_roundoff_residuals_as_zero():
-    """A relative residual below 1e-12 is round-off (its digits differ between CPUs' BLAS
-    kernels: 3.26547e-16 against 3.24243e-16 measured for one fit) and is written as 0;
+    """A relative residual below 1e-10 is round-off (its digits differ between CPUs' BLAS
+    kernels: 3.26547e-16 against 3.24243e-16 measured for one fit; 1.2e-12 against 0 between
+    two exact routes of the appendix TLS) and is written as 0;
     a real residual keeps its value; other columns are untouched."""
     from types import SimpleNamespace
 
@@ -521,14 +522,14 @@ def test_fits_table_writes_roundoff_residuals_as_zero():
 
     unit = SimpleNamespace(fits=[
         {"scenario": "s", "structure": "b", "method": "ML", "n_modes": 4, "solver": "block",
-         "fit_residual": 3.26547e-16, "solver_residual": 4.2e-16, "solver_rcond": 1e-15},
+         "fit_residual": 3.26547e-16, "solver_residual": 1.21273e-12, "solver_rcond": 1e-15},
         {"scenario": "s", "structure": "b", "method": "ML-tls", "n_modes": 4, "solver": "tls-dt",
          "fit_residual": 0.0123, "solver_residual": 2 * ROUNDOFF_RESIDUAL,
          "solver_rcond": 1e-15},
     ])
     df = fits_table([unit])
     assert df["fit_residual"].tolist() == [0.0, 0.0123]
-    assert df["solver_residual"].tolist() == [0.0, 2e-12]
+    assert df["solver_residual"].tolist() == [0.0, 2e-10]
     assert df["solver_rcond"].tolist() == [1e-15, 1e-15]
     assert ",0," in table_csv(df).splitlines()[1]
 
