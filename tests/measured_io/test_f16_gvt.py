@@ -238,6 +238,8 @@ def test_the_voltage_is_ignored_unless_asked(tmp_path):
      "field `f16_gvt.sets[0].targets`: level 3 is also a training level"),
     ('period = 8192', 'period = 1', "field `f16_gvt.period`: expected an integer >= 2"),
     ('input = "force"', 'input = "current"', "field `f16_gvt.input`: expected one of"),
+    ('data = "data"', 'data = "nope"',
+     'field `f16_gvt.data`: no such folder "nope" (relative to this file)'),
 ])
 def test_a_bad_study_file_names_the_field(tmp_path, old, new, message):
     text = STUDY.read_text(encoding="utf-8")
