@@ -38,12 +38,18 @@ from podbench.harness.executor import execute
 from podbench.study.f16_gvt import F16Plan, MethodEntry, build_estimator, missing_extra
 from podbench.sysid.methods.bands import band_coverage
 from podbench.sysid.methods.periodic import BestLinearApproximation, input_rms
-from podbench.sysid.modal import STABILITY_ORDERS, physical_mask, stability_mask
+from podbench.sysid.modal import (
+    RESPONSE_POLES,
+    STABILITY_ORDERS,
+    physical_mask,
+    response_fit,
+    response_modes,
+    stability_mask,
+)
 from podbench.sysid.periodic import (
     distortion_fractions,
     period_spectra,
     periodic_prediction,
-    rational_poles,
     steady_periods,
 )
 
@@ -153,6 +159,15 @@ def _band(model, rec: Record, yh_err: float, plan: F16Plan) -> dict:
             "estimate_ratio": est / yh_err if yh_err > 0 else float("nan")}
 
 
+NO_BAND = ("no band: one training level leaves no level out; its periods would show the "
+           "noise and the transient, not the change of the linearization with the level")
+"""The note of a banded method's prediction from a single training level. The band is
+calibrated by leaving training levels out; the periods of one level are folds of one
+steady state, whose spread is the noise alone (a periodic input's nonlinear distortion
+repeats in every period), so a band from them would be far narrower than the error of a
+change of level, which dominates (docs/studies/f16_gvt.md gives both)."""
+
+
 def _run_entry(entry: MethodEntry, train, targets, plan: F16Plan, keep) -> tuple:
     """Fit one method on a training set and predict its targets: (rows, fit row, kept
     predictions). A refusal (InputError) is a row with the message."""
@@ -178,6 +193,8 @@ def _run_entry(entry: MethodEntry, train, targets, plan: F16Plan, keep) -> tuple
             row["rel_periodic"] = periodic_error(model.predict_periodic(rec), rec, plan)
         if entry.bands and len(recs) >= 2:
             row.update(_band(model, rec, row["rel_whole"], plan))
+        elif entry.bands:
+            row["note"] = NO_BAND
         rows.append(row)
         if keep(entry.label, n):
             kept[n] = yh
@@ -358,26 +375,21 @@ INSTALL_EXTRA = {"mdof": "mdof"}
 """The podbench extra that installs a package (default: ``peers``)."""
 
 
-MODES_POLES = 24
+MODES_POLES = RESPONSE_POLES
 """Poles of the rational fit of a level's own BLA over the excited band (2–15 Hz): twelve
 modes; the poles that are physical (:func:`podbench.sysid.modal.physical_mask`) and stable
 against the fits with 26 and 28 poles (:func:`podbench.sysid.modal.stability_mask`, its
 criteria :data:`~podbench.sysid.modal.STABILITY`) are the level's modes."""
 
 
-def _mode_set(G, f, n_poles: int, channels) -> tuple[ModeSet, float]:
-    poles, residues, misfit = rational_poles(G, f, n_poles=n_poles)
-    up = poles.imag > 0
-    return ModeSet(poles[up], residues[:, up], channels, "rational fit of the BLA"), misfit
-
-
 def _band_fit(cache: dict, G, f, n_poles: int, channels) -> tuple[ModeSet, float]:
     """The rational fit of ``G`` over the whole band with ``n_poles`` poles, computed once
     per level (``cache``: pole count → fit, shared by :func:`level_modes` and
     :func:`pole_sweep`)."""
-    if n_poles not in cache:
-        cache[n_poles] = _mode_set(G, f, n_poles, channels)
-    return cache[n_poles]
+    return response_fit(G, f, n_poles, channels, cache, BAND_SOURCE)
+
+
+BAND_SOURCE = "rational fit of the BLA"
 
 
 def level_modes(model, rec: Record, plan: F16Plan, fits: dict | None = None) -> list[dict]:
@@ -393,19 +405,13 @@ def level_modes(model, rec: Record, plan: F16Plan, fits: dict | None = None) -> 
     channels = rec.output_channels or tuple(str(i) for i in range(G.shape[0]))
     rms = input_rms(rec.u, plan.period, plan.transient_periods)
     base = {"input_rms": rms}
-    modes, misfit = _band_fit(fits, G, f, MODES_POLES, channels)
-    keep = physical_mask(modes, rec.dt)
-    modes = modes.subset(keep)
-    others = [_band_fit(fits, G, f, MODES_POLES + step, channels)[0]
-              for step in STABILITY_ORDERS]
-    stable = stability_mask(modes, others)
+    modes, misfit, _ = response_modes(G, f, rec.dt, channels, MODES_POLES, fits, BAND_SOURCE)
     rows = [{**base, "fit": f"2-15 Hz, {MODES_POLES} poles", "frequency_Hz": float(fr),
              "damping_ratio": float(z), "misfit": misfit}
-            for fr, z, ok in zip(modes.frequency_hz, modes.damping_ratio, stable, strict=True)
-            if ok]
+            for fr, z in zip(modes.frequency_hz, modes.damping_ratio, strict=True)]
     _, lo, hi = TORSION
     band = (f >= lo) & (f <= hi)
-    torsion, tmis = _mode_set(G[:, band], f[band], 2, channels)
+    torsion, tmis = response_fit(G[:, band], f[band], 2, channels, source=BAND_SOURCE)
     rows += [{**base, "fit": f"torsion {lo:g}-{hi:g} Hz, 2 poles", "frequency_Hz": float(fr),
               "damping_ratio": float(z), "misfit": tmis}
              for fr, z in zip(torsion.frequency_hz, torsion.damping_ratio, strict=True)]

@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from podbench.core.atomic import replace_dir
@@ -35,6 +36,7 @@ from podbench.harness.predict import (
     min_samples_of,
     read_any,
 )
+from podbench.sysid.modal import response_modes
 from podbench.sysid.models import Model, realization_summary
 
 __all__ = ["FitResult", "fit_files", "modes_table"]
@@ -55,11 +57,58 @@ class FitResult:
 def modes_table(method) -> tuple[pd.DataFrame | None, dict]:
     """The physical modes of a fitted method and, for model.json, its realization summary
     and how the modes were chosen; None and the one-line reason (``modes_reason``) where
-    it has no state-space form."""
+    it has no state-space form. A kernel over one period (``inputs="periodic"``: the
+    frequency response on the excited lines) gets the modes of its frequency response's
+    rational fit instead (:func:`response_modes_table`)."""
+    if getattr(method, "inputs_", None) == "periodic":
+        return response_modes_table(method)
     summary, table = realization_summary(method)
     if table is None:
         return None, {**summary, "modes_table": None, "modes_reason": summary["reason"]}
     return table, {**summary, "modes_table": "modes.csv", "modes_count": len(table)}
+
+
+def response_modes_table(method) -> tuple[pd.DataFrame | None, dict]:
+    """The modes of a periodic fit from its frequency response on the excited lines, as
+    the F-16 study finds them (:func:`~podbench.sysid.modal.response_modes`: a
+    common-denominator rational fit with :data:`~podbench.sysid.modal.RESPONSE_POLES`
+    poles over every output and input, its physical poles stable against the fits with 2
+    and 4 more). A model per force level (``ML-interp``) has its modes at each training
+    level (``input_rms``, the level's input RMS in the input unit); the others one set.
+    ``model.json`` states the rule and the pole-count range over which the study gives its
+    verdict."""
+    rec = method.training_records_[0]
+    channels = rec.output_channels or tuple(str(i) for i in range(rec.n_outputs))
+    names = tuple(f"{c}/{i}" for c in channels for i in (rec.input_channels or
+                                                         range(rec.n_inputs)))
+    names = channels if rec.n_inputs == 1 else names
+    f = method.frequencies_
+    responses = [(None, method.frequency_response())]
+    if hasattr(method, "level_responses_"):
+        responses = [(float(a), np.einsum("ok,kil->oil", method.modes_, G))
+                     for a, G in zip(method.levels_, method.level_responses_, strict=True)]
+    tables, rules = [], []
+    for level, G in responses:
+        modes, _, rule = response_modes(G.reshape(-1, G.shape[-1]), f, rec.dt, names,
+                                        source="rational fit of the frequency response")
+        t = modes.table()
+        if level is not None:
+            t.insert(0, "input_rms", level)
+            rule = f"level {level:.6g} (input RMS): {rule}"
+        tables.append(t)
+        rules.append(rule)
+    table = pd.concat(tables, ignore_index=True)
+    summary = {"realization": None, "modes_rule": rules,
+               "modes_poles_range": RESPONSE_POLES_RANGE,
+               "modes": table.to_dict(orient="records"), "modes_table": "modes.csv",
+               "modes_count": len(table)}
+    return table, summary
+
+
+RESPONSE_POLES_RANGE = "16-32 poles: the F-16 study's verdict range (docs/studies/f16_gvt.md)"
+"""The range of pole counts over which the F-16 study reports the torsion mode
+(:data:`podbench.harness.f16_gvt.POLE_RANGE`); model.json names it beside the one count
+used."""
 
 
 def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,

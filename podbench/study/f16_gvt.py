@@ -18,10 +18,9 @@ import importlib.util
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from podbench.core.resources import display_path
-from podbench.errors import InputError, ScenarioFileError, StructureFileError
+from podbench.errors import InputError
 from podbench.structures.spec import Table
-from podbench.study.own_runner import read_toml
+from podbench.study.own_runner import data_folder, read_runner_table
 from podbench.sysid import registry
 from podbench.sysid.methods import DMDc, Mdof, OpInf
 from podbench.sysid.methods.inputs import LAG_GRID
@@ -149,6 +148,21 @@ def _figure(t: Table, methods, sets) -> tuple[str, tuple[int, ...], int]:
     return label, train, target
 
 
+def _plan(t: Table, path: Path) -> F16Plan:
+    """The plan of the ``[f16_gvt]`` table ``t`` of the study file ``path``."""
+    data = data_folder(t, path)
+    period = t.integer("period", minimum=2)
+    transient = t.integer("transient_periods", 1, minimum=0)
+    inp = t.string("input", "force", choices=INPUTS)
+    coverage = t.number("coverage", 0.9, above=0.0, below=1.0)
+    methods = _methods(t, period, transient)
+    sets = _sets(t, [m.label for m in methods])
+    figure = _figure(t, methods, sets)
+    return F16Plan(name=path.resolve().parent.name, path=path, data=data, period=period,
+                   transient_periods=transient, input=inp, coverage=coverage, sets=sets,
+                   methods=methods, figure=figure)
+
+
 def load_f16_gvt(path) -> F16Plan:
     """Read and check the ``[f16_gvt]`` table of a study file.
 
@@ -160,33 +174,7 @@ def load_f16_gvt(path) -> F16Plan:
         its options not the class's keywords, a set training on a level it predicts.
     """
     path = Path(path)
-    shown = display_path(path)
-    doc = read_toml(path)
-    if doc is None:
-        raise ScenarioFileError(f"{shown}: cannot be read as TOML")
-    try:
-        top = Table(doc, file=shown)
-        t = top.table(TABLE, required=True)
-        rel = t.string("data")
-        data = (path.parent / rel).resolve()
-        if not data.is_dir():
-            t.fail("data", f'no such folder "{rel}" (relative to this file)')
-        if not any(data.glob("*.npz")):
-            t.fail("data", f'"{rel}" holds no .npz records')
-        period = t.integer("period", minimum=2)
-        transient = t.integer("transient_periods", 1, minimum=0)
-        inp = t.string("input", "force", choices=INPUTS)
-        coverage = t.number("coverage", 0.9, above=0.0, below=1.0)
-        methods = _methods(t, period, transient)
-        sets = _sets(t, [m.label for m in methods])
-        figure = _figure(t, methods, sets)
-        t.close()
-        top.accept_all()
-    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
-        raise ScenarioFileError(str(exc)) from None
-    return F16Plan(name=path.resolve().parent.name, path=path, data=data, period=period,
-                   transient_periods=transient, input=inp, coverage=coverage, sets=sets,
-                   methods=methods, figure=figure)
+    return read_runner_table(path, TABLE, _plan)
 
 
 def missing_extra(entry: MethodEntry) -> str | None:

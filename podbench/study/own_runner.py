@@ -39,7 +39,7 @@ from podbench.errors import ScenarioFileError, StructureFileError
 from podbench.structures.spec import Table
 
 __all__ = ["OwnStudy", "STUDY_TABLE", "own_study_file", "load_own_study", "read_toml",
-           "read_requires", "check_requires"]
+           "read_requires", "check_requires", "read_runner_table", "data_folder"]
 
 STUDY_TABLE = "study"
 """The top-level table that names a study's own runner."""
@@ -65,6 +65,46 @@ def read_toml(path: Path) -> dict | None:
         return tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return None
+
+
+def read_runner_table(path, table: str, read):
+    """``read(t, path)`` on the ``[table]`` of the study file ``path`` (``t``: its
+    :class:`~podbench.structures.spec.Table`), then every field of it checked as read: the
+    runner's own table of a study with its own runner, read the same way by each runner.
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the file and the field: not TOML, the table missing, a field of it
+        missing, of the wrong type or unknown (``read``'s own checks too).
+    """
+    path = Path(path)
+    shown = display_path(path)
+    doc = read_toml(path)
+    if doc is None:
+        raise ScenarioFileError(f"{shown}: cannot be read as TOML")
+    try:
+        top = Table(doc, file=shown)
+        t = top.table(table, required=True)
+        out = read(t, path)
+        t.close()
+        top.accept_all()
+    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
+        raise ScenarioFileError(str(exc)) from None
+    return out
+
+
+def data_folder(t: Table, path: Path, also: tuple[str, ...] = ()) -> Path:
+    """The folder named by the ``data`` field of ``t`` (relative to the study file
+    ``path``), which must hold ``.npz`` records and the files ``also``; a ``t.fail`` line
+    otherwise."""
+    rel = t.string("data")
+    data = (Path(path).parent / rel).resolve()
+    if not data.is_dir():
+        t.fail("data", f'no such folder "{rel}" (relative to this file)')
+    if not any(data.glob("*.npz")) or not all((data / f).is_file() for f in also):
+        t.fail("data", f'"{rel}" holds no .npz records' + "".join(f" and {f}" for f in also))
+    return data
 
 
 def read_requires(t: Table, default=()) -> tuple[str, ...]:

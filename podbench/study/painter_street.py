@@ -11,10 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from podbench.core.resources import display_path
-from podbench.errors import ScenarioFileError, StructureFileError
-from podbench.structures.spec import Table
-from podbench.study.own_runner import read_toml
+from podbench.study.own_runner import data_folder, read_runner_table
 
 __all__ = ["PainterStreetPlan", "load_painter_street", "TABLE"]
 
@@ -41,21 +38,5 @@ def load_painter_street(path) -> PainterStreetPlan:
         folder holding ``.npz`` records and ``events.csv``.
     """
     path = Path(path)
-    shown = display_path(path)
-    doc = read_toml(path)
-    if doc is None:
-        raise ScenarioFileError(f"{shown}: cannot be read as TOML")
-    try:
-        top = Table(doc, file=shown)
-        t = top.table(TABLE, required=True)
-        rel = t.string("data")
-        data = (path.parent / rel).resolve()
-        if not data.is_dir():
-            t.fail("data", f'no such folder "{rel}" (relative to this file)')
-        if not any(data.glob("*.npz")) or not (data / "events.csv").is_file():
-            t.fail("data", f'"{rel}" holds no .npz records and events.csv')
-        t.close()
-        top.accept_all()
-    except StructureFileError as exc:  # Table raises StructureFileError; re-badge it
-        raise ScenarioFileError(str(exc)) from None
+    data = read_runner_table(path, TABLE, lambda t, p: data_folder(t, p, ("events.csv",)))
     return PainterStreetPlan(name=path.resolve().parent.name, path=path, data=data)

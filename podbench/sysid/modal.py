@@ -44,7 +44,8 @@ from podbench.core.modeshapes import ModeSet, frequency_damping, mac
 from podbench.errors import DimensionError, InputError
 
 __all__ = ["discrete_modes", "physical_mask", "stability_mask", "physical_modes",
-           "match_modes", "STABILITY", "STABILITY_ORDERS", "MAC_FLOOR", "ZETA_ROUNDOFF"]
+           "match_modes", "response_fit", "response_modes", "STABILITY", "STABILITY_ORDERS",
+           "MAC_FLOOR", "ZETA_ROUNDOFF", "RESPONSE_POLES"]
 
 STABILITY = {"frequency": 0.01, "damping": 0.05, "mac": 0.97}
 """The stabilization criterion (module docstring): largest relative frequency difference,
@@ -120,6 +121,48 @@ def _counterpart_ok(f0, z0, phi0, other: ModeSet, crit: dict) -> bool:
     if abs(z[j] - z0) > max(crit["damping"] * abs(z0), ZETA_ROUNDOFF):
         return False
     return bool(mac(phi0[:, None], other.shapes[:, j : j + 1])[0, 0] >= crit["mac"])
+
+
+RESPONSE_POLES = 24
+"""Poles of the rational fit of a frequency response on its lines (:func:`response_modes`):
+twelve modes over the band (the F-16 study's 2-15 Hz; its verdict over 16-32 poles is in
+docs/studies/f16_gvt.md)."""
+
+
+def response_fit(G, f, n_poles: int, channels, cache: dict | None = None,
+                 source: str = "rational fit of the frequency response"):
+    """``(modes, misfit)``: the upper-half-plane poles of the common-denominator rational
+    fit of ``G`` (c, L) on the lines ``f`` (Hz) with ``n_poles`` poles
+    (:func:`~podbench.sysid.periodic.rational_poles`) as a :class:`ModeSet` over
+    ``channels``, and ``‖N/D − G‖/‖G‖``. ``cache``: pole count → fit, read and added to."""
+    from podbench.sysid.periodic import rational_poles
+    if cache is not None and n_poles in cache:
+        return cache[n_poles]
+    poles, residues, misfit = rational_poles(G, f, n_poles=n_poles)
+    up = poles.imag > 0
+    out = ModeSet(poles[up], residues[:, up], channels, source), misfit
+    if cache is not None:
+        cache[n_poles] = out
+    return out
+
+
+def response_modes(G, f, dt: float, channels, n_poles: int = RESPONSE_POLES,
+                   cache: dict | None = None,
+                   source: str = "rational fit of the frequency response"):
+    """``(modes, misfit, rule)``: the modes of a frequency response ``G`` (c, L) on the
+    lines ``f`` (Hz), sampled at ``dt`` (s): the poles of its rational fit with
+    ``n_poles`` poles (:func:`response_fit`) that are physical (:func:`physical_mask`) and
+    stable against the fits with :data:`STABILITY_ORDERS` more poles
+    (:func:`stability_mask`); ``rule`` says so in words."""
+    modes, misfit = response_fit(G, f, n_poles, channels, cache, source)
+    modes = modes.subset(physical_mask(modes, dt))
+    others = [response_fit(G, f, n_poles + step, channels, cache, source)[0]
+              for step in STABILITY_ORDERS]
+    modes = modes.subset(stability_mask(modes, others))
+    more = ", ".join(str(n_poles + step) for step in STABILITY_ORDERS)
+    rule = (f"{source}: {n_poles} poles over {f[0]:g}-{f[-1]:g} Hz (misfit {misfit:.3g}); "
+            f"the physical modes stable against {more} poles")
+    return modes, misfit, rule
 
 
 def stability_mask(modes: ModeSet, others: Sequence[ModeSet],

@@ -238,6 +238,8 @@ def test_the_voltage_is_ignored_unless_asked(tmp_path):
      "field `f16_gvt.sets[0].targets`: level 3 is also a training level"),
     ('period = 8192', 'period = 1', "field `f16_gvt.period`: expected an integer >= 2"),
     ('input = "force"', 'input = "current"', "field `f16_gvt.input`: expected one of"),
+    ('data = "data"', 'data = "nope"',
+     'field `f16_gvt.data`: no such folder "nope" (relative to this file)'),
 ])
 def test_a_bad_study_file_names_the_field(tmp_path, old, new, message):
     text = STUDY.read_text(encoding="utf-8")
@@ -424,3 +426,34 @@ def test_the_torsion_pole_is_the_one_carrying_the_wing_response():
     assert np.argmax(peak) == 1 and np.argmax(np.abs(shapes[1])) == 2
     assert _torsion_pole(modes, 1, 1 / 400, f) == 0
     assert _torsion_pole(modes.subset(np.array([False, False, False])), 1, 1 / 400, f) is None
+
+
+@pytest.mark.heavy
+def test_the_modes_of_a_periodic_fit_are_its_responses_rational_fit():
+    """`podbench fit`'s modes of a periodic model (BLA, ML-periodic, ML-interp): the
+    stable physical poles of its frequency response's rational fit. A known lightly damped
+    mode (the discrete pole 0.995·e^(±j2π·0.01) at Δt = 0.01 s: s = ln(z)/Δt) comes back
+    with its frequency and damping; ML-interp gives it at each training level."""
+    from podbench.harness.fit import modes_table
+    rng = np.random.default_rng(0)
+    lines = np.arange(20, 200)  # 0.24-2.4 Hz
+    r, w = 0.995, 2 * np.pi * 0.01
+    a = np.array([1.0, -2 * r * np.cos(w), r ** 2])
+    b = [np.array([0.3, 0.1, 0.0]), np.array([0.0, 0.5, -0.2]), np.array([1.0, 0.0, 0.4])]
+    recs = []
+    for level in (1.0, 2.0):
+        u = _multisine(rng, lines, 4, level)
+        recs.append(Record(u=u, y=_system(u, b, a), dt=0.01, input_units="N",
+                           output_units="m/s^2", name=f"level{level}"))
+    s = np.log(r * np.exp(1j * w)) / 0.01
+    f_true, z_true = abs(s) / (2 * np.pi), -s.real / abs(s)
+    for est in (BestLinearApproximation(period=N), LevelInterpolatedML(period=N)):
+        table, summary = modes_table(est.fit(recs))
+        near = table[np.abs(table.frequency_hz - f_true) < 0.01 * f_true]
+        n_sets = 2 if isinstance(est, LevelInterpolatedML) else 1
+        assert len(near) == n_sets, table
+        np.testing.assert_allclose(near.frequency_hz, f_true, rtol=1e-4)
+        np.testing.assert_allclose(near.damping_ratio, z_true, rtol=1e-2)
+        assert summary["modes_count"] == len(table) and "24 poles" in summary["modes_rule"][0]
+        assert summary["realization"] is None and "16-32" in summary["modes_poles_range"]
+    assert list(table.input_rms.unique()) == sorted(table.input_rms.unique())

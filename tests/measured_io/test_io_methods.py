@@ -46,20 +46,38 @@ def _records(sys, lengths, seed=2, units="m/s^2"):
 
 
 @pytest.mark.parametrize("first", [0, 1])
-def test_grams_equal_the_explicit_lagged_design(first):
+@pytest.mark.parametrize("L", [17, 80, 230])  # lag by lag; by FFT; lags beyond the record
+def test_grams_equal_the_explicit_lagged_design(first, L):
     rng = np.random.default_rng(0)
     u, z = rng.normal(size=(3, 200)), rng.normal(size=(2, 200))
-    L = 17
     X = np.zeros((200, 3 * L))
     for k in range(L):
         lag = first + k
-        X[lag:, 3 * k : 3 * k + 3] = u[:, : 200 - lag].T
+        if lag < 200:
+            X[lag:, 3 * k : 3 * k + 3] = u[:, : 200 - lag].T
     A, B, c = record_grams(u, z, L, first)
     np.testing.assert_allclose(A, X.T @ X, rtol=1e-12, atol=1e-10)
     np.testing.assert_allclose(B, X.T @ z.T, rtol=1e-12, atol=1e-10)
     np.testing.assert_allclose(c, np.sum(z**2, axis=1), rtol=1e-14)
     th = rng.normal(size=(3 * L, 2))
     np.testing.assert_allclose(lag_response(th, u, 3, first), (X @ th).T, atol=1e-12)
+
+
+@pytest.mark.parametrize("n_in", [1, 3])
+def test_tc_whitening_equals_the_dense_factor(n_in):
+    """The prior's coordinates by cumulative sums equal ``RᵀAR`` and ``RᵀB`` with the dense
+    factor ``R`` (``R Rᵀ = P``, the TC prior's kernel)."""
+    from podbench.sysid.deconvolution.lagged import tc_prior
+    from podbench.sysid.methods.inputs import _tc_factor, _tc_weights, _whiten
+    rng = np.random.default_rng(1)
+    L, dt, tau = 12, 0.01, 0.05
+    X = rng.normal(size=(300, L * n_in))
+    A, B = X.T @ X, rng.normal(size=(L * n_in, 2))
+    R = _tc_factor(L, n_in, dt, tau)
+    np.testing.assert_allclose(R @ R.T, tc_prior(L, n_in, np.exp(-dt / tau)), atol=1e-14)
+    M, RB, _ = _whiten([(A, B, np.ones(2))], _tc_weights(L, dt, tau), n_in)[0]
+    np.testing.assert_allclose(M, R.T @ A @ R, rtol=1e-12, atol=1e-12 * np.abs(M).max())
+    np.testing.assert_allclose(RB, R.T @ B, rtol=1e-12, atol=1e-12 * np.abs(RB).max())
 
 
 @pytest.mark.heavy

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+import scipy.signal
 
 from podbench.errors import InputError
 
@@ -61,25 +62,47 @@ def record_grams(u: np.ndarray, z: np.ndarray, n_lags: int, first: int = 0):
     z = np.asarray(z, dtype=float)
     n_in, n = u.shape
     lags = first + np.arange(n_lags)
-    A4 = np.zeros((n_lags, n_in, n_lags, n_in))
-    for d in range(n_lags):
-        if lags[d] >= n:  # every pair involving lag ≥ n is zero
-            break
-        # P[i, j, T] = Σ_{t<T} u_i[t+d] u_j[t]
-        prod = u[:, None, d:] * u[None, :, : n - d]
-        cs = np.concatenate([np.zeros((n_in, n_in, 1)), np.cumsum(prod, axis=2)], axis=2)
-        q = np.arange(d, n_lags)
-        T = np.clip(n - lags[q], 0, n - d)
-        blk = cs[:, :, T]  # (n_in_i, n_in_j, L−d): A[p=q−d, i, q, j]
-        p = q - d
-        A4[p, :, q, :] = blk.transpose(2, 0, 1)
-        A4[q, :, p, :] = blk.transpose(2, 1, 0)
-    A = A4.reshape(n_lags * n_in, n_lags * n_in)
+    A = _lagged_gram(u, lags).reshape(n_lags * n_in, n_lags * n_in)
     B = np.zeros((n_lags, n_in, z.shape[0]))
     for k, lag in enumerate(lags):
         if lag < n:
             B[k] = u[:, : n - lag] @ z[:, lag:].T
     return A, B.reshape(n_lags * n_in, -1), np.sum(z * z, axis=1)
+
+
+def _lagged_gram(u: np.ndarray, lags: np.ndarray) -> np.ndarray:
+    """``A[p, i, q, j] = Σ_t u_i[t − lag_p] u_j[t − lag_q]`` over ``t < n`` (zero before
+    the record), in ``O(L·n_in²·n)`` operations as ``L`` dot products over the record plus
+    ``O(n_in²·L²)`` for the ends.
+
+    With ``lag_p ≤ lag_q`` and ``d = q − p`` the sum is ``Σ_{s<T} u_i[s+d] u_j[s]``,
+    ``T = n − lag_q``: the whole correlation at ``d`` minus its tail ``s ≥ T``; every
+    ``T`` lies in the last ``lag_max`` samples, so the tails are suffix sums there.
+    """
+    n_in, n = u.shape
+    L = lags.size
+    whole = np.zeros((n_in, n_in, L))
+    for d in range(min(L, n)):
+        whole[:, :, d] = np.einsum("it,jt->ij", u[:, d:], u[:, : n - d])
+    t0 = max(0, n - int(lags[-1]))
+    K = n - t0  # the tail's samples, t0 … n − 1
+    w = u[:, t0:]
+    idx = np.arange(K)[None, :] + np.arange(L)[:, None]  # s + d, (L, K)
+    shifted = np.where(idx < K, w[:, np.minimum(idx, K - 1)], 0.0)  # w_i[s+d], (n_in, L, K)
+    prod = shifted[:, None] * w[None, :, None, :]  # (n_in_i, n_in_j, L, K)
+    suffix = np.zeros((n_in, n_in, L, K + 1))
+    suffix[..., :K] = np.cumsum(prod[..., ::-1], axis=3)[..., ::-1]
+    p, q = np.meshgrid(np.arange(L), np.arange(L), indexing="ij")
+    d = np.abs(q - p)
+    T = np.clip(n - lags[np.maximum(p, q)], t0, n - d) - t0
+    V = whole[:, :, d] - suffix[:, :, d, T]  # (n_in_i, n_in_j, L_p, L_q): V[i,j,p,q] for p ≤ q
+    upper = (q >= p)[:, None, :, None]
+    return np.where(upper, V.transpose(2, 0, 3, 1), V.transpose(3, 1, 2, 0))
+
+
+FFT_LAGS = 64
+"""Kernels of more lags than this are applied by FFT convolution (overlap-add), shorter
+ones lag by lag (the same sum to round-off)."""
 
 
 def lag_response(theta: np.ndarray, u: np.ndarray, n_in: int, first: int = 0) -> np.ndarray:
@@ -89,6 +112,13 @@ def lag_response(theta: np.ndarray, u: np.ndarray, n_in: int, first: int = 0) ->
     L = theta.shape[0] // n_in
     th = theta.reshape(L, n_in, -1)
     z = np.zeros((th.shape[2], n))
+    if first >= n:
+        return z
+    if L > FFT_LAGS:
+        for i in range(n_in):  # z[:, first + s] += Σ_k θ[k, i] u_i[s − k]
+            full = scipy.signal.oaconvolve(u[i][None, :], th[:, i, :].T, axes=1)
+            z[:, first:] += full[:, : n - first]
+        return z
     for k in range(L):
         lag = first + k
         if lag >= n:

@@ -170,22 +170,36 @@ def _fixed_tc(prior) -> bool:
     return all(np.isfinite(v) and v > 0 for v in vals)
 
 
+def _tc_weights(n_lags: int, dt: float, tau: float) -> np.ndarray:
+    """``g`` of the TC prior's factor ``R_K[p, q] = g[q]`` for ``q ≥ p`` (:func:`_tc_factor`):
+    ``g[q] = sqrt(λ^q − λ^(q+1))``, ``sqrt(λ^(L−1))`` last, ``λ = exp(−Δt/τ)``."""
+    lam = float(np.exp(-dt / tau))
+    w = lam ** np.arange(n_lags)
+    return np.sqrt(np.append(w[:-1] - w[1:], w[-1]))
+
+
 def _tc_factor(n_lags: int, n_in: int, dt: float, tau: float) -> np.ndarray:
     """``R`` with ``R Rᵀ = P`` (the TC prior, :func:`tc_prior`): ``K = λ^max(p,q)`` factors
     as ``R_K[p, q] = sqrt(λ^q − λ^(q+1))`` for ``q ≥ p`` (``sqrt(λ^(L−1))`` in the last
     column), ``λ = exp(−Δt/τ)``."""
-    lam = float(np.exp(-dt / tau))
-    w = lam ** np.arange(n_lags)
-    g = np.sqrt(np.append(w[:-1] - w[1:], w[-1]))
+    g = _tc_weights(n_lags, dt, tau)
     return np.kron(np.triu(np.ones((n_lags, n_lags))) * g[None, :], np.eye(n_in))
 
 
-def _whiten(grams, R):
-    """The Grams in the prior's coordinates ``θ = R φ``: ``RᵀAR``, ``RᵀB``, ``c``."""
+def _whiten(grams, g: np.ndarray, n_in: int):
+    """The Grams in the prior's coordinates ``θ = R φ`` (``R = R_K ⊗ I``, ``R_K[p, q] =
+    g[q]`` for ``q ≥ p``): ``RᵀAR``, ``RᵀB``, ``c``. ``X R`` sums the lag blocks of ``X``
+    up to each lag and weights it by ``g``, so both products are cumulative sums
+    (``O(L²)``, not a dense ``O(L³)`` product)."""
+    L = g.size
     out = []
     for A, B, c in grams:
-        M = R.T @ A @ R
-        out.append((0.5 * (M + M.T), R.T @ B, c))
+        A4 = A.reshape(L, n_in, L, n_in)
+        M = np.cumsum(np.cumsum(A4, axis=2), axis=0) * (g[:, None, None, None]
+                                                        * g[None, None, :, None])
+        M = M.reshape(L * n_in, L * n_in)
+        RB = (np.cumsum(B.reshape(L, n_in, -1), axis=0) * g[:, None, None]).reshape(B.shape)
+        out.append((0.5 * (M + M.T), RB, c))
     return out
 
 
@@ -237,8 +251,7 @@ def _tc_solve(grams, rows: int, L: int, n_in: int, dt: float, grid, cv: dict):
     sub = [(g[0][:rows, :rows], g[1][:rows], g[2]) for g in grams]
     best = None
     for tau in sorted({t for t, _ in grid}):
-        R = _tc_factor(L, n_in, dt, tau)
-        white = _whiten(sub, R)
+        white = _whiten(sub, _tc_weights(L, dt, tau), n_in)
         for t2, g in grid:
             if t2 != tau:
                 continue
@@ -246,8 +259,9 @@ def _tc_solve(grams, rows: int, L: int, n_in: int, dt: float, grid, cv: dict):
             if len(grid) > 1:
                 cv[("tc", tau, g)] = e
             if best is None or e < best[0] - CV_FLOOR * max(1.0, best[0]):
-                best = (e, tau, g, R, white)
-    _, tau, g, R, white = best
+                best = (e, tau, g, white)
+    _, tau, g, white = best
+    R = _tc_factor(L, n_in, dt, tau)
     M = sum(w[0] for w in white)
     N = sum(w[1] for w in white)
     return R @ solve_ls(M + g * float(np.trace(M)) / rows * np.eye(rows), N), tau, g
