@@ -13,8 +13,8 @@ Without ``--report`` it runs ``podbench run chapter4 -q`` in an empty temporary 
   large errors and its error-decomposition figure (unfolded) with its caption, cropped from
   the page;
 * ``report_modes.png``: the top of the "Modes" section (each fit's modes against the
-  finite-element modes: the count found, the MAC figure and the first rows of the modal
-  table), as a 256-colour palette image (a third of the size of full colour);
+  finite-element modes: what is compared, the count found and the first scenarios' MAC
+  figure), as a 256-colour palette image (a third of the size of full colour);
 * ``figure_truss_forced_load38.png``: the study's figure file of the truss under load 38.
 
 Each picture is cropped from a screenshot of the page itself (the element's position is
@@ -42,7 +42,7 @@ SHOTS = (  # file, CSS selector of the element (down to the bottom of a second o
     ("report.png", "body", None, 0, 1500),
     ("report_decomposition.png", "details.scenario", "details.scenario figure.decomposition",
      8, 2600),
-    ("report_modes.png", "section#modes", None, 8, 1150),
+    ("report_modes.png", "section#modes", None, 8, 870),
 )
 PALETTE = {"report_modes.png"}
 """Pictures written as 256-colour palette images (smaller files; plots and text only)."""
