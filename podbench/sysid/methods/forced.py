@@ -595,7 +595,7 @@ class MultipleLoad(_ForcedMethod):
             self.inputs_ = "periodic"
             self._fit_periodic(records, basis)
         elif self._modal(records):
-            if self.kernel != "fir":
+            if getattr(self, "kernel", "fir") != "fir":
                 raise InputError("Parameter `kernel`: applies to measured inputs (the records' "
                                  "inputs are forces at the outputs)")
             self.inputs_ = "modal"
@@ -617,7 +617,7 @@ class MultipleLoad(_ForcedMethod):
         U, povs = self._measured_basis(recs) if basis is None else given_basis(recs, basis)
         if self.n_lags is None:
             for name, off in (("prior", None), ("kernel", "fir")):
-                if getattr(self, name) != off:
+                if getattr(self, name, off) != off:
                     raise InputError(f"Parameter `{name}`: needs a truncated kernel (n_lags)")
             solver = make_method_solver(self.solver, self.solver_options)
             theta, info = fit_whole(recs, U, lambda Q, B, dt: solve_deconvolution(
@@ -626,7 +626,7 @@ class MultipleLoad(_ForcedMethod):
         else:
             theta, info, cv = fit_fir(recs, U, n_lags=self.n_lags, lag_grid=self.lag_grid,
                                       prior=self.prior, feedthrough=self.feedthrough)
-            if self._params()["kernel"] == "poles":
+            if getattr(self, "kernel", "fir") == "poles":
                 self._fit_poles(recs, U, theta, info, cv)
         n_in, k = recs[0].n_inputs, U.shape[1]
         self.theta_ = theta
@@ -650,7 +650,7 @@ class MultipleLoad(_ForcedMethod):
         full = pilot_factors(theta, n_in, first)
         folds = [pilot_factors(th, n_in, first) for th in fold_kernels(recs, U, info)]
         self.model_, pinfo, pcv = fit_pole_basis(
-            recs, U, folds, full, n_in, first, order=self._params()["pole_order"],
+            recs, U, folds, full, n_in, first, order=self.pole_order,
             gain=LAG_GAIN)
         L = theta.shape[0] // n_in
         h = np.zeros((L + first, U.shape[1], n_in))
