@@ -28,6 +28,7 @@ if __package__ in (None, ""):
 
 
 def main(argv=None) -> int:
+    import numpy as np
     import pandas as pd
 
     import podbench.harness.modal as hm
@@ -49,8 +50,11 @@ def main(argv=None) -> int:
     key = ["scenario", "structure", "method", "mode"]
     both = old.merge(new, on=key, suffixes=("", "_tied"))
     cols = ["identified_frequency_hz", "mac", "status"]
-    changed = both[(both[[c for c in cols]].astype(str).to_numpy()
-                    != both[[c + "_tied" for c in cols]].astype(str).to_numpy()).any(axis=1)]
+    same = np.ones(len(both), dtype=bool)
+    for c in cols:
+        a, b = both[c], both[c + "_tied"]
+        same &= ((a == b) | (a.isna() & b.isna())).to_numpy()
+    changed = both[~same]
     print(f"{args.study}: {len(changed)} of {len(both)} modal.csv rows change with "
           f"rule='mac-frequency'")
     if len(changed):

@@ -531,11 +531,11 @@ class MultipleLoad(_ForcedMethod):
         "lag_grid": [InstanceOf((tuple, list), "a sequence of lag lengths (s)")],
         "prior": [None, Options("tc"), InstanceOf((tuple, list), "(tau_s, gamma) > 0")],
         "feedthrough": [Options("auto"), Boolean()], "inputs": ML_INPUTS,
-        "kernel": [Options("fir", "poles")],
-        "pole_order": [Options("auto"), Interval("integer", 1)],
         "period": [None, Interval("integer", 2)], "transient_periods": [Interval("integer", 0)],
         "lines": [Options("auto"), InstanceOf((tuple, list, np.ndarray),
-                                              "a sequence of DFT line indices")]}
+                                              "a sequence of DFT line indices")],
+        "kernel": [Options("fir", "poles")],
+        "pole_order": [Options("auto"), Interval("integer", 1)]}
 
     def __init__(self, *, n_modes=None, solver="auto", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None, lag_grid=LAG_GRID, prior=None,
