@@ -112,18 +112,27 @@ def zoh_model(structure, sensor: int, dt: float):
     return E[:2 * n, :2 * n], E[:2 * n, 2 * n:], Cy, S @ b
 
 
-def records(structure, truth_design, level: float, seeds):
-    """The training records (IORecords), noise ``level`` per channel."""
-    from podbench.core.iorecords import IORecord
+def forced_records(structure, sensor: int, dt: float, n: int, level: float, seeds, *,
+                   cutoff: float, gain: float = 1.0, prefix: str = "record",
+                   streams=("force", "noise-u", "noise-y"), spread=None, clean=()):
+    """Records of the module docstring's workload, shared by the benchmarks: ``gain`` ×
+    Gaussian white noise through a 4th-order Butterworth low-pass at ``cutoff`` (fraction
+    of Nyquist), held over each sample, at ``sensor`` (lbf); the accelerations at every
+    sensor (in/s²) by :func:`zoh_model`; noise of ``level`` × ``spread`` (default the RMS)
+    of each channel, independently per channel, on every record but the seeds in ``clean``.
+    Streams: :func:`podbench.sysid.noise.noise_generator` of ``(seed, structure, prefix +
+    seed, stream)``."""
+    from podbench.core.records import Record
     from podbench.sysid.noise import noise_generator
 
-    _, dt, n, sensor, top = truth_design
+    spread = spread or (lambda x: np.sqrt(np.mean(x**2)))
     Ad, Bd, Cy, Dy = zoh_model(structure, sensor, dt)
-    b, a = scipy.signal.butter(4, min(0.95, top / (0.5 / dt)))
+    b, a = scipy.signal.butter(4, cutoff)
+    f, nu, ny = streams
     out = []
     for seed in seeds:
-        key = (structure.name, f"record{seed}")
-        u = scipy.signal.lfilter(b, a, noise_generator(seed, *key, "force").normal(size=n))
+        key = (structure.name, f"{prefix}{seed}")
+        u = gain * scipy.signal.lfilter(b, a, noise_generator(seed, *key, f).normal(size=n))
         X = np.zeros((Ad.shape[0], n))
         x = np.zeros(Ad.shape[0])
         for j in range(n):
@@ -131,14 +140,20 @@ def records(structure, truth_design, level: float, seeds):
             x = Ad @ x + Bd[:, 0] * u[j]
         y = Cy @ X + Dy @ u[None, :]
         u = u[None, :]
-        if level > 0:
-            u = u + level * np.sqrt(np.mean(u**2)) * noise_generator(
-                seed, *key, "noise-u").normal(size=u.shape)
-            y = y + np.vstack([level * np.sqrt(np.mean(yi**2)) * noise_generator(
-                seed, *key, f"noise-y{i}").normal(size=n) for i, yi in enumerate(y)])
-        out.append(IORecord(u=u, y=y, dt=dt, input_units="lbf", output_units="in/s^2",
-                            input_channels=(f"f{sensor}",), name=f"record{seed}.npz"))
+        if level > 0 and seed not in clean:
+            u = u + level * spread(u) * noise_generator(seed, *key, nu).normal(size=u.shape)
+            y = y + np.vstack([level * spread(yi) * noise_generator(
+                seed, *key, f"{ny}{i}").normal(size=n) for i, yi in enumerate(y)])
+        out.append(Record(u=u, y=y, dt=dt, input_units="lbf", output_units="in/s^2",
+                            input_channels=(f"f{sensor}",), name=f"{prefix}{seed}.npz"))
     return out
+
+
+def records(structure, truth_design, level: float, seeds):
+    """The training records, noise ``level`` per channel."""
+    _, dt, n, sensor, top = truth_design
+    return forced_records(structure, sensor, dt, n, level, seeds,
+                          cutoff=min(0.95, top / (0.5 / dt)))
 
 
 def methods(dt: float, n_in: int):

@@ -225,10 +225,13 @@ COMMANDS: dict[str, object] = {
         "clean form below is run (slow), the realizations and modes are tested in "
         "tests/sysid/test_modal.py"),
     "python benchmarks/modal.py --structures chain_coupled --levels 0 --no-write": SLOW,
-    "python benchmarks/long_memory.py --structure S": NOT_RUN(
-        "fits ML-TC with lags up to 2400 columns and ERA on 40-s records (minutes per "
-        "structure; the errors are measured, never asserted); the lengthening rule is tested "
-        "in tests/measured_io/test_io_methods.py"),
+    "python benchmarks/long_memory.py --structure S --oracle": NOT_RUN(
+        "fits ML-poles (its pilot ML-TC with lags up to 2400 columns) and ERA on 40-s records "
+        "(minutes per structure; the errors are measured, never asserted); the lengthening "
+        "rule and the pole basis are tested in tests/measured_io/test_io_methods.py"),
+    "python benchmarks/modal_matching.py": NOT_RUN(
+        "runs chapter4 with the frequency tie-break of the modal matching (minutes); the "
+        "rule is tested in tests/sysid/test_modal.py"),
     "podbench fit": SYNOPSIS,
     "python benchmarks/model_file.py --repeat 3": NOT_RUN(
         "times fit + save + load + predict against fit + predict (a minute; the ratio is "
@@ -286,7 +289,8 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("benchmarks/README.md", "python benchmarks/modal.py                 # chain_coupled and "
      "aluminium_beam, clean and 1 % noise"): "shell",
     ("benchmarks/README.md", "python benchmarks/model_file.py --repeat 3"): "shell",
-    ("docs/models.md", "python benchmarks/long_memory.py --structure S"): "shell",
+    ("docs/models.md", "python benchmarks/long_memory.py --structure S --oracle"): "shell",
+    ("docs/models.md", "python benchmarks/modal_matching.py"): "shell",
     # Python blocks
     ("docs/studies/calibration.md", "p = model.predict(target, coverage=0.9)     # "
      "model.predict(target) still returns the array"): "python",

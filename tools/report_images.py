@@ -12,6 +12,9 @@ Without ``--report`` it runs ``podbench run chapter4 -q`` in an empty temporary 
 * ``report_decomposition.png``: the first scenario's section, its table, the notes on its
   large errors and its error-decomposition figure (unfolded) with its caption, cropped from
   the page;
+* ``report_modes.png``: the top of the "Modes" section (each fit's modes against the
+  finite-element modes: what is compared, the count found and the first scenarios' MAC
+  figure), as a 256-colour palette image (a third of the size of full colour);
 * ``figure_truss_forced_load38.png``: the study's figure file of the truss under load 38.
 
 Each picture is cropped from a screenshot of the page itself (the element's position is
@@ -39,7 +42,10 @@ SHOTS = (  # file, CSS selector of the element (down to the bottom of a second o
     ("report.png", "body", None, 0, 1500),
     ("report_decomposition.png", "details.scenario", "details.scenario figure.decomposition",
      8, 2600),
+    ("report_modes.png", "section#modes", None, 8, 870),
 )
+PALETTE = {"report_modes.png"}
+"""Pictures written as 256-colour palette images (smaller files; plots and text only)."""
 OPEN = "details.scenario, details.sub:has(figure.decomposition)"
 """The folded parts unfolded for the pictures: the scenario sections and the first
 scenario's decomposition figure (the first match of each selector is what is shot)."""
@@ -128,7 +134,10 @@ def main(argv=None) -> int:
         page = report.read_text(encoding="utf-8")
         a.out.mkdir(parents=True, exist_ok=True)
         for name, selector, until, pad, max_h in SHOTS:
-            shoot(exe, work, page, selector, until, pad, max_h).save(a.out / name, optimize=True)
+            img = shoot(exe, work, page, selector, until, pad, max_h)
+            if name in PALETTE:
+                img = img.quantize(256)
+            img.save(a.out / name, optimize=True)
             print(a.out / name)
         fig = report.parent / "figures" / "truss_forced__satellite_truss__load38.png"
         if fig.exists():

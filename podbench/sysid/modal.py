@@ -29,7 +29,11 @@ own pole model, whose order its hold-out rule chose) only the hard criteria appl
 not by index: the assignment that maximizes the total MAC (Hungarian algorithm on
 ``1 − MAC``, :func:`scipy.optimize.linear_sum_assignment`) among pairs with
 ``MAC ≥ mac_floor`` (:data:`MAC_FLOOR`); a reference mode without a partner above the floor
-is reported unmatched.
+is reported unmatched. A named variant, ``rule="mac-frequency"``, breaks ties by frequency:
+MACs are compared in steps of :data:`MAC_TIE` and, within a step, the pair nearer in
+frequency (smaller ``|ln(f_id/f)|``) wins — for models whose modes share one shape (SL's and
+POVR's diagonal kernels realize every pole of a POC with that POM's shape), where MAC alone
+cannot tell the poles apart.
 """
 
 from __future__ import annotations
@@ -45,7 +49,7 @@ from podbench.errors import DimensionError, InputError
 
 __all__ = ["discrete_modes", "physical_mask", "stability_mask", "physical_modes",
            "match_modes", "response_fit", "response_modes", "STABILITY", "STABILITY_ORDERS",
-           "MAC_FLOOR", "ZETA_ROUNDOFF", "RESPONSE_POLES"]
+           "MAC_FLOOR", "MAC_TIE", "MATCH_RULES", "ZETA_ROUNDOFF", "RESPONSE_POLES"]
 
 STABILITY = {"frequency": 0.01, "damping": 0.05, "mac": 0.97}
 """The stabilization criterion (module docstring): largest relative frequency difference,
@@ -58,6 +62,13 @@ STABILITY_ORDERS = (2, 4)
 MAC_FLOOR = 0.5
 """Smallest MAC of a matched pair: below it an identified mode shares less than half of its
 shape (in the MAC's sense) with the reference mode, and is not called the same mode."""
+
+MAC_TIE = 1e-3
+"""MAC step of ``rule="mac-frequency"``: MACs within one step are a tie (the MAC's own
+digits as the tables write them, 4 decimals, with a margin)."""
+
+MATCH_RULES = ("mac", "mac-frequency")
+"""The matching rules of :func:`match_modes` (module docstring)."""
 
 
 def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
@@ -219,8 +230,9 @@ def physical_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
 
 
 def match_modes(identified: ModeSet, reference: ModeSet, *,
-                mac_floor: float = MAC_FLOOR) -> pd.DataFrame:
-    """Pair identified modes with reference modes by MAC (module docstring).
+                mac_floor: float = MAC_FLOOR, rule: str = "mac") -> pd.DataFrame:
+    """Pair identified modes with reference modes by MAC (module docstring; ``rule``:
+    ``"mac"``, or ``"mac-frequency"`` with ties broken by frequency).
 
     Returns
     -------
@@ -235,10 +247,19 @@ def match_modes(identified: ModeSet, reference: ModeSet, *,
     if identified.channels != reference.channels:
         raise InputError(f"match_modes: the identified modes' channels {list(identified.channels)}"
                          f" differ from the reference's {list(reference.channels)}")
+    if rule not in MATCH_RULES:
+        raise InputError(f"Parameter `rule`: expected one of {list(MATCH_RULES)}, got {rule!r}")
     M = mac(identified.shapes, reference.shapes)  # (n_id, n_ref)
     rows = np.full(len(reference), -1)
     if M.size:
         cost = np.where(M >= mac_floor, 1.0 - M, 2.0)
+        if rule == "mac-frequency":  # MAC in steps of MAC_TIE, then the nearer frequency
+            with np.errstate(divide="ignore", invalid="ignore"):
+                gap = np.abs(np.log(identified.frequency_hz[:, None]
+                                    / reference.frequency_hz[None, :]))
+            near = np.where(np.isfinite(gap), gap / (1.0 + gap), 1.0)  # orders a step's pairs
+            cost = np.where(M >= mac_floor, np.floor((1.0 - M) / MAC_TIE) + near,
+                            2.0 / MAC_TIE + 1.0)
         r_id, r_ref = scipy.optimize.linear_sum_assignment(cost)
         for i, j in zip(r_id, r_ref, strict=True):
             if M[i, j] >= mac_floor:

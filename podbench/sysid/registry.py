@@ -98,6 +98,8 @@ ENTRIES: tuple[Entry, ...] = (
           summary="ML on measured inputs, lags by leave-one-record-out"),
     Entry("ML-TC", MultipleLoad, {**_MEASURED_LAGS, "prior": "tc"},
           summary="ML on measured inputs, lags and TC prior by leave-one-record-out"),
+    Entry("ML-poles", MultipleLoad, {**_MEASURED_LAGS, "prior": "tc", "kernel": "poles"},
+          summary="ML-TC's kernel in a basis of decaying modes with poles from the data"),
     Entry("ML-whole", MultipleLoad, _WHOLE,
           summary="ML on measured inputs, the kernel over the whole record"),
     Entry("ML-periodic", MultipleLoad, {"inputs": "periodic"}, supplied=("period",),

@@ -227,3 +227,36 @@ def test_auto_lags_lengthen_past_the_grid_while_the_held_out_error_falls():
     # ζ = 30 % (decay 0.27 s): a grid reaching 2 s (7 decay times) holds the memory
     short = MultipleLoad(inputs="measured", n_lags="auto", solver="ls", lag_grid=(1.0, 2.0))
     assert short.fit(_ringing_records(0.3)).info_["n_lags"] in (100, 200)
+
+
+@pytest.mark.heavy
+def test_pole_basis_holds_a_memory_longer_than_its_pilot():
+    from podbench.sysid.realize import to_statespace
+
+    # ζ = 5 % at 2 Hz: decay time 1/(ζω) = 1.6 s; the pilot FIR kernel has 1 s of lags
+    recs = _ringing_records(0.05, n_rec=5)
+    train, target = recs[:4], recs[4]
+    w, dt = 2 * np.pi * 2.0, 0.01
+    true = np.exp(complex(-0.05 * w, w * np.sqrt(1 - 0.05**2)) * dt)
+    fir = measured_ml(n_lags=100).fit(train)
+    est = measured_ml(n_lags=100, kernel="poles").fit(train)
+    assert est.info_["kernel"] == "poles"
+    np.testing.assert_array_equal(est.theta_, fir.theta_)  # the pilot is the FIR kernel
+    lam = np.linalg.eigvals(est.model_[0])
+    assert np.min(np.abs(lam - true)) < 0.1 * (1 - abs(true))  # ζ within 10 %
+    rel = {m: np.linalg.norm(m.predict(target) - target.y) / np.linalg.norm(target.y)
+           for m in (fir, est)}
+    assert rel[est] < 0.1 * rel[fir]
+    # it predicts with the state space it realizes as (ŷ = U (C x + D u))
+    ss = to_statespace(est)
+    np.testing.assert_allclose(ss.respond(target.u), est.predict(target), rtol=1e-9,
+                               atol=1e-12 * np.abs(target.y).max())
+    assert est.frozen_params() == {"pole_order": est.info_["pole_order"]}
+
+
+def test_pole_basis_is_refused_where_it_does_not_apply():
+    recs = _ringing_records(0.05, n_rec=2, n=400)
+    with pytest.raises(InputError, match="`kernel`: needs a truncated kernel"):
+        MultipleLoad(inputs="measured", n_lags=None, kernel="poles").fit(recs)
+    with pytest.raises(InputError, match="`kernel`: 'poles' chooses its order"):
+        measured_ml(n_lags=20, kernel="poles").fit(recs[:1])

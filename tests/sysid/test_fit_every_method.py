@@ -21,7 +21,7 @@ DT, N = 0.005, 240
 KIND = {  # registered name -> the records it fits on
     "POVR": "free1", "MDS": "free", "SL": "forced1", "ML": "forced", "MR": "mixed",
     "FIR-LS": "io", "ERA": "forced", "DMDc": "forced", "OpInf": "forced", "mdof": "io",
-    "ML-lags": "io", "ML-TC": "io", "ML-whole": "io", "FIR-LS-whole": "io",
+    "ML-lags": "io", "ML-TC": "io", "ML-poles": "io", "ML-whole": "io", "FIR-LS-whole": "io",
     "ERA-measured": "io", "mdof-SRIM": "io", "mdof-OKID-ERA": "io",
 }
 REFUSED = {  # registered name -> why `podbench fit` cannot fit it from record files

@@ -106,6 +106,29 @@ def test_matching_is_by_mac_not_by_index():
         match_modes(ModeSet(poles, Q, tuple("uvwxyz")), ref)
 
 
+def test_frequency_tie_break_pairs_shared_shapes_by_frequency():
+    rng = np.random.default_rng(4)
+    Q = np.linalg.qr(rng.normal(size=(6, 2)))[0]
+    ref = ModeSet(-0.1 + 2j * np.pi * np.array([4.0, 11.0]), Q[:, [1, 0]], tuple("abcdef"))
+    # a diagonal kernel's realization: poles at 3 and 11.2 Hz both with POM 1's shape (MAC 1
+    # with the 11-Hz reference mode: a tie), one at 4.1 Hz with POM 2's
+    shapes = Q[:, [0, 1, 0]]
+    ident = ModeSet(-0.1 + 2j * np.pi * np.array([3.0, 4.1, 11.2]), shapes, tuple("abcdef"))
+    by_mac = match_modes(ident, ref)
+    tied = match_modes(ident, ref, rule="mac-frequency")
+    assert by_mac["identified_frequency_hz"][1] == pytest.approx(3.0, rel=1e-3)  # MAC alone
+    assert tied["identified"].tolist() == [2.0, 3.0]  # 4.1 Hz for 4 Hz, 11.2 Hz for 11 Hz
+    np.testing.assert_allclose(tied["identified_frequency_hz"], [4.1, 11.2], rtol=1e-4)
+    np.testing.assert_allclose(tied["mac"], by_mac["mac"], atol=1e-12)  # MAC unchanged
+    # a MAC more than one step (MAC_TIE) higher still wins over a nearer frequency
+    worse = shapes.copy()
+    worse[:, 2] += 0.2 * Q[:, 1]  # the 11.2-Hz mode: MAC 0.96 with the reference
+    t = match_modes(ModeSet(ident.poles, worse, tuple("abcdef")), ref, rule="mac-frequency")
+    assert t["identified_frequency_hz"][1] == pytest.approx(3.0, rel=1e-3)
+    with pytest.raises(InputError, match="`rule`"):
+        match_modes(ident, ref, rule="frequency")
+
+
 @pytest.mark.heavy
 @pytest.mark.parametrize("method", [MultipleLoad(solver="block"), ERA(n_modes=5)])
 def test_forced_realizations_reproduce_the_prediction_and_the_modes(method):

@@ -56,7 +56,16 @@ from podbench.sysid.methods.base import (
     solve_deconvolution,
     solve_deconvolutions,
 )
-from podbench.sysid.methods.inputs import LAG_GRID, fit_fir, fit_whole, given_basis, measured_basis
+from podbench.sysid.methods.inputs import (
+    LAG_GAIN,
+    LAG_GRID,
+    fit_fir,
+    fit_whole,
+    fold_kernels,
+    given_basis,
+    measured_basis,
+)
+from podbench.sysid.methods.pole_basis import fit_pole_basis, pilot_factors, pole_states
 from podbench.sysid.params import Boolean, InstanceOf, Interval, Options, check_param
 from podbench.sysid.periodic import (
     choose_lines,
@@ -448,6 +457,16 @@ class MultipleLoad(_ForcedMethod):
         or given.
     feedthrough : "auto", True or False
         Keep lag 0 on measured inputs (``"auto"``: for acceleration outputs).
+    kernel : {"fir", "poles"}
+        Measured inputs with a truncated kernel: ``"fir"`` (default) the FIR kernel of
+        ``n_lags`` lags; ``"poles"`` (a variant beyond the dissertation, for long memories)
+        the kernel in a basis of decaying modes whose poles are realized from that FIR kernel
+        (the pilot, ``theta_``), with every lag
+        (:mod:`~podbench.sysid.methods.pole_basis`): ``predict`` runs its state space.
+    pole_order : "auto" or int
+        Realization order of the pilot whose stable poles form the basis (``kernel="poles"``):
+        ``"auto"``, the lowest even order within 1 % of the best leave-one-record-out error
+        up to :data:`~podbench.sysid.methods.pole_basis.MAX_POLE_ORDER`; or given.
     inputs : {"auto", "modal", "measured", "periodic"}
         :data:`ML_INPUTS`: the modal forces ``Uᵀ F`` of forces at the output sensors
         (``"modal"``), the inputs as measured (``"measured"``), or ``"auto"`` (default):
@@ -514,19 +533,21 @@ class MultipleLoad(_ForcedMethod):
         "feedthrough": [Options("auto"), Boolean()], "inputs": ML_INPUTS,
         "period": [None, Interval("integer", 2)], "transient_periods": [Interval("integer", 0)],
         "lines": [Options("auto"), InstanceOf((tuple, list, np.ndarray),
-                                              "a sequence of DFT line indices")]}
+                                              "a sequence of DFT line indices")],
+        "kernel": [Options("fir", "poles")],
+        "pole_order": [Options("auto"), Interval("integer", 1)]}
 
     def __init__(self, *, n_modes=None, solver="auto", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None, lag_grid=LAG_GRID, prior=None,
                  feedthrough="auto", inputs="auto", period=None, transient_periods=1,
-                 lines="auto"):
+                 lines="auto", kernel="fir", pole_order="auto"):
         # the dissertation's hyperparameters (§3.3.2), then the kernel's length and prior,
         # then a periodic excitation's
         self.n_modes, self.basis, self.inputs = n_modes, basis, inputs
         self.solver, self.solver_options = solver, solver_options
         self.max_cond, self.max_growth = max_cond, max_growth
         self.n_lags, self.lag_grid, self.prior = n_lags, lag_grid, prior
-        self.feedthrough = feedthrough
+        self.feedthrough, self.kernel, self.pole_order = feedthrough, kernel, pole_order
         self.period, self.transient_periods, self.lines = period, transient_periods, lines
 
     @property
@@ -574,6 +595,9 @@ class MultipleLoad(_ForcedMethod):
             self.inputs_ = "periodic"
             self._fit_periodic(records, basis)
         elif self._modal(records):
+            if getattr(self, "kernel", "fir") != "fir":
+                raise InputError("Parameter `kernel`: applies to measured inputs (the records' "
+                                 "inputs are forces at the outputs)")
             self.inputs_ = "modal"
             Ws, Fs = [r.W for r in records], [cast(np.ndarray, r.F) for r in records]
             self._identify(Ws, Fs, records[0].dt, basis)
@@ -592,8 +616,9 @@ class MultipleLoad(_ForcedMethod):
         """The kernel from the measured inputs (:mod:`podbench.sysid.methods.inputs`)."""
         U, povs = self._measured_basis(recs) if basis is None else given_basis(recs, basis)
         if self.n_lags is None:
-            if self.prior is not None:
-                raise InputError("Parameter `prior`: needs a truncated kernel (n_lags)")
+            for name, off in (("prior", None), ("kernel", "fir")):
+                if getattr(self, name, off) != off:
+                    raise InputError(f"Parameter `{name}`: needs a truncated kernel (n_lags)")
             solver = make_method_solver(self.solver, self.solver_options)
             theta, info = fit_whole(recs, U, lambda Q, B, dt: solve_deconvolution(
                 solver, Q, B, dt, what="ML (measured inputs)"), str(self.solver))
@@ -601,6 +626,8 @@ class MultipleLoad(_ForcedMethod):
         else:
             theta, info, cv = fit_fir(recs, U, n_lags=self.n_lags, lag_grid=self.lag_grid,
                                       prior=self.prior, feedthrough=self.feedthrough)
+            if getattr(self, "kernel", "fir") == "poles":
+                self._fit_poles(recs, U, theta, info, cv)
         n_in, k = recs[0].n_inputs, U.shape[1]
         self.theta_ = theta
         self.kernel_ = theta.reshape(-1, n_in, k).transpose(2, 1, 0) / recs[0].dt
@@ -610,6 +637,27 @@ class MultipleLoad(_ForcedMethod):
         self.dt_ = recs[0].dt
         self.info_ = info
         self.reference_ = recs[0]
+
+    def _fit_poles(self, recs, U, theta, info: dict, cv: dict) -> None:
+        """``kernel="poles"``: the pole basis from the pilot ``θ`` and its folds' kernels
+        (:func:`~podbench.sysid.methods.pole_basis.fit_pole_basis`); sets ``model_`` (the
+        state space in the POC coordinates) and ``markov_`` (the pilot's Markov parameters:
+        the realization's stabilization check), adds the choice to ``info``/``cv``."""
+        if len(recs) < 2:
+            raise InputError("Parameter `kernel`: 'poles' chooses its order by "
+                             "leave-one-record-out and needs at least 2 training records")
+        n_in, first = recs[0].n_inputs, int(info["first_lag"])
+        full = pilot_factors(theta, n_in, first)
+        folds = [pilot_factors(th, n_in, first) for th in fold_kernels(recs, U, info)]
+        self.model_, pinfo, pcv = fit_pole_basis(
+            recs, U, folds, full, n_in, first, order=self.pole_order,
+            gain=LAG_GAIN)
+        L = theta.shape[0] // n_in
+        h = np.zeros((L + first, U.shape[1], n_in))
+        h[first:] = theta.reshape(L, n_in, -1).transpose(0, 2, 1)
+        self.markov_ = h
+        info.update(kernel="poles", pilot_cv_error=info.get("cv_error"), **pinfo)
+        cv.update(pcv)
 
     def _period(self) -> tuple[int, int]:
         """``(period, transient_periods)`` of a periodic fit, checked (``period`` required
@@ -693,6 +741,10 @@ class MultipleLoad(_ForcedMethod):
             H = self.kernel_ if G is self.response_ else \
                 period_kernel(G, self.lines_, int(self.period), self.dt_)
             return period_convolution(H, record.u, self.dt_)
+        if self.info_.get("kernel") == "poles":
+            A, B, C, D = self.model_
+            X = pole_states(A, B, record.u, 1)
+            return C @ X + D @ np.asarray(record.u, dtype=float)
         return lag_response(self.theta_, record.u, record.n_inputs, self.first_lag_)
 
     def frozen_params(self) -> dict:
@@ -710,6 +762,8 @@ class MultipleLoad(_ForcedMethod):
             out["n_lags"] = int(self.info_["n_lags"])
         if params.get("prior") == "tc" and "tc_tau" in self.info_:
             out["prior"] = (float(self.info_["tc_tau"]), float(self.info_["tc_gamma"]))
+        if params.get("kernel") == "poles" and params.get("pole_order") == "auto":
+            out["pole_order"] = int(self.info_["pole_order"])
         return out
 
     @property

@@ -44,7 +44,7 @@ from podbench.errors import InputError
 from podbench.sysid.deconvolution.lagged import record_grams, solve_ls
 
 __all__ = ["LAG_GRID", "TC_GRID", "CV_FLOOR", "LAG_GROWTH", "LAG_GAIN", "MAX_LAG_COLUMNS",
-           "measured_basis", "given_basis", "first_lag", "fit_fir", "fit_whole"]
+           "measured_basis", "given_basis", "first_lag", "fit_fir", "fold_kernels", "fit_whole"]
 
 LAG_GRID = (0.25, 0.5, 1.0, 1.5, 2.0)
 """Lag lengths (s) that ``n_lags="auto"`` chooses from (fixed in advance)."""
@@ -302,6 +302,27 @@ def fit_fir(recs, U, *, n_lags, lag_grid, prior, feedthrough):
                          f"got {prior!r}")
     info["cv_error"] = min(cv.values()) if cv else float("nan")
     return theta, info, cv
+
+
+def fold_kernels(recs, U, info: dict) -> list[np.ndarray]:
+    """The FIR kernels ``θ_j`` of :func:`fit_fir`'s choice (``info``: lags, first lag, TC
+    prior) fitted without record ``j``, one per record (leave-one-record-out folds)."""
+    L, first = int(info["n_lags"]), int(info["first_lag"])
+    n_in = recs[0].n_inputs
+    rows = L * n_in
+    grams = [_grams_in(r, U, L, first) for r in recs]
+    grams = [(g[0][:rows, :rows], g[1][:rows], g[2]) for g in grams]
+    R = (_tc_factor(L, n_in, recs[0].dt, float(info["tc_tau"])) if "tc_tau" in info
+         else None)
+    g = float(info.get("tc_gamma", 0.0))
+    white = _whiten(grams, R) if R is not None else grams
+    M, N = sum(w[0] for w in white), sum(w[1] for w in white)
+    out = []
+    for Aj, Bj, _ in white:
+        Mk = M - Aj
+        th = solve_ls(Mk + g * float(np.trace(Mk)) / rows * np.eye(rows), N - Bj)
+        out.append(R @ th if R is not None else th)
+    return out
 
 
 def fit_whole(recs, U, solve, solver_name: str):
