@@ -506,6 +506,19 @@ def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float], list[np.n
             excursions, local)
 
 
+def folds_per_mode(model) -> bool:
+    """Whether a fold (``N − 1`` records) is refitted in the first ``N − 1`` modes when the
+    model has more: MDS and ML (:attr:`~podbench.sysid.methods.base.PODMethod.records_per_mode`,
+    Eqs. 3.29 and 3.48: ``k`` is bounded by the records) and every other method driven by
+    the modal forces ``UᵀF`` (the peers on forced records: ERA/OKID, DMDc, OpInf), whose
+    ``N − 1`` records excite ``N − 1`` directions of the k-dimensional input, so that a
+    fold cannot identify the input direction the left-out record carries and would charge
+    the full model for a mode it does identify."""
+    if getattr(model, "records_per_mode", False):
+        return True
+    return band_target.kind_of(model) == "forced" and getattr(model, "inputs_", "") == "modal"
+
+
 def _residuals(model, recs, U, can_split: bool, frozen=None):
     """``(source, residuals, envelopes, cv_modes, predictions, excursions, local)``:
     leave-one-record-out residuals where the records allow a split, else the in-sample
@@ -517,7 +530,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
     if can_split:
         source = "cross-validation"
         k = int(U.shape[1])
-        if getattr(model, "records_per_mode", False) and k > len(recs) - 1:
+        if folds_per_mode(model) and k > len(recs) - 1:
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
