@@ -14,7 +14,8 @@ returns the array. Everything is built from the training records, never from the
   :func:`extrapolation`: a measured input's RMS outside the training inputs' range, above
   or below, else the prediction's RMS above the training responses'), and two gains
   fitted to the folds' realized errors (:func:`fit_gains`); :data:`ESTIMATE_RULE` names
-  the variant ``"folds"`` (:func:`folds_estimate`). The band is normalized conformal:
+  the variants ``"folds"``, ``"folds-leverage"`` (:func:`folds_estimate`) and ``"choose"``
+  (:func:`rule_losses`). The band is normalized conformal:
   each fold's residual in units of
   its own estimate spread over its prediction's envelope, the conformal quantile of the
   pooled scores scaling the target's difficulty (:func:`_difficulty`).
