@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -111,17 +110,10 @@ def _noisy(recs, label, level):
     return out
 
 
-def _best(fn, repeat: int) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def measure(labels, levels, repeat: int):
     import numpy as np
+
+    from benchmarks.measure import best_of
 
     cases = _cases()
     for label in labels:
@@ -130,9 +122,9 @@ def measure(labels, levels, repeat: int):
             recs = train if level == 0 else _noisy(train, label, level)
             truth = np.asarray(target.y if hasattr(target, "y") else target.W)
             try:
-                t_plain = _best(lambda m=make, r=recs, x=target: m().fit(r).predict(x),
+                t_plain = best_of(lambda m=make, r=recs, x=target: m().fit(r).predict(x),
                                 repeat)
-                t_band = _best(lambda m=make, r=recs, x=target:
+                t_band = best_of(lambda m=make, r=recs, x=target:
                                m().fit(r).predict(x, coverage=0.9), repeat)
                 p = make().fit(recs).predict(target, coverage=0.9)
             except Exception as exc:  # a failed fit is a row of the table

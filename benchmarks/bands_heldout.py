@@ -224,6 +224,51 @@ def _features(model, p) -> dict:
     return out
 
 
+SCALE_GRID = np.logspace(-4, 4, 321)
+"""``--features``: band half-widths ``k`` (in units of a prediction's difficulty at an
+estimate whose ``e/sqrt(1 + e²)`` is 1) at which each fold's and each target's coverage and
+interval score are stored, so that any estimate rule's band can be scored offline."""
+COVERAGE_GRID = np.concatenate([np.linspace(0.0, 0.9, 91)[:-1], np.linspace(0.9, 1.0, 101)])
+"""Realized coverages at which the best constant-width band's interval score is stored."""
+
+
+def _grid_features(model, p, truth) -> dict:
+    """Each fold's and the target's residuals against the band's difficulty shape: the
+    fraction of samples inside ``k ×`` that shape (:data:`SCALE_GRID`; the folds' give the
+    pooled conformal quantile of any rule, the target's its coverage), the target's
+    interval score there over the truth's RMS, and the best constant-width band's interval
+    score at each :data:`COVERAGE_GRID` coverage. A rule's band at estimate ``e`` is
+    ``k = q e/sqrt(1 + e²)`` with ``q`` the pooled quantile of the folds' scores
+    ``r_j sqrt(1 + e_j²)/e_j`` (:func:`podbench.sysid.methods.bands._difficulty`)."""
+    from podbench.sysid.methods import bands
+
+    cal = model.band_calibration_
+    if cal.source != "cross-validation" or not cal.fold_sizes:
+        return {}
+    join = lambda xs: ";".join(f"{float(x):.4g}" for x in xs)  # noqa: E731
+    c = np.asarray(cal.fold_estimates, float)
+    c = c / np.sqrt(1.0 + c ** 2)
+    folds = np.split(cal.scores, np.cumsum(cal.fold_sizes)[:-1])
+    cdfs = [np.searchsorted(np.sort(sc * cj), SCALE_GRID, side="right") / sc.size
+            for sc, cj in zip(folds, c, strict=True)]
+    mean = np.asarray(p.mean, float)
+    n = min(mean.shape[1], truth.shape[1])
+    R = np.abs(truth[:, :n] - mean[:, :n])
+    u = math.sqrt(2.0) * bands._difficulty(mean, cal, 1.0)[:, :n]
+    r = (R / u).ravel()
+    u = u.ravel()
+    rms = float(np.sqrt(np.mean(truth[:, :n] ** 2))) or 1.0
+    alpha = 1.0 - p.coverage
+    cov = np.searchsorted(np.sort(r), SCALE_GRID, side="right") / r.size
+    isc = [float(np.mean(u * (2 * k + (2 / alpha) * np.maximum(r - k, 0)))) / rms
+           for k in SCALE_GRID]
+    h = np.quantile(R.ravel(), COVERAGE_GRID)
+    const = [float(np.mean(2 * hh + (2 / alpha) * np.maximum(R.ravel() - hh, 0))) / rms
+             for hh in h]
+    return {"fold_sizes": join(cal.fold_sizes), "fold_cdf": "|".join(join(f) for f in cdfs),
+            "target_cdf": join(cov), "target_is": join(isc), "constant_is": join(const)}
+
+
 def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
     """One row per target: realized error, estimate, coverage, interval scores."""
     from podbench.harness.bands import band_stats
@@ -263,6 +308,7 @@ def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
         row["note"] = getattr(p, "note", "") or ""
         if FEATURES:
             row.update(_features(model, p))
+            row.update(_grid_features(model, p, truth))
         rows.append(row)
     return rows
 
@@ -314,7 +360,8 @@ def scores(df) -> dict:
         "spearman_within_model_median": float(np.nanmedian(per_model)) if per_model else math.nan,
         "within_factor_2": float(np.mean(within)),
         "no_estimate": float(np.mean(~np.isfinite(est))),
-        "interval_score_ratio": float(isc[okc].sum() / csc[okc].sum()),
+        "interval_score_ratio": float(isc[okc].sum() / csc[okc].sum()) if okc.any()
+        else math.nan,
         "median_log2_ratio": float(np.nanmedian(np.log2(ratio))),
     }
 

@@ -37,6 +37,7 @@ if __package__ in (None, ""):
 
 import podbench as pb  # noqa: E402
 from benchmarks import report  # noqa: E402
+from benchmarks.measure import best_of  # noqa: E402
 from podbench.dynamics.excitations import excitation_from_dict  # noqa: E402
 from podbench.sysid.methods import ERA  # noqa: E402
 
@@ -83,15 +84,6 @@ def painter_street_records():
         est = command_line_estimator(entry, recs, solver="auto", n_modes=None)
         return est.set_params(**kw) if kw else est
     return recs, make
-
-
-def best_of(fn, repeats: int = 3) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def main(argv=None) -> int:

@@ -18,7 +18,7 @@ import platform
 import time
 import traceback
 
-__all__ = ["measure", "run_isolated", "speedup", "rel_diff", "mb", "available_bytes",
+__all__ = ["best_of", "measure", "run_isolated", "speedup", "rel_diff", "mb", "available_bytes",
            "machine"]
 
 
@@ -39,6 +39,17 @@ def _reset_peak() -> bool:
         return True
     except OSError:
         return False
+
+
+def best_of(fn, repeat: int = 3) -> float:
+    """The least wall time (s) of ``repeat`` calls of ``fn`` in this process (the ratios of
+    ``benchmarks/bands.py`` and ``benchmarks/era_order.py`` time both sides this way)."""
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
 
 
 def measure(fn, repeat_below: float = 1.0, max_repeat: int = 3):

@@ -99,3 +99,25 @@ def test_bands_heldout_scores_one_design_against_its_truth():
     s = H.scores(df)
     assert 0 <= s["within_factor_2"] <= 1 and -1 <= s["spearman"] <= 1
     assert s["interval_score_ratio"] > 0 and s["no_estimate"] == 0
+
+
+def test_bands_rules_reproduces_the_live_band_offline(monkeypatch):
+    """``bands_rules`` applied to the stored ``--features`` rows of one held-out design
+    (MDS, LTI, 1 % noise) under the default rule gives back the live band: each target's
+    estimate (to the stored 6 digits), coverage (to the width grid's resolution) and
+    interval score."""
+    import pandas as pd
+
+    from benchmarks import bands_heldout as H
+    from benchmarks import bands_rules as R
+
+    monkeypatch.setattr(H, "FEATURES", True)
+    d = H.designs("dev", ("LTI",), ("MDS",), 1)[0]
+    rows = pd.DataFrame(H.run_design(d, 0.01, H.simulate_design(d)))
+    assert set(rows["status"]) == {"ok"}
+    est, own, rule = R._model_estimates(rows, "gains")
+    assert rule == "gains"
+    np.testing.assert_allclose(est, rows["error_estimate"], rtol=1e-4)
+    cov, isc, _ = R._band(rows, est, own)
+    np.testing.assert_allclose(cov, rows["coverage"], atol=0.005)
+    np.testing.assert_allclose(isc, rows["interval_score"], rtol=0.01)

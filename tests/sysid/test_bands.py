@@ -436,3 +436,52 @@ def test_projection_share_is_the_error_at_t0_and_enters_the_estimate():
     assert MDS(excitation="velocity").fit(
         [Record(W=W, v0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
     ).projection_share(Record(W=case.W_new, v0=case.x0_new, dt=case.dt)) is None
+
+
+def test_folds_leverage_factor_by_hand(monkeypatch):
+    """The ``"folds-leverage"`` factor ``max((Λ² + 1)/L_ref, 1)^p``: a target whose leverage
+    exceeds every fold's is charged ``((Λ² + 1)/L_ref)^p`` on its error inside the basis,
+    one inside the folds' range is not, and the share outside the basis adds in quadrature."""
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.band_target import TargetTerms
+
+    monkeypatch.setattr(bands, "LEVERAGE_POWER", 0.5)
+    s, b = 0.02, 3.0
+    inside = TargetTerms(4.0, 3.0, None)          # Λ² + 1 = 5 below L_ref = 10
+    beyond = TargetTerms(39.0, 3.0, 0.01)         # Λ² + 1 = 40: 4× L_ref
+    assert bands.folds_estimate(s, b, inside, 1.0, 10.0) == pytest.approx(s)
+    assert bands.folds_estimate(s, b, inside, 1.0, None) == pytest.approx(s)
+    assert bands.folds_estimate(s, b, beyond, 1.0, 10.0) == pytest.approx(
+        math.sqrt((s * 2.0) ** 2 + 0.01 ** 2))
+
+
+def test_rule_losses_by_hand():
+    """``rule_losses``: each fold estimated without it, the mean squared log ratio. Folds
+    whose errors follow ``0.01 sqrt(Λ² + 1)`` exactly are explained by the gains left out
+    (loss 0), not by the folds' median (a constant: loss of the log spread about it)."""
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.band_target import TargetTerms
+
+    lev2 = np.array([0.0, 3.0, 15.0, 63.0])
+    terms = [TargetTerms(float(v), 0.0, None) for v in lev2]
+    errors = 0.01 * np.sqrt(lev2 + 1.0)
+    losses = bands.rule_losses(errors, terms, np.ones(4))
+    assert losses["gains"] == pytest.approx(0.0, abs=1e-12)
+    own = [float(np.median(np.delete(errors, j))) for j in range(4)]
+    assert losses["folds"] == pytest.approx(np.mean((np.log(errors) - np.log(own)) ** 2))
+
+
+@pytest.mark.heavy
+def test_peers_folds_refit_in_one_mode_fewer_with_as_many_records_as_modes():
+    """ERA on modal forces with k = N: a fold's N − 1 records excite N − 1 input
+    directions, so the fold is refitted in the first N − 1 modes (as ML's), and its
+    residual is its error inside them plus the whole basis's projection error."""
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.peers import ERA
+
+    case = forced_case("coupled")
+    recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
+    era = ERA(n_modes=len(recs)).fit(recs)
+    assert bands.folds_per_mode(era)
+    era.predict(Record(W=case.W_new, F=case.F_new, dt=case.dt), coverage=0.9)
+    assert era.band_calibration_.cv_modes == len(recs) - 1

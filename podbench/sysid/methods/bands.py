@@ -14,7 +14,8 @@ returns the array. Everything is built from the training records, never from the
   :func:`extrapolation`: a measured input's RMS outside the training inputs' range, above
   or below, else the prediction's RMS above the training responses'), and two gains
   fitted to the folds' realized errors (:func:`fit_gains`); :data:`ESTIMATE_RULE` names
-  the variant ``"folds"`` (:func:`folds_estimate`). The band is normalized conformal:
+  the variants ``"folds"``, ``"folds-leverage"`` (:func:`folds_estimate`) and ``"choose"``
+  (:func:`rule_losses`). The band is normalized conformal:
   each fold's residual in units of
   its own estimate spread over its prediction's envelope, the conformal quantile of the
   pooled scores scaling the target's difficulty (:func:`_difficulty`).
@@ -372,6 +373,9 @@ class BandCalibration:
     fold_factors: np.ndarray | None = None  # each fold's level factor d = a^β
     fold_scale: float | None = None  # "folds" rule: median error inside the basis over d
     fold_blind: float | None = None  # "folds" rule: the folds' median blind spot Δ_j²
+    fold_sizes: tuple = ()           # samples of each fold's scores (their order in scores)
+    fold_leverage: float | None = None  # "folds-leverage": the folds' largest Λ_j² + 1
+    rule: str = ""                   # the estimate rule this calibration applied
     note: str = ""                   # why no estimate can be made (empty: it can)
     level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
     level_power: float = AMPLITUDE_POWER  # β of the level's excursion d = a^β
@@ -503,6 +507,19 @@ def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float], list[np.n
             excursions, local)
 
 
+def folds_per_mode(model) -> bool:
+    """Whether a fold (``N − 1`` records) is refitted in the first ``N − 1`` modes when the
+    model has more: MDS and ML (:attr:`~podbench.sysid.methods.base.PODMethod.records_per_mode`,
+    Eqs. 3.29 and 3.48: ``k`` is bounded by the records) and every other method driven by
+    the modal forces ``UᵀF`` (the peers on forced records: ERA/OKID, DMDc, OpInf), whose
+    ``N − 1`` records excite ``N − 1`` directions of the k-dimensional input, so that a
+    fold cannot identify the input direction the left-out record carries and would charge
+    the full model for a mode it does identify."""
+    if getattr(model, "records_per_mode", False):
+        return True
+    return band_target.kind_of(model) == "forced" and getattr(model, "inputs_", "") == "modal"
+
+
 def _residuals(model, recs, U, can_split: bool, frozen=None):
     """``(source, residuals, envelopes, cv_modes, predictions, excursions, local)``:
     leave-one-record-out residuals where the records allow a split, else the in-sample
@@ -514,7 +531,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
     if can_split:
         source = "cross-validation"
         k = int(U.shape[1])
-        if getattr(model, "records_per_mode", False) and k > len(recs) - 1:
+        if folds_per_mode(model) and k > len(recs) - 1:
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
@@ -629,22 +646,14 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursi
     a = np.asarray(excursions, dtype=float)
     if cal.level_rule == "input":
         cal.level_power = fit_level_power(errors, terms, a)
-    elif ESTIMATE_RULE == "folds":
-        cal.level_power = RESPONSE_LEVEL_POWER
-    d = a ** cal.level_power
-    cal.fold_terms, cal.fold_factors = list(terms), d
-    cal.fold_errors = errors
-    if ESTIMATE_RULE == "folds":
-        cal.fold_scale, cal.fold_blind, cal.fold_estimates = fold_rule(errors, terms, d)
-    else:
-        cal.gains = fit_gains(errors, terms, d)
-        cal.fold_estimates = np.array([estimate(cal.gains, t, f)
-                                       for t, f in zip(terms, d, strict=True)])
+    cal.fold_terms, cal.fold_errors = list(terms), errors
+    _rule_constants(cal, errors, terms, a)
     scores = []
     for R, Wh, e, lr in zip(residuals, Whs, cal.fold_estimates, local, strict=True):
         S = _difficulty(Wh, cal, e, lr)
         scores.append((np.abs(R) / S).ravel())
     cal.scores = np.concatenate(scores)
+    cal.fold_sizes = tuple(int(x.size) for x in scores)
     cal.mean_square_score = float(np.mean(cal.scores ** 2))
 
 
@@ -679,7 +688,10 @@ variant) the median of the folds' errors inside the basis (each over its level f
 times the target's blind spot against the folds' median blind spot to the power
 :data:`BLIND_POWER`, times the target's level factor. The variant is better on the held-out
 benchmark's random designs and much worse where a target's leverage exceeds every fold's
-(Chapter 5's ML: it drops the leverage); docs/bands.md has both measured."""
+(Chapter 5's ML: it drops the leverage); ``"folds-leverage"`` (a variant) that rule times
+the target's leverage beyond every fold's (:data:`LEVERAGE_POWER`); ``"choose"`` (a
+variant) ``"gains"`` or ``"folds"`` per fitted model, whichever estimates its folds better
+left out (:func:`rule_losses`). docs/bands.md has them all measured."""
 BLIND_POWER = 0.4
 """γ of the ``"folds"`` rule's blind-spot factor ``(Δ²/median_j Δ_j²)^γ``: chosen on the
 held-out benchmark's dev set over 0–0.5 (docs/bands.md gives the verdicts over that range
@@ -692,15 +704,21 @@ load's position as about its size; on the held-out benchmark's dev set the facto
 with β = 0, 0.5, 1 gives 0.66, 0.61, 0.55 within a factor of 2 (0.63, 0.48, 0.33 on the
 83 targets above the range; docs/bands.md). A measured input's level keeps its factor
 (:func:`fit_level_power`)."""
+LEVERAGE_POWER = 0.25
+"""p of the ``"folds-leverage"`` rule's factor ``max((Λ² + 1)/max_j(Λ_j² + 1), 1)^p``: a
+target whose leverage exceeds every fold's is charged for it (an error of each training
+record reaches the prediction multiplied by Λ, and no fold has shown that much). Chosen on
+the held-out benchmark's dev set over 0.25–1 (docs/bands.md gives the verdicts)."""
 BLIND_TINY = 1e-12
 """Added to both blind spots² of that ratio (a basis that holds every load: Δ² = 0)."""
 
 
-def fold_rule(errors, terms, factors):
+def fold_rule(errors, terms, factors, leverage: bool = False):
     """``(scale, blind_ref, fold_estimates)`` of the ``"folds"`` rule: the median over the
     folds of ``y_j = sqrt(max(e_j² − ρ_j², FLOOR_SHARE e_j²))/d_j`` and of their blind
     spots Δ_j², and each fold's own estimate from the other folds alone (its score is then
-    a prediction's score: the fold's error was not used to estimate it)."""
+    a prediction's score: the fold's error was not used to estimate it); ``leverage``: with
+    the ``"folds-leverage"`` factor against the other folds' largest ``Λ² + 1``."""
     e = np.asarray(errors, dtype=float)
     rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
     d = np.asarray(factors, dtype=float)
@@ -715,18 +733,76 @@ def fold_rule(errors, terms, factors):
         if not np.any(rest):
             own.append(math.nan)
             continue
+        ref = max(terms[i].leverage2 + 1.0 for i in np.flatnonzero(rest)) if leverage \
+            else None
         own.append(folds_estimate(float(np.median(y[rest])), float(np.median(b[rest])),
-                                  terms[j], d[j]))
+                                  terms[j], d[j], ref))
     return float(np.median(y[ok])), float(np.median(b[ok])), np.array(own)
 
 
 def folds_estimate(scale: float, blind_ref: float, terms: TargetTerms,
-                   factor: float = 1.0) -> float:
-    """The ``"folds"`` rule's estimate ``sqrt((d·s·((Δ² + τ)/(Δ_ref² + τ))^γ)² + ρ²)``
-    (τ = :data:`BLIND_TINY`, γ = :data:`BLIND_POWER`)."""
+                   factor: float = 1.0, leverage_ref: float | None = None) -> float:
+    """The ``"folds"`` rule's estimate ``sqrt((d·s·((Δ² + τ)/(Δ_ref² + τ))^γ·l)² + ρ²)``
+    (τ = :data:`BLIND_TINY`, γ = :data:`BLIND_POWER`); ``l = max((Λ² + 1)/L_ref, 1)^p``
+    (p = :data:`LEVERAGE_POWER`) given the folds' largest ``L_ref = Λ_j² + 1`` (the
+    ``"folds-leverage"`` rule), else 1."""
     ratio = (terms.blind2 + BLIND_TINY) / (blind_ref + BLIND_TINY)
     inside = factor * scale * ratio ** BLIND_POWER
+    if leverage_ref is not None and leverage_ref > 0:
+        inside *= max((terms.leverage2 + 1.0) / leverage_ref, 1.0) ** LEVERAGE_POWER
     return math.sqrt(inside ** 2 + (terms.rho or 0.0) ** 2)
+
+
+def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
+    """The :data:`ESTIMATE_RULE`'s constants on ``cal`` from the folds' realized errors,
+    terms and level excursions, and each fold's own estimate (``"gains"``: the two gains
+    fitted to every fold; the ``"folds"`` rules: from the other folds only; ``"choose"``:
+    of ``"gains"`` and ``"folds"`` the one whose leave-one-fold-out estimates explain the
+    folds' errors with the smaller log loss, :func:`rule_losses`)."""
+    rule = ESTIMATE_RULE
+    a = np.asarray(excursions, dtype=float)
+    if cal.level_rule == "input":
+        cal.level_power = fit_level_power(errors, terms, a)
+    if rule == "choose":
+        losses = rule_losses(errors, terms, a ** cal.level_power)
+        rule = "gains" if losses["gains"] <= losses["folds"] else "folds"
+    if rule != "gains" and cal.level_rule != "input":
+        cal.level_power = RESPONSE_LEVEL_POWER
+    d = a ** cal.level_power
+    cal.fold_factors, cal.rule = d, rule
+    if rule == "gains":
+        cal.gains = fit_gains(errors, terms, d)
+        cal.fold_estimates = np.array([estimate(cal.gains, t, f)
+                                       for t, f in zip(terms, d, strict=True)])
+        return
+    lev = rule == "folds-leverage"
+    cal.fold_scale, cal.fold_blind, cal.fold_estimates = fold_rule(errors, terms, d, lev)
+    if lev:
+        cal.fold_leverage = float(max(t.leverage2 for t in terms) + 1.0)
+
+
+def rule_losses(errors, terms, factors) -> dict:
+    """``{"gains": loss, "folds": loss}``: the mean of ``(ln e_j − ln ê_j)²`` over the
+    folds, each fold's estimate ``ê_j`` made without it (the gains refitted on the other
+    folds; the ``"folds"`` rule's own estimates, :func:`fold_rule`). No truth: the folds'
+    errors are known from the training records alone. ``"folds"`` uses no response level
+    factor (:data:`RESPONSE_LEVEL_POWER`), so ``factors`` reach only the gains."""
+    e = np.asarray(errors, dtype=float)
+    d = np.asarray(factors, dtype=float)
+    gains = []
+    for j in range(e.size):
+        rest = [i for i in range(e.size) if i != j]
+        g = fit_gains(e[rest], [terms[i] for i in rest], d[rest]) if rest else (0.0, 0.0)
+        gains.append(estimate(g, terms[j], d[j]))
+    folds = fold_rule(e, terms, np.ones(e.size))[2]
+
+    def loss(est) -> float:
+        est = np.asarray(est, dtype=float)
+        ok = np.isfinite(est) & (est > 0) & (e > 0)
+        return float(np.mean((np.log(e[ok]) - np.log(est[ok])) ** 2)) if np.any(ok) \
+            else math.inf
+
+    return {"gains": loss(gains), "folds": loss(folds)}
 GAIN_GRID = 41
 """Candidates of the blind-spot gain κ_Δ² (log-spaced over five decades, and 0)."""
 
@@ -889,7 +965,8 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
         err, s_model, q, terms, a = _cross_validated(model, record, Wh, cal, c)
         details.update(conformal_quantile=q, leverage=math.sqrt(terms.leverage2),
                        blind_spot=math.sqrt(terms.blind2), level_excursion=a,
-                       level_power=cal.level_power, level_rule=cal.level_rule)
+                       level_power=cal.level_power, level_rule=cal.level_rule,
+                       estimate_rule=cal.rule)
         if terms.rho is not None:
             details["projection_share"] = terms.rho
         half = np.sqrt((q * s_model) ** 2 + z ** 2 * var_noise)
@@ -912,7 +989,8 @@ def _cross_validated(model, record, Wh, cal: BandCalibration, c: float):
         terms = TargetTerms(0.0, 0.0, None)
     a = target_excursion(record, Wh, cal)
     if cal.gains is None:
-        err = folds_estimate(cal.fold_scale, cal.fold_blind, terms, a ** cal.level_power)
+        err = folds_estimate(cal.fold_scale, cal.fold_blind, terms, a ** cal.level_power,
+                             cal.fold_leverage)
     else:
         err = estimate(cal.gains, terms, a ** cal.level_power)
     return err, _difficulty(Wh, cal, err), cal.quantile(c), terms, a

@@ -1,0 +1,157 @@
+"""Score the error-estimate rules of :data:`podbench.sysid.methods.bands.ESTIMATE_RULE`
+offline, on the rows ``benchmarks/bands_heldout.py --features`` stores (each prediction's
+terms and its model's folds), without refitting anything.
+
+Every rule is applied through the band code itself (:func:`bands._rule_constants` on the
+stored folds, the target's estimate as :func:`bands._cross_validated` computes it), so a
+rule scored here is the rule ``predict(target, coverage=0.9)`` would apply. Rows written by
+a run with the grid features (``fold_cdf``, ``target_cdf``, …) also give each rule's
+coverage cells and interval score (the pooled conformal quantile of the folds' scores at the
+rule's fold estimates; ``bands_heldout._grid_features``).
+
+    python benchmarks/bands_heldout.py --set dev --features --rows dev.csv
+    python benchmarks/bands_rules.py dev.csv
+    python benchmarks/bands_rules.py dev.csv --rules folds-leverage --leverage-powers 0.25 0.5 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if __package__ in (None, ""):
+    sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+RULES = ("gains", "folds", "folds-leverage", "choose")
+SCALE_GRID = np.logspace(-4, 4, 321)
+COVERAGE_GRID = np.concatenate([np.linspace(0.0, 0.9, 91)[:-1], np.linspace(0.9, 1.0, 101)])
+
+
+def _floats(s) -> np.ndarray:
+    return np.array([float(x) for x in str(s).split(";")])
+
+
+def _model_estimates(rows, rule: str):
+    """``(estimates of the rows, the folds' own estimates, rule applied)`` of one model."""
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.band_target import TargetTerms
+
+    r0 = rows.iloc[0]
+    errors = _floats(r0.fold_errors)
+    terms = [TargetTerms(a, b, c if c > 0 else None) for a, b, c in
+             zip(_floats(r0.fold_lev2), _floats(r0.fold_blind2), _floats(r0.fold_rho),
+                 strict=True)]
+    beta = float(r0.level_power)
+    if not beta > 0:
+        raise SystemExit("bands_rules: the rows must come from a run whose level power is "
+                         "above 0 (the default rule's): the folds' excursions are d^(1/β)")
+    excursions = _floats(r0.fold_factors) ** (1.0 / beta)
+    cal = bands.BandCalibration("cross-validation", np.zeros(0), 0.0,
+                                np.ones(bands.N_TIME_BINS), None, len(errors), 0)
+    old = bands.ESTIMATE_RULE
+    bands.ESTIMATE_RULE = rule
+    try:
+        bands._rule_constants(cal, errors, terms, excursions)
+    finally:
+        bands.ESTIMATE_RULE = old
+    est = []
+    for _, r in rows.iterrows():
+        rho = r.projection_share if np.isfinite(r.projection_share) else None
+        t = TargetTerms(r.leverage ** 2, r.blind_spot ** 2, rho)
+        d = r.level_excursion ** cal.level_power
+        est.append(bands.folds_estimate(cal.fold_scale, cal.fold_blind, t, d, cal.fold_leverage)
+                   if cal.gains is None else bands.estimate(cal.gains, t, d))
+    return np.array(est), np.asarray(cal.fold_estimates, float), cal.rule
+
+
+def _band(rows, est, own, coverage=0.9):
+    """Each row's coverage, interval score and best constant band's interval score under a
+    rule's estimates (NaN without the grid features)."""
+    nan = np.full(len(rows), np.nan)
+    r0 = rows.iloc[0]
+    if "fold_cdf" not in rows.columns or not isinstance(r0.fold_cdf, str):
+        return nan, nan, nan
+    lk = np.log(SCALE_GRID)
+    cdfs = [_floats(s) for s in r0.fold_cdf.split("|")]
+    n = _floats(r0.fold_sizes)
+    c = own / np.sqrt(1.0 + own ** 2)
+    rank = math.ceil(coverage * (n.sum() + 1)) / n.sum()
+    lo, hi = -40.0, 40.0
+    for _ in range(90):  # the pooled quantile of the scores r_j/c_j (bisection in log q)
+        mid = 0.5 * (lo + hi)
+        share = sum(nj * np.interp(mid + math.log(cj), lk, f)
+                    for nj, cj, f in zip(n, c, cdfs, strict=True)) / n.sum()
+        lo, hi = (lo, mid) if share >= rank else (mid, hi)
+    cov, isc, csc = nan.copy(), nan.copy(), nan.copy()
+    for i, (_, r) in enumerate(rows.iterrows()):
+        k = math.log(math.exp(hi) * est[i] / math.sqrt(1.0 + est[i] ** 2))
+        cov[i] = np.interp(k, lk, _floats(r.target_cdf))
+        isc[i] = math.exp(np.interp(k, lk, np.log(_floats(r.target_is))))
+        csc[i] = np.interp(cov[i], COVERAGE_GRID, _floats(r.constant_is))
+    return cov, isc, csc
+
+
+def score_rule(df, rule: str) -> dict:
+    """The held-out scores (``bands_heldout.scores``) of ``rule`` on the stored rows."""
+    import pandas as pd
+
+    from benchmarks.bands_heldout import scores
+
+    out = df.copy()
+    chosen = []
+    for _, rows in df.groupby(["cls", "method", "seed", "noise"], sort=False):
+        est, own, applied = _model_estimates(rows, rule)
+        cov, isc, csc = _band(rows, est, own)
+        out.loc[rows.index, "error_estimate"] = est
+        for col, v in (("coverage", cov), ("interval_score", isc),
+                       ("constant_interval_score", csc)):
+            out.loc[rows.index, col] = v if np.isfinite(v).any() else np.nan
+        chosen.append(applied)
+    s = scores(out)
+    ok = out[out["status"] == "ok"]
+    for m in ("MDS", "ML"):
+        g = ok[ok["method"] == m]
+        r = g["error_estimate"] / g["total_error"]
+        s[f"within_factor_2_{m}"] = float(np.mean((r >= 0.5) & (r <= 2)))
+    s["models_on_folds"] = f"{sum(c != 'gains' for c in chosen)}/{len(chosen)}"
+    return pd.Series(s)
+
+
+def main(argv=None) -> int:
+    import pandas as pd
+
+    from podbench.sysid.methods import bands
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("rows", help="a CSV of bands_heldout.py --features")
+    ap.add_argument("--rules", nargs="*", default=list(RULES), choices=RULES)
+    ap.add_argument("--leverage-powers", nargs="*", type=float,
+                    default=[bands.LEVERAGE_POWER])
+    args = ap.parse_args(argv)
+    df = pd.read_csv(args.rows)
+    df = df[df["status"] == "ok"]
+    cols = {}
+    for rule in args.rules:
+        for p in (args.leverage_powers if rule == "folds-leverage" else [None]):
+            old = bands.LEVERAGE_POWER
+            bands.LEVERAGE_POWER = old if p is None else p
+            try:
+                cols[rule if p is None else f"{rule} p={p:g}"] = score_rule(df, rule)
+            finally:
+                bands.LEVERAGE_POWER = old
+    table = pd.DataFrame(cols)
+    print("| score | " + " | ".join(table.columns) + " |")
+    print("|---" * (len(table.columns) + 1) + "|")
+    for name, row in table.iterrows():
+        cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in row]
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
