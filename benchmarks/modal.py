@@ -158,8 +158,9 @@ def records(structure, truth_design, level: float, seeds):
 
 def methods(dt: float, n_in: int):
     """``[(label, make or None, reason)]`` of the module docstring."""
-    from podbench.sysid.methods.inputs import LAG_GRID, MultipleLoadIO
     from podbench.sysid.methods.peers_io import ERAIO
+
+    from podbench.sysid.methods.inputs import LAG_GRID, MultipleLoadIO
 
     cols = int(round(max(LAG_GRID) / dt)) * n_in
     ml = (("ML", None, f"skipped: the default lag grid's {max(LAG_GRID):g}-s kernel is a "
