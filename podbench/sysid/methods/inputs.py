@@ -312,10 +312,11 @@ def fold_kernels(recs, U, info: dict) -> list[np.ndarray]:
     rows = L * n_in
     grams = [_grams_in(r, U, L, first) for r in recs]
     grams = [(g[0][:rows, :rows], g[1][:rows], g[2]) for g in grams]
-    R = (_tc_factor(L, n_in, recs[0].dt, float(info["tc_tau"])) if "tc_tau" in info
-         else None)
+    tc = "tc_tau" in info
+    R = _tc_factor(L, n_in, recs[0].dt, float(info["tc_tau"])) if tc else None
     g = float(info.get("tc_gamma", 0.0))
-    white = _whiten(grams, R) if R is not None else grams
+    white = (_whiten(grams, _tc_weights(L, recs[0].dt, float(info["tc_tau"])), n_in) if tc
+             else grams)
     M, N = sum(w[0] for w in white), sum(w[1] for w in white)
     out = []
     for Aj, Bj, _ in white:
