@@ -46,6 +46,7 @@ import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy 
 
 from podbench.core.modeshapes import ModeSet, frequency_damping, mac
 from podbench.errors import DimensionError, InputError
+from podbench.sysid.periodic import rational_poles
 
 __all__ = ["discrete_modes", "physical_mask", "stability_mask", "physical_modes",
            "match_modes", "response_fit", "response_modes", "STABILITY", "STABILITY_ORDERS",
@@ -146,7 +147,6 @@ def response_fit(G, f, n_poles: int, channels, cache: dict | None = None,
     fit of ``G`` (c, L) on the lines ``f`` (Hz) with ``n_poles`` poles
     (:func:`~podbench.sysid.periodic.rational_poles`) as a :class:`ModeSet` over
     ``channels``, and ``‖N/D − G‖/‖G‖``. ``cache``: pole count → fit, read and added to."""
-    from podbench.sysid.periodic import rational_poles
     if cache is not None and n_poles in cache:
         return cache[n_poles]
     poles, residues, misfit = rational_poles(G, f, n_poles=n_poles)
