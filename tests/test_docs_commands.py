@@ -129,7 +129,8 @@ COMMANDS: dict[str, object] = {
     "podbench methods [NAME ...]": SYNOPSIS,
     "podbench predict --method ML --train FILE ... --target FILE ... --out DIR": COVERED(
         "tests/measured_io/test_predict_and_painter_street.py"),
-    "podbench run chapter4/beam_forced": RUN,
+    "podbench run chapter4/beam_forced": SLOW,  # 7 methods on three beams: ~35 s; the same
+    # runner is run whole in the default suite by tests/harness/test_cli.py on a small scenario
     "podbench run scenarios/examples/measured/measured_chain.toml": RUN,
     "podbench experiment chapter5 --check": RUN,
     "python -m podbench.sysid.paramdocs docs/methods.md": RUN,

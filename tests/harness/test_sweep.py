@@ -189,6 +189,7 @@ def test_noise_free_points_equal_podbench_run_for_every_seed(write_scenario):
         np.testing.assert_array_equal(sub[NUMERIC].to_numpy(float), ref[NUMERIC].to_numpy(float))
 
 
+@pytest.mark.slow  # a sweep over noise levels and seeds: about 30 s on two cores
 def test_ml_error_is_first_order_in_the_noise_level(write_scenario):
     """ML on the coupled chain (k = m = 5) is exact without noise; least squares is smooth
     in its data, so with the same noise pattern scaled by ε the error is c·ε + O(ε²): doubling

@@ -76,6 +76,7 @@ def _median_parts(name):
     return {key: float(np.median([e[key] for e in errs])) for key in errs[0]}
 
 
+@pytest.mark.slow  # two chains' noisy fits over seeds: about 20 s
 def test_mr_with_poms_is_better_on_the_ideal_than_on_the_coupled_chain():
     """POMs of case a (k = m = 5), ten random excitation sets per chain.
 
