@@ -272,7 +272,14 @@ def test_serial_and_local_parallel_sweeps_are_identical(write_scenario, tmp_path
     _, parallel = run_sweep([p], jobs=2, cache_dir=tmp_path / "cache")
     assert serial.attrs["tasks"] == 3  # the noise-free point once, then once per seed
     assert len(serial) == 2 * 2 * 2 * 1 * 2  # noise × seeds × methods × targets × solvers
-    pd.testing.assert_frame_equal(serial, parallel, check_exact=True)
+    # the noise-free point of the exact ML fit leaves round-off (errors 1e-16..1e-14) whose
+    # digits depend on the process that computed it (total_error 1.84e-15 against 2.05e-15
+    # measured): labels equal, numbers equal to 1e-12 relative or 1e-10 absolute
+    nums = [c for c in serial.columns if pd.api.types.is_float_dtype(serial[c])]
+    rest = [c for c in serial.columns if c not in nums]
+    pd.testing.assert_frame_equal(serial[rest], parallel[rest], check_exact=True)
+    np.testing.assert_allclose(serial[nums].to_numpy(float), parallel[nums].to_numpy(float),
+                               rtol=1e-12, atol=1e-10)
 
 
 def test_dask_local_cluster_gives_the_same_table(write_scenario):
