@@ -47,7 +47,8 @@ import numpy as np
 
 from podbench.core.response import displacement_norm, norm_percent_error
 
-__all__ = ["decompose", "norm_summaries", "ERROR_COLUMNS", "NORM_COLUMNS"]
+__all__ = ["decompose", "norm_summaries", "ERROR_COLUMNS", "NORM_COLUMNS", "ERROR_ROUNDOFF",
+           "ROUNDOFF_COLUMNS", "roundoff_errors"]
 
 ERROR_COLUMNS = (
     "total_error",
@@ -61,6 +62,33 @@ ERROR_COLUMNS = (
     "linear_diagonalization_error",
 )
 NORM_COLUMNS = ("norm_pe_median", "norm_pe_p90", "norm_pe_max", "norm_peak_ratio")
+#: A relative error below this is round-off and is written as 0 (the Eq. 4.2 percent errors
+#: below ``100·ERROR_ROUNDOFF`` likewise): an exact fit (ML on a noise-free LTI record, k = m)
+#: leaves 1e-16…1e-14 whose digits depend on the CPU and even on the process that summed them
+#: (1.84e-15 in one process, 2.05e-15 in another, same inputs), which would make a table
+#: differ between ``--jobs`` settings. No error of a committed table lies below 1e-8.
+ERROR_ROUNDOFF = 1e-10
+
+#: The columns :func:`roundoff_errors` floors, with each one's scale (1: a relative error;
+#: 100: a percent error). ``norm_peak_ratio`` is a ratio near 1 and is not floored.
+ROUNDOFF_COLUMNS = {**{c: 1.0 for c in ("total_error", "projection_error",
+                                         "diagonalization_error", "linearization_error",
+                                         "residual_error", "subspace_error", "twin_error",
+                                         "own_linearization_error",
+                                         "linear_diagonalization_error")},
+                    "norm_pe_median": 100.0, "norm_pe_p90": 100.0, "norm_pe_max": 100.0}
+
+
+def roundoff_errors(df):
+    """``df`` (a pandas DataFrame of rows with :data:`ERROR_COLUMNS` and
+    :data:`NORM_COLUMNS`) with every error below :data:`ERROR_ROUNDOFF` (relative; percent
+    errors below ``100·ERROR_ROUNDOFF``) written as 0; NaN and larger values unchanged."""
+    for c, scale in ROUNDOFF_COLUMNS.items():
+        if c in df and df[c].dtype.kind == "f":
+            df[c] = df[c].mask(df[c].abs() < scale * ERROR_ROUNDOFF, 0.0)
+    return df
+
+
 TWIN_RTOL = 1e-6
 """A twin "exceeds" the method's total error only beyond this relative margin: a twin equal
 to the method up to round-off (e.g. ERA-free against MDS in one basis) leaves the

@@ -56,7 +56,7 @@ import pandas as pd
 
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.executor import execute, resolve_jobs
-from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS
+from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS, roundoff_errors
 from podbench.harness.progress import as_stage
 from podbench.harness.runner import (
     SWEEP_DIAGNOSTICS,
@@ -263,8 +263,9 @@ def run_sweep(paths, *, jobs: int | str = 1, scheduler: str | None = None, cache
 
 
 def sweep_table(rows) -> pd.DataFrame:
-    """The rows as a DataFrame with :data:`SWEEP_COLUMNS` in order."""
-    df = pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))
+    """The rows as a DataFrame with :data:`SWEEP_COLUMNS` in order; round-off errors written
+    as 0 (:func:`~podbench.harness.metrics.roundoff_errors`), as in ``summary.csv``."""
+    df = roundoff_errors(pd.DataFrame(rows, columns=list(SWEEP_COLUMNS)))
     for c in ("n_modes", "modes", "seed"):
         df[c] = df[c].astype(int)
     df["noise"] = df["noise"].astype(float)

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from podbench.harness.digits import DIAGNOSTIC_COLUMNS, ESTIMATE_COLUMNS, diagnostic_digits
+from podbench.harness.metrics import roundoff_errors
 from podbench.harness.modal import MODAL_COLUMNS, POM_COLUMNS
 from podbench.harness.runner import COLUMNS
 
@@ -28,9 +29,10 @@ def _significant(v: float, digits: int) -> float:
 
 
 def summary_table(results) -> pd.DataFrame:
-    """All rows of the unit results, in the runner's deterministic order."""
+    """All rows of the unit results, in the runner's deterministic order; round-off errors
+    written as 0 (:func:`~podbench.harness.metrics.roundoff_errors`)."""
     rows = [r for u in results for r in u.rows]
-    df = pd.DataFrame(rows, columns=list(COLUMNS))
+    df = roundoff_errors(pd.DataFrame(rows, columns=list(COLUMNS)))
     df["n_modes"] = df["n_modes"].astype(int)
     if "error_estimate" in df and pd.api.types.is_numeric_dtype(df["error_estimate"]):
         df["error_estimate"] = df["error_estimate"].map(

@@ -4,6 +4,7 @@ import math
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 
 from podbench.core.validation import condition_number
 from podbench.harness.digits import coverage_digits, diagnostic_digits
@@ -57,3 +58,17 @@ def test_coverage_is_written_to_two_decimals():
     # the pair measured on two OpenBLAS kernels (one sample of 12,500 on the band's edge)
     assert coverage_digits(0.63792) == coverage_digits(0.638) == 0.64
     assert coverage_digits(0.9) == 0.9 and math.isnan(coverage_digits(float("nan")))
+
+
+def test_round_off_errors_are_written_as_zero_and_nothing_above_the_floor():
+    # an exact fit leaves relative errors of 1e-16..1e-14 whose digits depend on the process
+    from podbench.harness.metrics import ERROR_ROUNDOFF, roundoff_errors
+    df = pd.DataFrame({"total_error": [1.84e-15, 2.05e-15, 0.5 * ERROR_ROUNDOFF,
+                                       2 * ERROR_ROUNDOFF, float("nan")],
+                       "norm_pe_max": [1.8e-13, 5e-9, 2e-8, 0.3, float("nan")],
+                       "norm_peak_ratio": [1e-12, 1.0, 1.0, 1.0, 1.0]})
+    out = roundoff_errors(df.copy())
+    assert out["total_error"].tolist()[:4] == [0.0, 0.0, 0.0, 2 * ERROR_ROUNDOFF]
+    assert out["norm_pe_max"].tolist()[:4] == [0.0, 0.0, 2e-8, 0.3]  # percent: 100 × floor
+    assert np.isnan(out["total_error"].iloc[4]) and np.isnan(out["norm_pe_max"].iloc[4])
+    assert out["norm_peak_ratio"].tolist() == df["norm_peak_ratio"].tolist()  # a ratio, kept

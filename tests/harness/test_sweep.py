@@ -14,6 +14,8 @@ from podbench import cli
 from podbench.core.resources import bundled_scenarios
 from podbench.core.response import Response
 from podbench.errors import InputError, ScenarioFileError
+from podbench.harness.metrics import roundoff_errors
+from podbench.harness.tables import table_csv
 from podbench.harness.runner import NoiseSpec, noisy, run_unit
 from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep
 from podbench.report.sweep import sweep_markdown
@@ -180,7 +182,8 @@ def test_noise_free_points_equal_podbench_run_for_every_seed(write_scenario):
     p = sweep_file(write_scenario, "noise = [0.0]\nseeds = [0, 5]")
     _, df = run_sweep([p])
     assert list(df.columns) == list(SWEEP_COLUMNS)
-    ref = pd.DataFrame(run_unit(p, "chain_coupled").rows)
+    # as summary.csv writes them: round-off errors as 0
+    ref = roundoff_errors(pd.DataFrame(run_unit(p, "chain_coupled").rows))
     assert list(df.seed) == [0, 0, 5, 5]
     for seed in (0, 5):
         sub = df[df.seed == seed].reset_index(drop=True)
@@ -272,14 +275,12 @@ def test_serial_and_local_parallel_sweeps_are_identical(write_scenario, tmp_path
     _, parallel = run_sweep([p], jobs=2, cache_dir=tmp_path / "cache")
     assert serial.attrs["tasks"] == 3  # the noise-free point once, then once per seed
     assert len(serial) == 2 * 2 * 2 * 1 * 2  # noise × seeds × methods × targets × solvers
-    # the noise-free point of the exact ML fit leaves round-off (errors 1e-16..1e-14) whose
-    # digits depend on the process that computed it (total_error 1.84e-15 against 2.05e-15
-    # measured): labels equal, numbers equal to 1e-12 relative or 1e-10 absolute
-    nums = [c for c in serial.columns if pd.api.types.is_float_dtype(serial[c])]
-    rest = [c for c in serial.columns if c not in nums]
-    pd.testing.assert_frame_equal(serial[rest], parallel[rest], check_exact=True)
-    np.testing.assert_allclose(serial[nums].to_numpy(float), parallel[nums].to_numpy(float),
-                               rtol=1e-12, atol=1e-10)
+    # the tables as written are identical: a number's last bits can depend on the process
+    # that computed it (diagonalization_error 0.043685 differed in its last bits between the
+    # calling process and a worker when the test ran after others), far below the six
+    # digits written; an exact fit's round-off errors (1e-16..1e-14, whose leading digits
+    # differ too) are written as 0
+    assert table_csv(serial) == table_csv(parallel)
 
 
 def test_dask_local_cluster_gives_the_same_table(write_scenario):
