@@ -576,9 +576,9 @@ PRELUDES = {
         def record(x):
             return simulate(beam, n_samples=300, dt=1e-4,
                             force=Pulse(location=x, amplitude=500.0, duration=5e-4))
-        # five loads for four modes: with exactly four the band's folds fail (a known bug,
-        # tests/sysid/test_bands.py::test_a_band_with_as_many_records_as_modes_given_explicitly)
-        train = [record(x) for x in (2.0, 5.0, 7.0, 11.0, 16.0)]
+        # four loads for four modes: each fold refits in the modes its three records excite
+        # (tests/sysid/test_bands.py::test_a_band_with_as_many_records_as_modes_given_explicitly)
+        train = [record(x) for x in (2.0, 5.0, 7.0, 11.0)]
         model = MultipleLoad(n_modes=4).fit(train)
         target = record(23.0)
     """,
