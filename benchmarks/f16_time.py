@@ -2,14 +2,16 @@
 
     python benchmarks/f16_time.py                     # every method and every part
     python benchmarks/f16_time.py --methods ERA       # the ERA tasks only
-    python benchmarks/f16_time.py --parts modes,poles # the modes' and the sweep's fits only
+    python benchmarks/f16_time.py --methods "modes and pole sweep" --parts methods
 
 Runs the tasks of ``podbench run f16_gvt`` (:func:`podbench.harness.f16_gvt._tasks`: each
-method on each training set, fit, predictions and bands) and the parts the study computes
-after them in the calling process (the own-level BLAs, the decomposition, the levels'
-table, the BLA table, the modes, the pole sweep), each timed by ``time.process_time`` with
-one BLAS thread: CPU seconds, which a loaded machine inflates much less than the wall
-time. Prints one line per method (summed over its training sets) and per part, then the
+method on each training set, fit, predictions and bands; each level's modes and pole
+sweep) and the parts the study computes after them in the calling process (the own-level
+BLAs, the decomposition, the levels' table, the BLA table), each timed by
+``time.process_time`` with one BLAS thread: CPU seconds, which a loaded machine inflates
+much less than the wall time. Prints one line per method (summed over its training sets)
+and per part, the time the executor's schedule of these tasks takes on two idle cores
+(:func:`makespan`, what ``--jobs 2`` reaches at best), then the
 total, each also in units of the CPU time of ``benchmarks/study_time.py``'s reference
 workload (:func:`reference_cpu`), measured in the same run. No table is written.
 """
@@ -42,7 +44,7 @@ def reference_cpu() -> float:
                                 capture_output=True, text=True, env=_env()).stdout)
 
 
-PARTS = ("methods", "own", "decomposition", "levels", "bla", "modes", "poles")
+PARTS = ("methods", "own", "decomposition", "levels", "bla")
 
 
 def _timed(fn, *args):
@@ -65,19 +67,41 @@ def _tail(plan, levels, parts, cpu) -> None:
                                            for n in sorted(levels)])
     if "bla" in parts:
         _, cpu["BLA table"] = _timed(h._bla_table, levels, own, plan)
-    fits: dict = {n: {} for n in own}
-    if "modes" in parts:
-        _, cpu["modes (24, 26, 28 poles; torsion)"] = _timed(lambda: [
-            h.level_modes(own[n], levels[n], plan, fits[n]) for n in sorted(own)])
-    if "poles" in parts:
-        _, cpu["pole sweep (16-36 poles)"] = _timed(lambda: [
-            h.pole_sweep(own[n], levels[n], plan, fits[n]) for n in sorted(own)])
+
+
+def makespan(seconds, jobs: int) -> float:
+    """The time the executor's schedule takes on ``jobs`` idle cores: tasks handed out in
+    the given order (the executor's: largest expected cost first), each to the process
+    that frees first (:func:`podbench.harness.executor.execute`)."""
+    free = [0.0] * jobs
+    for s in seconds:
+        i = free.index(min(free))
+        free[i] += s
+    return max(free)
+
+
+def _time_tasks(plan, levels, wanted, cpu) -> list[float]:
+    """Time every task of the study (methods' and levels' modes) one by one; returns their
+    CPU seconds in the executor's hand-out order (expected cost, largest first)."""
+    tasks, costs, _ = h._tasks(plan, levels)
+    lines = h._common_lines(levels, plan)
+    items = [(("method", t), c, t[1].label) for t, c in zip(tasks, costs, strict=True)]
+    items += [(("modes", (plan, n, levels[n], lines)), h.MODES_COST, "modes and pole sweep")
+              for n in sorted(levels)]
+    timed = []
+    for task, cost, label in items:
+        if wanted is None or label in wanted:
+            _, s = _timed(h._task, task)
+            cpu[label] += s
+            timed.append((cost, s))
+    return [s for _, s in sorted(timed, key=lambda cs: -cs[0])]
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--methods", default=None,
-                    help="labels of the methods to time, separated by commas (default: all)")
+                    help="labels of the methods to time, separated by commas (default: all; "
+                         "'modes and pole sweep' for the levels' modes)")
     ap.add_argument("--parts", default=",".join(PARTS),
                     help=f"parts to time, separated by commas ({', '.join(PARTS)})")
     args = ap.parse_args(argv)
@@ -88,17 +112,15 @@ def main(argv=None) -> int:
     plan = load_f16_gvt(ROOT / "scenarios" / "f16_gvt" / "f16_gvt.toml")
     levels = h.load_levels(plan)
     cpu: dict = defaultdict(float)
+    order: list[float] = []
     with single_blas_thread():
         if "methods" in parts:
-            tasks, _, _ = h._tasks(plan, levels)
             wanted = None if args.methods is None else set(args.methods.split(","))
-            for task in tasks:
-                label = task[1].label
-                if wanted is None or label in wanted:
-                    _, s = _timed(h._method_task, task)
-                    cpu[label] += s
+            order = _time_tasks(plan, levels, wanted, cpu)
+        tail = dict(cpu)
         if parts - {"methods"}:
             _tail(plan, levels, parts, cpu)
+        serial = sum(cpu.values()) - sum(tail.values())
     ref = reference_cpu()
     for name, s in cpu.items():
         print(f"{name:40s} {s:7.1f} s of CPU = {s / ref:5.1f} units")
@@ -106,6 +128,11 @@ def main(argv=None) -> int:
     print(f"{'total':40s} {total:7.1f} s of CPU = {total / ref:5.1f} units of the reference "
           f"workload's CPU ({ref:.2f} s, benchmarks/study_time.py's workload timed by "
           "process_time)")
+    if order:
+        two = makespan(order, 2) + serial
+        print(f"{'--jobs 2 on two idle cores, at best':40s} {two:7.1f} s = {two / ref:5.1f} "
+              "units (the tasks as timed here, scheduled as the executor does, plus the "
+              "serial parts; without the workers' imports)")
     return 0
 
 
