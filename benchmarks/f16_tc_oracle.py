@@ -17,6 +17,24 @@ sees only the training levels can do better within these families). The errors c
 the Gram matrices of the validation record (the prediction from rest, ‖y − ŷ‖/‖y‖ over the
 whole record, as summary.csv's rel_whole). This bounds what the prior's hyperparameters
 can do; it does not choose them (the study keeps its leave-one-record-out rule).
+
+    python benchmarks/f16_tc_oracle.py --rules    # also the rules that see the training only
+
+``--rules`` adds three rules that choose the TC kernel's lags, τ and γ over the same grid
+from the **training levels alone**, each a named variant (none is tuned on the validation):
+
+* ``lolo``: leave-one-level-out (each level is one record: the study's rule, here without
+  its lengthening beyond the grid; needs two training levels);
+* ``evidence``: the marginal likelihood (empirical Bayes: Pillonetto, Chiuso & De Nicolao
+  2011; Chen, Ohlsson & Ljung 2012), ``y = Φθ + e``, ``e ~ N(0, σ²I)`` per output,
+  ``θ = Rφ``, ``φ ~ N(0, (σ²/ρ) I)``, ``ρ = γ·trace(RᵀAR)/rows``:
+  ``−2 log p(y) = n log σ̂² + log det(I + RᵀAR/ρ) + n`` per output with
+  ``σ̂² = (c − Nᵀ(RᵀAR + ρI)⁻¹N)/n`` (``N = RᵀB``, ``n`` the samples), summed over the
+  outputs (one τ, γ for all, as the method);
+* ``gcv``: generalized cross-validation, ``n·RSS/(n − df)²`` with
+  ``df = trace(RᵀAR (RᵀAR + ρI)⁻¹)``, RSS over the outputs.
+
+Both ``evidence`` and ``gcv`` choose from one training level too (the study's rule cannot).
 """
 
 from __future__ import annotations
@@ -78,7 +96,93 @@ def oracle(train, targets, dt: float) -> dict:
     return out
 
 
-def main() -> int:
+RULES = ("lolo", "evidence", "gcv")
+
+
+def _eig_solutions(M, N, c, n: int, rows: int):
+    """Per γ of :data:`GAMMAS`: ``(φ, evidence, gcv)`` of the ridge ``(M + ρI)⁻¹N``,
+    ``ρ = γ·trace(M)/rows``, from one eigen-decomposition of ``M`` (``c``: the outputs'
+    ``y yᵀ``, ``n`` samples per output)."""
+    mu, V = np.linalg.eigh(M)
+    mu = np.clip(mu, 0.0, None)
+    VN = V.T @ N  # (rows, k)
+    cc = np.diag(c)
+    out = {}
+    for g in GAMMAS:
+        rho = g * float(np.trace(M)) / rows
+        phi = V @ (VN / (mu + rho)[:, None])
+        fitted = np.sum(VN * VN / (mu + rho)[:, None], axis=0)  # Nᵀ(M + ρI)⁻¹N per output
+        s2 = np.maximum(cc - fitted, 1e-300) / n
+        evidence = float(n * np.sum(np.log(s2)) + N.shape[1] * np.sum(np.log1p(mu / rho)))
+        rss = float(np.sum(cc) - 2 * np.sum(phi * N) + np.sum(phi * (M @ phi)))
+        df = float(np.sum(mu / (mu + rho)))
+        out[g] = (phi, evidence, n * N.shape[1] * rss / (n * N.shape[1] - df) ** 2)
+    return out
+
+
+def _lolo(white, rows: int, g: float) -> float:
+    """Mean leave-one-level-out relative error of the TC kernel (whitened Grams)."""
+    M = sum(w[0] for w in white)
+    N = sum(w[1] for w in white)
+    errs = []
+    for Mj, Nj, cj in white:
+        Mk = M - Mj
+        phi = solve_ls(Mk + g * float(np.trace(Mk)) / rows * np.eye(rows), N - Nj)
+        e2 = float(np.sum(np.diag(cj)) - 2 * np.sum(phi * Nj) + np.sum(phi * (Mj @ phi)))
+        errs.append(np.sqrt(max(e2, 0.0) / float(np.sum(np.diag(cj)))))
+    return float(np.mean(errs))
+
+
+def rules(train, targets, dt: float) -> dict:
+    """The choice of each rule of :data:`RULES` over the oracle's grid, from the training
+    records alone, and its errors on ``targets``: ``{rule: ((lags_s, tau, gamma),
+    [errors])}`` (``lolo`` absent for one training record)."""
+    Lmax = int(round(max(LAGS_S) / dt))
+    tr = [_channel_grams(r, Lmax, 0) for r in train]
+    va = [_channel_grams(r, Lmax, 0) for r in targets]
+    n = sum(r.n_samples for r in train)
+    scores: dict = {r: {} for r in RULES}
+    thetas = {}
+    for s in LAGS_S:
+        L = int(round(s / dt))
+        grams = [(g[0][:L, :L], g[1][:L], g[2]) for g in tr]
+        for tau in TAUS:
+            white = _whiten(grams, _tc_weights(L, dt, tau), 1)
+            M = sum(w[0] for w in white)
+            N = sum(w[1] for w in white)
+            R = _tc_factor(L, 1, dt, tau)
+            c = sum(w[2] for w in white)
+            for g, (phi, ev, gcv) in _eig_solutions(M, N, c, n, L).items():
+                key = (s, tau, g)
+                thetas[key] = R @ phi
+                scores["evidence"][key], scores["gcv"][key] = ev, gcv
+                if len(train) > 1:
+                    scores["lolo"][key] = _lolo(white, L, g)
+    out = {}
+    for rule, sc in scores.items():
+        if not sc:
+            continue
+        key = min(sc, key=sc.get)
+        L = int(round(key[0] / dt))
+        out[rule] = (key, [_error(thetas[key], v[0][:L, :L], v[1][:L], v[2]) for v in va])
+    return out
+
+
+def _print_rules(sets, levels, dt) -> None:
+    print("\ntrain,target,rule,lags_s,tau_s,gamma,rel_whole")
+    for train, targets in sets.items():
+        targets = sorted(targets)
+        res = rules([levels[t] for t in train], [levels[n] for n in targets], dt)
+        for j, n in enumerate(targets):
+            for rule in RULES:
+                if rule in res:
+                    (s, tau, g), errs = res[rule]
+                    print(f"{'+'.join(map(str, train))},{n},{rule},{s},{tau},{g:g},"
+                          f"{errs[j]:.4f}", flush=True)
+
+
+def main(argv=None) -> int:
+    with_rules = "--rules" in (sys.argv[1:] if argv is None else argv)
     plan = load_f16_gvt(ROOT / "scenarios" / "f16_gvt" / "f16_gvt.toml")
     levels = load_levels(plan)
     dt = levels[1].dt
@@ -99,6 +203,8 @@ def main() -> int:
                 tc = min(res["tc"], key=lambda k: res["tc"][k][j])
                 print(f"{'+'.join(map(str, train))},{n},{ls},{res['ls'][ls][j]:.4f},"
                       f"{tc[0]};{tc[1]};{tc[2]:g},{res['tc'][tc][j]:.4f}", flush=True)
+        if with_rules:
+            _print_rules(sets, levels, dt)
     return 0
 
 

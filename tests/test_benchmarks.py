@@ -121,3 +121,12 @@ def test_bands_rules_reproduces_the_live_band_offline(monkeypatch):
     cov, isc, _ = R._band(rows, est, own)
     np.testing.assert_allclose(cov, rows["coverage"], atol=0.005)
     np.testing.assert_allclose(isc, rows["interval_score"], rtol=0.01)
+
+
+def test_f16_time_schedules_tasks_as_the_executor_hands_them_out():
+    from benchmarks.f16_time import makespan
+
+    # in the given order, each task to the process that frees first
+    assert makespan([5.0, 4.0, 3.0, 3.0], 2) == 8.0  # 5+3 | 4+3
+    assert makespan([1.0, 1.0, 4.0], 2) == 5.0  # 1+4 | 1: the order matters
+    assert makespan([2.0, 3.0], 1) == 5.0

@@ -168,6 +168,8 @@ COMMANDS: dict[str, object] = {
         "times a cold `podbench run f16_gvt` between two reference workloads (minutes on the "
         "shared machine); the study command itself is run (slow)"),
     "python benchmarks/f16_tc_oracle.py": SLOW,
+    "python benchmarks/f16_tc_oracle.py --rules": SLOW,
+    "python benchmarks/f16_time.py": SLOW,
     "python benchmarks/study_time.py --jobs 1,2": NOT_RUN(
         "times two cold runs of the whole Chapter 5 study (tens of minutes on the shared "
         "machine); the study command itself is run (slow)"),

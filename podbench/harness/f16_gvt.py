@@ -241,16 +241,25 @@ def _levels_text(train) -> str:
     return "+".join(str(n) for n, _ in train)
 
 
-def _own_models(levels, plan: F16Plan) -> dict[int, BestLinearApproximation]:
-    """Each level's own BLA (the linear model of that record alone), on one set of lines:
-    those every level excites (the rule of the periodic methods on all records)."""
+def _common_lines(levels, plan: F16Plan) -> tuple[int, ...]:
+    """The lines every level excites (the rule of the periodic methods on all records)."""
     recs = [levels[n] for n in sorted(levels)]
     lines = BestLinearApproximation(period=plan.period,
                                     transient_periods=plan.transient_periods).fit(recs).lines_
-    return {n: BestLinearApproximation(period=plan.period,
-                                       transient_periods=plan.transient_periods,
-                                       lines=tuple(int(k) for k in lines)).fit([levels[n]])
-            for n in sorted(levels)}
+    return tuple(int(k) for k in lines)
+
+
+def _own_model(rec: Record, lines: tuple[int, ...], plan: F16Plan) -> BestLinearApproximation:
+    """A level's own BLA (the linear model of its record alone) on the given lines."""
+    return BestLinearApproximation(period=plan.period, transient_periods=plan.transient_periods,
+                                   lines=lines).fit([rec])
+
+
+def _own_models(levels, plan: F16Plan) -> dict[int, BestLinearApproximation]:
+    """Each level's own BLA, on one set of lines: those every level excites
+    (:func:`_common_lines`)."""
+    lines = _common_lines(levels, plan)
+    return {n: _own_model(levels[n], lines, plan) for n in sorted(levels)}
 
 
 def _decomposition(train, n: int, rec: Record, own, plan: F16Plan) -> dict:
@@ -471,9 +480,12 @@ def pole_sweep(model, rec: Record, plan: F16Plan, fits: dict | None = None) -> l
     return rows
 
 
-COSTS = {"ERA-measured": 10.0, "mdof-SRIM": 4.0, "ML-TC": 2.0, "FIR-LS": 1.5}
-"""Expected cost of a method per training record (relative; the periodic methods: 0.1),
-so that the executor starts the long tasks first. Only the schedule depends on it."""
+COSTS = {"ERA-measured": 1.5, "mdof-SRIM": 3.0, "ML-TC": 1.3, "FIR-LS": 0.4}
+"""Expected CPU seconds of a method per training record, bands and predictions included
+(the periodic methods: 0.3), so that the executor starts the long tasks first. Only the
+schedule depends on it."""
+MODES_COST = 3.3
+"""Expected CPU seconds of one level's modes and pole sweep (:func:`_modes_task`)."""
 
 
 def _method_task(task) -> tuple:
@@ -481,6 +493,24 @@ def _method_task(task) -> tuple:
     executor's worker processes)."""
     plan, entry, train, targets, keep = task
     return _run_entry(entry, train, targets, plan, lambda label, n: n in keep)
+
+
+def _modes_task(task) -> tuple[list[dict], list[dict]]:
+    """The modes (:func:`level_modes`) and the pole sweep (:func:`pole_sweep`) of one
+    level's own BLA on the common lines, sharing the level's rational fits: a task of
+    :func:`run_study`, so that the fits run beside the methods' tasks."""
+    plan, n, rec, lines = task
+    model = _own_model(rec, lines, plan)
+    fits: dict = {}
+    modes = [{**m, "level": n} for m in level_modes(model, rec, plan, fits)]
+    poles = [{**m, "level": n} for m in pole_sweep(model, rec, plan, fits)]
+    return modes, poles
+
+
+def _task(task):
+    """A task of :func:`run_study`: ``("method", …)`` or ``("modes", …)``."""
+    kind, payload = task
+    return _method_task(payload) if kind == "method" else _modes_task(payload)
 
 
 def _tasks(plan: F16Plan, levels) -> tuple[list, list, list]:
@@ -510,14 +540,15 @@ def _tasks(plan: F16Plan, levels) -> tuple[list, list, list]:
             continue
         keep = (fig_target,) if (label, train_levels) == (fig_label, fig_train) else ()
         tasks.append((plan, entry, train, targets, keep))
-        costs.append(COSTS.get(entry.method, 0.1) * len(train))
+        costs.append(COSTS.get(entry.method, 0.3) * len(train))
     return tasks, costs, skipped
 
 
 def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
     """Run every set and method of the plan on its data folder (one task per set and
-    method, on ``jobs`` processes: :func:`podbench.harness.executor.execute`, results in
-    task order whatever ``jobs``). Returns ``rows`` (per set, target and method),
+    method, and one per level for its modes and pole sweep, on ``jobs`` processes:
+    :func:`podbench.harness.executor.execute`, results in task order whatever ``jobs``).
+    Returns ``rows`` (per set, target and method),
     ``fits``, ``skipped`` (sets or targets whose level file is absent),
     ``decomposition``, ``levels`` (per level), ``bla`` (the issue's BLA table
     recomputed), ``figure`` (the figure's predictions), ``records``, ``own`` (each
@@ -526,21 +557,28 @@ def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
     _check_extras(plan)
     levels = load_levels(plan)
     tasks, costs, skipped = _tasks(plan, levels)
+    with single_blas_thread():
+        lines = _common_lines(levels, plan)
+    mode_tasks = [("modes", (plan, n, levels[n], lines)) for n in sorted(levels)]
 
     def say(done, total, elapsed, out):
         if progress:
-            fit = out[1]
-            progress(f"{done}/{total} levels {fit['train']}: {fit['method']} "
-                     f"({elapsed:.0f} s)")
+            what = (f"levels {out[1]['train']}: {out[1]['method']}" if len(out) == 3 else
+                    f"level {out[1][0]['level']}: modes and pole sweep")
+            progress(f"{done}/{total} {what} ({elapsed:.0f} s)")
 
-    results = execute(_method_task, tasks, jobs=jobs, progress=say, costs=costs)
-    rows, fits, figure = [], [], {}
-    for r, f, kept in results:
+    results = execute(_task, [("method", t) for t in tasks] + mode_tasks, jobs=jobs,
+                      progress=say, costs=costs + [MODES_COST] * len(mode_tasks))
+    rows, fits, figure, modes, poles = [], [], {}, [], []
+    for r, f, kept in results[:len(tasks)]:
         rows += r
         fits.append(f)
         figure.update(kept)
+    for m, p in results[len(tasks):]:
+        modes += m
+        poles += p
     with single_blas_thread():
-        own = _own_models(levels, plan)
+        own = {n: _own_model(levels[n], lines, plan) for n in sorted(levels)}
         pairs = {(s.train, n): s.role for s in plan.sets for n in s.targets
                  if n in levels and all(t in levels for t in s.train)}
         decomposition = [{**_decomposition([(t, levels[t]) for t in train], n, levels[n],
@@ -548,11 +586,6 @@ def run_study(plan: F16Plan, progress=None, jobs=1) -> dict:
                          for (train, n), role in pairs.items()]
         level_rows = [_level_row(n, levels[n], own, plan) for n in sorted(levels)]
         bla = _bla_table(levels, own, plan)
-        band_fits: dict = {n: {} for n in own}  # each level's rational fits, made once
-        modes = [{**m, "level": n} for n in sorted(own)
-                 for m in level_modes(own[n], levels[n], plan, band_fits[n])]
-        poles = [{**m, "level": n} for n in sorted(own)
-                 for m in pole_sweep(own[n], levels[n], plan, band_fits[n])]
     return {"rows": rows, "fits": fits, "skipped": skipped, "decomposition": decomposition,
             "levels": level_rows, "bla": bla, "figure": figure, "records": levels,
             "own": own, "plan": plan, "modes": modes, "poles": poles}
