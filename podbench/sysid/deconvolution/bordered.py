@@ -243,14 +243,17 @@ def _split(lo, hi):
     return np.where(same, geo, 0.5 * (lo + hi))
 
 
-def _brackets(c: float, mu: np.ndarray, beta2: np.ndarray, low: float, high: float):
-    """Every root's interval ``(low, μ_0), (μ_0, μ_1), …, (μ_{K−1}, high)`` as its origin
-    pole ``p`` (the nearer end that is a pole), the other pole ``q`` (−1: none) and the
-    bracket ``(lo, hi)`` of ``δ = λ − μ_p`` on the root's half of the interval."""
+def _brackets(c: float, mu: np.ndarray, beta2: np.ndarray, low: float, high: float,
+              start: int = 0, stop: int | None = None):
+    """Every root's interval ``(low, μ_0), (μ_0, μ_1), …, (μ_{K−1}, high)`` (or those of
+    roots ``start … stop − 1``) as its origin pole ``p`` (the nearer end that is a pole),
+    the other pole ``q`` (−1: none) and the bracket ``(lo, hi)`` of ``δ = λ − μ_p`` on the
+    root's half of the interval."""
     K = mu.size
-    idx = np.arange(K + 1)
-    left = np.concatenate([[low], mu])
-    right = np.concatenate([mu, [high]])
+    stop = K + 1 if stop is None else min(stop, K + 1)
+    idx = np.arange(start, stop)
+    left = np.concatenate([[low], mu])[start:stop]
+    right = np.concatenate([mu, [high]])[start:stop]
     mid = 0.5 * (left + right)
     g_mid = c - mid + (beta2[None, :] / (mid[:, None] - mu[None, :])).sum(axis=1)
     # the root is right of the middle where g(mid) > 0 (g decreases): origin the right
@@ -408,20 +411,18 @@ def _count_below(sec: dict, thr: float) -> int:
 
 def _first_roots(sec: dict, start: int, stop: int):
     """Roots ``start … stop − 1`` (ascending) as ``(p, δ)`` (origin pole, offset). The
-    brackets and the roots found so far are kept in ``sec``: each root is iterated on its
-    own (:func:`_roots`), so a root is the same number whichever call finds it."""
+    roots found so far are kept in ``sec``, and only the brackets of the new ones are
+    formed: each bracket and each root is computed on its own (:func:`_brackets`,
+    :func:`_roots`, row by row), so a root is the same number whichever call finds it."""
     poles, w, c = sec["poles"], sec["weights"], sec["c"]
     if stop <= start:
         return np.zeros(0, dtype=int), np.zeros(0)
-    if "_brackets" not in sec:
-        sec["_brackets"] = _brackets(c, poles, w, sec["low"], sec["high"])
-        sec["_delta"] = np.zeros(0)
-    p, q, lo, hi = sec["_brackets"]
-    have = sec["_delta"].size
+    have = sec.setdefault("_delta", np.zeros(0)).size
     if stop > have:
-        new = _roots(c, poles, w, p[have:stop], q[have:stop], lo[have:stop], hi[have:stop])
-        sec["_delta"] = np.concatenate([sec["_delta"], new])
-    return p[start:stop], sec["_delta"][start:stop]
+        p, q, lo, hi = _brackets(c, poles, w, sec["low"], sec["high"], have, stop)
+        sec["_p"] = np.concatenate([sec.get("_p", np.zeros(0, dtype=int)), p])
+        sec["_delta"] = np.concatenate([sec["_delta"], _roots(c, poles, w, p, q, lo, hi)])
+    return sec["_p"][start:stop], sec["_delta"][start:stop]
 
 
 def _weights(sec: dict, beta: np.ndarray, p, delta):
