@@ -24,6 +24,9 @@ largest relative difference of ``h`` between the routes and of each from the ful
     python benchmarks/tls_route.py               # repeat 3
     python benchmarks/tls_route.py --repeat 5 --noise 0.01
 
+A second table times the ``tol`` rows of one fit (:data:`TOL_ROWS`) on one ``(μ, Q)``: the
+secular equation kept with the roots found so far against a fresh one per ``tol``.
+
 Speed is measured here only, never asserted in the tests
 (``tests/sysid/test_appendix_tls.py`` checks the factored route against the dense one).
 """
@@ -140,12 +143,53 @@ def run(noise: float, repeat: int) -> list[str]:
     return lines
 
 
+TOL_ROWS = (20.0, 10.0, 100.0, 1000.0, 10000.0)
+"""The ``tol`` rows of one Chapter 5 fit: the SNR rule (about 20 at 5 % noise) and the
+``tls-tol<N>`` variants."""
+
+
+def run_tol_rows(noise: float, repeat: int) -> list[str]:
+    """The ``tol`` rows of one fit on one ``(μ, Q)``: the secular equation kept with its roots
+    (``bordered_tls``'s route: each ``tol`` finds only the roots the largest discarded set
+    so far lacks) against a fresh secular equation per ``tol`` (every root found again),
+    CPU seconds, and whether ``h``, ``r`` and ``den`` agree byte for byte."""
+    import numpy as np
+
+    from benchmarks.dense_tls import DT, _system
+    from podbench.sysid.deconvolution import ConvolutionSystem, bordered
+
+    lines = [f"{'tol rows':<9}{'fresh':>7}{'kept':>10}{'ratio':>7}  same bytes"]
+    for label, k, cases in (("SL 1024", 1, 1), ("ML 2048", 2, 2)):
+        Q, B = _system(k, cases, noise)
+        G = ConvolutionSystem(Q, B, DT).G
+        y = ConvolutionSystem(Q, B, DT)._B2[:, 0]
+        n_rows = cases * G.shape[0]
+        mu, Qf = bordered.gram_eigh(G)
+        b, c = bordered.border(G, y), float(y @ y)
+        t_fresh, t_kept = float("inf"), float("inf")
+        for _ in range(repeat):
+            t0 = time.process_time()
+            fresh = [bordered.bordered_tls(mu, Qf, b, c, tol, n_rows,
+                                           sec=bordered.secular(mu, Qf.T @ b, c))
+                     for tol in TOL_ROWS]
+            t_fresh = min(t_fresh, time.process_time() - t0)
+            Qf.secular_memo.clear()
+            t0 = time.process_time()
+            kept = [bordered.bordered_tls(mu, Qf, b, c, tol, n_rows) for tol in TOL_ROWS]
+            t_kept = min(t_kept, time.process_time() - t0)
+        same = all(a[0].tobytes() == f[0].tobytes() and a[1:] == f[1:]
+                   for a, f in zip(kept, fresh, strict=True))
+        lines.append(f"{label:<9}{t_fresh:>7.2f}{t_kept:>10.2f}{t_fresh / t_kept:>7.2f}  "
+                     f"{same} (r = {', '.join(str(int(np.int64(a[1]))) for a in kept)})")
+    return lines
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--noise", type=float, default=0.05, help="per-channel noise (default 0.05)")
     ap.add_argument("--repeat", type=int, default=3, help="best of N (default 3)")
     args = ap.parse_args(argv)
-    print("\n".join(run(args.noise, args.repeat)))
+    print("\n".join(run(args.noise, args.repeat) + run_tol_rows(args.noise, args.repeat)))
     return 0
 
 

@@ -261,6 +261,39 @@ def test_the_factored_eigenvectors_are_syevds(noise):
         assert np.linalg.norm(h - h_s) <= 10 * d_dense + 1e-12 * np.linalg.norm(h_s)
 
 
+def test_the_kept_secular_roots_give_the_same_bytes_in_any_order_of_tol():
+    """The tol rows of one fit share (μ, β, c): bordered_tls keeps the secular equation on
+    the FactoredQ with the roots found so far and finds only those a larger discarded set
+    needs. Each root is iterated on its own, so h, r and den are the same bytes as from a
+    fresh secular equation per tol (the reference), whichever tol comes first; the roots
+    kept are exactly as many as the largest discarded set needs, and they are the SVD's."""
+    from podbench.sysid.deconvolution import bordered
+
+    n = 160
+    q, y = _noisy_pulse_system(n, 13, noise=0.05)
+    G = q[:, None, None]
+    b, c = bordered.border(G, y), float(y @ y)
+    tols = (1000.0, 3.0, 100.0, 10.0, 1e4)
+    bordered._CACHE.clear()
+    mu, Q = bordered.gram_eigh(G)
+    fresh, secs = {}, {}
+    for tol in tols:  # the reference: a new secular equation per tol, nothing kept
+        secs[tol] = bordered.secular(mu, Q.T @ b, c)
+        fresh[tol] = bordered.bordered_tls(mu, Q, b, c, tol, n, sec=secs[tol])
+    for order in (tols, tols[::-1]):
+        Q.secular_memo.clear()
+        for tol in order:
+            h, r, den = bordered.bordered_tls(mu, Q, b, c, tol, n)
+            h0, r0, den0 = fresh[tol]
+            assert h.tobytes() == h0.tobytes() and (r, den) == (r0, den0)
+        ((beta, sec),) = Q.secular_memo.values()
+        assert sec["_delta"].size == max(secs[t]["_delta"].size for t in tols)
+    assert secs[3.0]["_delta"].size > secs[1e4]["_delta"].size > 0  # tols differ
+    h_s, r_s = tlsdeconv(y, form_conv_mat(q), 3.0)
+    assert fresh[3.0][1] == r_s
+    assert np.linalg.norm(fresh[3.0][0] - h_s) <= 1e-8 * np.linalg.norm(h_s)
+
+
 def test_correlations_give_the_gram_matrix_and_the_border():
     from podbench.sysid.deconvolution.bordered import border, toeplitz_gram, toeplitz_rmatvec
 

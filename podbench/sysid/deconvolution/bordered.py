@@ -39,7 +39,8 @@ import numpy as np
 import scipy.linalg
 
 __all__ = ["toeplitz_gram", "toeplitz_rmatvec", "gram_eigh", "FactoredQ", "border", "secular",
-           "bordered_tls", "convolution_svd", "EIGH_CACHE_SIZE", "SVD_CACHE_SIZE"]
+           "bordered_tls", "convolution_svd", "EIGH_CACHE_SIZE", "SVD_CACHE_SIZE",
+           "SECULAR_CACHE_SIZE"]
 
 _EPS = np.finfo(float).eps
 _DEFLATE = 8.0
@@ -102,6 +103,7 @@ class FactoredQ:
                  transposed: bool = False):
         self._v, self._tau, self._Z, self._t = reflectors, tau, Z, transposed
         self.shape = Z.shape
+        self.secular_memo: OrderedDict = OrderedDict()  # :func:`_secular_of`
 
     @property
     def T(self) -> FactoredQ:
@@ -241,14 +243,17 @@ def _split(lo, hi):
     return np.where(same, geo, 0.5 * (lo + hi))
 
 
-def _brackets(c: float, mu: np.ndarray, beta2: np.ndarray, low: float, high: float):
-    """Every root's interval ``(low, μ_0), (μ_0, μ_1), …, (μ_{K−1}, high)`` as its origin
-    pole ``p`` (the nearer end that is a pole), the other pole ``q`` (−1: none) and the
-    bracket ``(lo, hi)`` of ``δ = λ − μ_p`` on the root's half of the interval."""
+def _brackets(c: float, mu: np.ndarray, beta2: np.ndarray, low: float, high: float,
+              start: int = 0, stop: int | None = None):
+    """Every root's interval ``(low, μ_0), (μ_0, μ_1), …, (μ_{K−1}, high)`` (or those of
+    roots ``start … stop − 1``) as its origin pole ``p`` (the nearer end that is a pole),
+    the other pole ``q`` (−1: none) and the bracket ``(lo, hi)`` of ``δ = λ − μ_p`` on the
+    root's half of the interval."""
     K = mu.size
-    idx = np.arange(K + 1)
-    left = np.concatenate([[low], mu])
-    right = np.concatenate([mu, [high]])
+    stop = K + 1 if stop is None else min(stop, K + 1)
+    idx = np.arange(start, stop)
+    left = np.concatenate([[low], mu])[start:stop]
+    right = np.concatenate([mu, [high]])[start:stop]
     mid = 0.5 * (left + right)
     g_mid = c - mid + (beta2[None, :] / (mid[:, None] - mu[None, :])).sum(axis=1)
     # the root is right of the middle where g(mid) > 0 (g decreases): origin the right
@@ -286,14 +291,11 @@ def _roots(c, mu, beta2, p, q, lo, hi):
         rows = np.arange(open_.size)
         d = delta[open_]
         den = (mu[pp][:, None] - mu[None, :]) + d[:, None]
-        w = np.broadcast_to(beta2, den.shape).copy()
-        w[rows, pp] = 0.0
-        w[rows, qq] = 0.0
-        den[rows, pp] = 1.0
-        den[rows, qq] = 1.0
+        den[rows, pp] = np.inf  # the two poles of the model leave the frozen sum
+        den[rows, qq] = np.inf
         bp, bq = beta2[pp], np.where(has_q, beta2[qq], 0.0)
         Dq = np.where(has_q, mu[pp] - mu[qq], 1.0)
-        R0 = c - mu[pp] - d + (w / den).sum(axis=1)
+        R0 = c - mu[pp] - d + (beta2[None, :] / den).sum(axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             g = R0 + bp / d + np.where(has_q, bq / (Dq + d), 0.0)
         right = g > 0  # g decreases: the root lies to the right
@@ -348,9 +350,46 @@ def secular(mu: np.ndarray, beta: np.ndarray, c: float) -> dict:
             "high": (max(float(poles[-1]), c) + bound + _EPS * norm) if n_groups else c}
 
 
+SECULAR_CACHE_SIZE = 8
+"""Secular equations kept per :class:`FactoredQ` with the roots found so far
+(:func:`_secular_of`): the ``tol`` rows of one fit solve the same ``(μ, β, c)`` and need the
+same smallest roots, as many as each ``tol`` discards."""
+
+
+def _secular_of(mu: np.ndarray, Q, b: np.ndarray, c: float) -> tuple:
+    """``(β, sec)``: ``β = Qᵀb`` and :func:`secular` of ``(μ, β, c)``, kept on a
+    :class:`FactoredQ` (:data:`SECULAR_CACHE_SIZE`, keyed by the bytes of ``μ``, ``b``,
+    ``c``; so they leave with it); :func:`_largest` and :func:`_first_roots` keep their
+    roots in ``sec``."""
+    memo = getattr(Q, "secular_memo", None)
+    if memo is None:
+        beta = Q.T @ b
+        return beta, secular(mu, beta, c)
+    h = hashlib.sha256()
+    for arr in (mu, b, np.array([c], dtype=float)):
+        h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
+    key = h.hexdigest()
+    hit = memo.get(key)
+    if hit is not None:
+        memo.move_to_end(key)
+        return hit
+    beta = Q.T @ b
+    memo[key] = (beta, secular(mu, beta, c))
+    while len(memo) > SECULAR_CACHE_SIZE:
+        memo.popitem(last=False)
+    return memo[key]
+
+
 def _largest(sec: dict) -> float:
     """``λ_1``: the root above the last pole (or ``c`` without one), or a silent μ above
-    it."""
+    it (kept in ``sec``)."""
+    if "_lam1" not in sec:
+        sec["_lam1"] = _largest_root(sec)
+    return sec["_lam1"]
+
+
+def _largest_root(sec: dict) -> float:
+    """:func:`_largest`, computed."""
     poles, w, c = sec["poles"], sec["weights"], sec["c"]
     top = c
     if poles.size:
@@ -371,13 +410,19 @@ def _count_below(sec: dict, thr: float) -> int:
 
 
 def _first_roots(sec: dict, start: int, stop: int):
-    """Roots ``start … stop − 1`` (ascending) as ``(p, δ)`` (origin pole, offset)."""
+    """Roots ``start … stop − 1`` (ascending) as ``(p, δ)`` (origin pole, offset). The
+    roots found so far are kept in ``sec``, and only the brackets of the new ones are
+    formed: each bracket and each root is computed on its own (:func:`_brackets`,
+    :func:`_roots`, row by row), so a root is the same number whichever call finds it."""
     poles, w, c = sec["poles"], sec["weights"], sec["c"]
     if stop <= start:
         return np.zeros(0, dtype=int), np.zeros(0)
-    p, q, lo, hi = _brackets(c, poles, w, sec["low"], sec["high"])
-    p, q, lo, hi = p[start:stop], q[start:stop], lo[start:stop], hi[start:stop]
-    return p, _roots(c, poles, w, p, q, lo, hi)
+    have = sec.setdefault("_delta", np.zeros(0)).size
+    if stop > have:
+        p, q, lo, hi = _brackets(c, poles, w, sec["low"], sec["high"], have, stop)
+        sec["_p"] = np.concatenate([sec.get("_p", np.zeros(0, dtype=int)), p])
+        sec["_delta"] = np.concatenate([sec["_delta"], _roots(c, poles, w, p, q, lo, hi)])
+    return sec["_p"][start:stop], sec["_delta"][start:stop]
 
 
 def _weights(sec: dict, beta: np.ndarray, p, delta):
@@ -403,8 +448,10 @@ def bordered_tls(mu: np.ndarray, Q: np.ndarray, b: np.ndarray, c: float, tol: fl
     discarded too, one at a time, until ``den`` reaches it (Van Huffel & Vandewalle 1991,
     §3.4; as :func:`~podbench.sysid.deconvolution.dense.truncated_tls`)."""
     M = mu.size
-    beta = Q.T @ b
-    sec = secular(mu, beta, c) if sec is None else sec
+    if sec is None:
+        beta, sec = _secular_of(mu, Q, b, c)
+    else:
+        beta = Q.T @ b
     thr = _largest(sec) / (tol * tol)
     poles = sec["poles"]
     z = np.zeros(M)
