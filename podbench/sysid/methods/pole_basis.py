@@ -2,22 +2,25 @@
 
 A lightly damped structure rings for ``1/(ζω)``: a FIR kernel must hold several of these
 (tens of seconds, thousands of columns) and the records must hold twice as many lags. The
-kernel of a linear structure is a sum of decaying modes,
-``H[p] = Σ_j R_j λ_j^(p−1)`` for ``p ≥ 1`` (and ``H[0] = D``): with its poles ``λ_j`` known,
-the residues are linear in the data and few (``n_in`` per real pole, ``2·n_in`` per complex
-pair, per POC), and the kernel has every lag. Here the poles are those of an ERA
-realization (:func:`podbench.sysid.statespace.era_realization`) of the FIR kernel that
-ML's own lag rule fits first (a *pilot*: ERA's Hankel matrix reads only its first lags), the
-stable ones (``|λ| < 1``), and the residues are fitted by least squares over the whole
-records: each input is filtered by each pole, ``x[s+1] = λ x[s] + u[s]`` (real and
-imaginary parts of a complex pole as two regressors, the real block form of the pair),
-and the POC histories ``v = Uᵀ y`` are regressed on these states and, with direct
-feedthrough, on ``u`` itself. The realization order is the lowest whose
-leave-one-record-out error (poles and residues fitted without the record left out) is
-within :data:`~podbench.sysid.methods.inputs.LAG_GAIN` of the best over the even orders up to
-:data:`MAX_POLE_ORDER`. The basis is the orthonormal-basis-function idea of system
-identification (Heuberger, Van den Hof & Wahlberg 2005) with the poles from the data; it is
-beyond the dissertation, a named variant of ML on measured inputs (``kernel="poles"``).
+kernel of a linear structure is a sum of decaying modes, ``H[p] = Σ_j R_j λ_j^(p−1)`` for
+``p ≥ 1`` (and ``H[0] = D``): with its poles ``λ_j`` known, the residues are linear in the
+data and few (``n_in`` per real pole, ``2·n_in`` per complex pair, per POC), and the kernel
+has every lag. Here the poles start as those of an ERA realization
+(:func:`podbench.sysid.statespace.era_realization`) of the FIR kernel that ML's own lag rule
+fits first (a *pilot*: ERA's Hankel matrix reads only its first lags), the stable ones
+(``|λ| < 1``), and are then refined by the records' output error with the residues
+eliminated (:func:`refine_poles`: variable projection); the residues are fitted by least
+squares over the whole records: each input is filtered by each pole, ``x[s+1] = λ x[s] +
+u[s]`` (real and imaginary parts of a complex pole as two regressors, the real block form of
+the pair), and the POC histories ``v = Uᵀ y`` are regressed on these states and, with direct
+feedthrough, on ``u`` itself. The realization order is the lowest whose leave-one-record-out
+error (poles and residues fitted without the record left out) is within
+:data:`~podbench.sysid.methods.inputs.LAG_GAIN` of the best over the even orders up to
+:data:`MAX_POLE_ORDER`, then (refined) raised by :data:`POLE_STEP` while the refined poles'
+leave-one-record-out error falls by that fraction. The basis is the
+orthonormal-basis-function idea of system identification (Heuberger, Van den Hof & Wahlberg
+2005) with the poles from the data; it is beyond the dissertation, a named variant of ML on
+measured inputs (``kernel="poles"``).
 
 The fitted model is a state space in the POC coordinates: ``A`` block diagonal (one block per
 pole and input), ``B`` selecting each input's states, ``C`` the residues, ``D`` the lag-0
