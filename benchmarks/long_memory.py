@@ -11,7 +11,8 @@ sensor (in/s²) by the exact zero-order-hold model (:func:`benchmarks.modal.zoh_
 noise (``--noise``) per input and output channel on the training records, the new record
 clean. Methods with their defaults as ``podbench predict`` runs them: ``ML-poles`` (ML on
 measured inputs with ``kernel="poles"``: the kernel in a basis of decaying modes whose poles
-come from ML-TC's FIR kernel; that FIR kernel, its *pilot*, is ``ML-TC``'s own fit — lags
+start from ML-TC's FIR kernel and are refined by the records' output error; that FIR kernel,
+its *pilot*, is ``ML-TC``'s own fit — lags
 and TC prior by leave-one-record-out, ``n_lags="auto"``, ``prior="tc"`` — and its error is
 printed from the same fit) and ``ERA`` (ERA/OKID on measured inputs, ``ERA-measured``: order
 by its hold-out rule); ``--methods`` names others. Error: ``‖ŷ − y‖_F / ‖y‖_F`` on the new
@@ -22,8 +23,9 @@ fitted on the same noisy records (the bound of ``ML-poles`` with exact poles).
 
 Run: ``python benchmarks/long_memory.py --structure chain_coupled --oracle`` (prints the
 table). Structures: ``benchmarks/structures/chain_issue.toml`` (the issue's chain),
-``chain_ideal``, ``chain_coupled``, and two held out, written down before they were run:
-``benchmarks/structures/chain_six_light.toml``, ``chain_four_dashpot.toml``.
+``chain_ideal``, ``chain_coupled``, two written down before the pilot-pole basis was run:
+``benchmarks/structures/chain_six_light.toml``, ``chain_four_dashpot.toml``, and two before
+the pole refinement was built: ``chain_three_stiff.toml``, ``chain_eight_links.toml``.
 """
 
 from __future__ import annotations

@@ -1,14 +1,15 @@
-"""The frequency tie-break of the modal matching, measured on a study's ``modal.csv``.
+"""A matching rule of the modal comparison against a study's committed ``modal.csv``.
 
 ``podbench.sysid.modal.match_modes`` pairs identified modes with the finite-element modes
-by MAC (``rule="mac"``, what every study writes). SL's and POVR's diagonal kernels give
+by MAC, ties (MACs within ``MAC_TIE``) broken by the nearer frequency
+(``rule="mac-frequency"``, what every study writes): SL's and POVR's diagonal kernels give
 every pole of a POC that POM's shape, so MAC alone ties between poles of different
-frequencies; ``rule="mac-frequency"`` breaks such ties (MACs within ``MAC_TIE``) by the
-nearer frequency. This runs the study with the variant into a temporary folder (the
-checkout's results are not touched) and prints every ``modal.csv`` row that differs from the
-committed one, and a count per method::
+frequencies. This runs the study with another rule (``--rule``, default the variant
+``"mac"``, MAC alone) into a temporary folder (the checkout's results are not touched) and
+prints every ``modal.csv`` row that differs from the committed one, and a count per
+method::
 
-    python benchmarks/modal_matching.py                 # chapter4
+    python benchmarks/modal_matching.py                 # chapter4, MAC alone
     python benchmarks/modal_matching.py --study peers --cache .podbench_cache
 """
 
@@ -38,8 +39,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--study", default="chapter4")
     ap.add_argument("--cache", default=".podbench_cache")
+    ap.add_argument("--rule", default="mac", help="the matching rule to compare")
     args = ap.parse_args(argv)
-    hm.match_modes = functools.partial(match_modes, rule="mac-frequency")
+    hm.match_modes = functools.partial(match_modes, rule=args.rule)
     with tempfile.TemporaryDirectory() as tmp:
         rc = cli(["run", args.study, "-q", "--jobs", "1", "--no-figures", "--cache",
                   args.cache, "-o", str(Path(tmp) / args.study)])
@@ -48,17 +50,17 @@ def main(argv=None) -> int:
         new = pd.read_csv(Path(tmp) / args.study / "modal.csv")
     old = pd.read_csv(ROOT / "results" / args.study / "modal.csv")
     key = ["scenario", "structure", "method", "mode"]
-    both = old.merge(new, on=key, suffixes=("", "_tied"))
+    both = old.merge(new, on=key, suffixes=("", "_rule"))
     cols = ["identified_frequency_hz", "mac", "status"]
     same = np.ones(len(both), dtype=bool)
     for c in cols:
-        a, b = both[c], both[c + "_tied"]
+        a, b = both[c], both[c + "_rule"]
         same &= ((a == b) | (a.isna() & b.isna())).to_numpy()
     changed = both[~same]
     print(f"{args.study}: {len(changed)} of {len(both)} modal.csv rows change with "
-          f"rule='mac-frequency'")
+          f"rule={args.rule!r}")
     if len(changed):
-        show = key + ["frequency_hz"] + [c for c in cols for c in (c, c + "_tied")]
+        show = key + ["frequency_hz"] + [c for c in cols for c in (c, c + "_rule")]
         print(changed[show].to_string(index=False))
         print(changed.groupby("method").size().to_string())
     return 0

@@ -17,7 +17,8 @@ modes of the simulated structure (``modal.csv``), and the POMs against the norma
   candidate order would cost more than the study's own fits. ERA and the other
   state-space methods keep their own order. A fit on exponentially
   windowed records (``τ``) identifies ``s − 1/τ``, corrected here by ``+1/τ``;
-* **matching**: by MAC, not by index (:func:`podbench.sysid.modal.match_modes`); one row per
+* **matching**: by MAC, not by index, MAC ties broken by frequency
+  (:func:`podbench.sysid.modal.match_modes`); one row per
   band mode, its identified partner's frequency, damping ratio, the frequency error (%),
   the damping error (absolute, the damping ratio's difference) and the MAC; a band mode
   without a partner reads ``unmatched``, a method without a state-space form one row with

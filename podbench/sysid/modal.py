@@ -26,14 +26,18 @@ stated in its notes. Where the model comes with no realization at other orders (
 own pole model, whose order its hold-out rule chose) only the hard criteria apply, said so.
 
 **Matching** (:func:`match_modes`): identified modes are paired with reference modes by MAC,
-not by index: the assignment that maximizes the total MAC (Hungarian algorithm on
-``1 − MAC``, :func:`scipy.optimize.linear_sum_assignment`) among pairs with
-``MAC ≥ mac_floor`` (:data:`MAC_FLOOR`); a reference mode without a partner above the floor
-is reported unmatched. A named variant, ``rule="mac-frequency"``, breaks ties by frequency:
-MACs are compared in steps of :data:`MAC_TIE` and, within a step, the pair nearer in
-frequency (smaller ``|ln(f_id/f)|``) wins — for models whose modes share one shape (SL's and
-POVR's diagonal kernels realize every pole of a POC with that POM's shape), where MAC alone
-cannot tell the poles apart.
+not by index: the assignment that maximizes the total MAC (Hungarian algorithm,
+:func:`scipy.optimize.linear_sum_assignment`) among pairs with ``MAC ≥ mac_floor``
+(:data:`MAC_FLOOR`); a reference mode without a partner above the floor is reported
+unmatched. MACs are compared in steps of :data:`MAC_TIE` (the MAC's own digits as the tables
+write them) and, within a step, the pair nearer in frequency (smaller ``|ln(f_id/f)|``)
+wins (``rule="mac-frequency"``, the default): a model whose modes share one shape (SL's and
+POVR's diagonal kernels realize every pole of a POC with that POM's shape) has several
+poles at the same MAC with a reference mode, and MAC alone would pick any of them, often
+one of another mode's frequency. A pair more than one step higher in MAC still wins over
+a nearer frequency: the MAC decides, the frequency only orders its ties. The named variant
+``rule="mac"`` is MAC alone (``1 − MAC`` as the assignment's cost, ties as the solver
+meets them).
 """
 
 from __future__ import annotations
@@ -65,8 +69,8 @@ MAC_FLOOR = 0.5
 shape (in the MAC's sense) with the reference mode, and is not called the same mode."""
 
 MAC_TIE = 1e-3
-"""MAC step of ``rule="mac-frequency"``: MACs within one step are a tie (the MAC's own
-digits as the tables write them, 4 decimals, with a margin)."""
+"""MAC step of the matching (``rule="mac-frequency"``): MACs within one step are a tie (the
+MAC's own digits as the tables write them, 4 decimals, with a margin)."""
 
 MATCH_RULES = ("mac", "mac-frequency")
 """The matching rules of :func:`match_modes` (module docstring)."""
@@ -230,9 +234,10 @@ def physical_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
 
 
 def match_modes(identified: ModeSet, reference: ModeSet, *,
-                mac_floor: float = MAC_FLOOR, rule: str = "mac") -> pd.DataFrame:
+                mac_floor: float = MAC_FLOOR, rule: str = "mac-frequency") -> pd.DataFrame:
     """Pair identified modes with reference modes by MAC (module docstring; ``rule``:
-    ``"mac"``, or ``"mac-frequency"`` with ties broken by frequency).
+    ``"mac-frequency"``, MAC ties broken by frequency, or the variant ``"mac"``, MAC
+    alone).
 
     Returns
     -------

@@ -114,8 +114,8 @@ def test_frequency_tie_break_pairs_shared_shapes_by_frequency():
     # with the 11-Hz reference mode: a tie), one at 4.1 Hz with POM 2's
     shapes = Q[:, [0, 1, 0]]
     ident = ModeSet(-0.1 + 2j * np.pi * np.array([3.0, 4.1, 11.2]), shapes, tuple("abcdef"))
-    by_mac = match_modes(ident, ref)
-    tied = match_modes(ident, ref, rule="mac-frequency")
+    by_mac = match_modes(ident, ref, rule="mac")
+    tied = match_modes(ident, ref)  # the default rule breaks the tie by frequency
     assert by_mac["identified_frequency_hz"][1] == pytest.approx(3.0, rel=1e-3)  # MAC alone
     assert tied["identified"].tolist() == [2.0, 3.0]  # 4.1 Hz for 4 Hz, 11.2 Hz for 11 Hz
     np.testing.assert_allclose(tied["identified_frequency_hz"], [4.1, 11.2], rtol=1e-4)
@@ -123,7 +123,7 @@ def test_frequency_tie_break_pairs_shared_shapes_by_frequency():
     # a MAC more than one step (MAC_TIE) higher still wins over a nearer frequency
     worse = shapes.copy()
     worse[:, 2] += 0.2 * Q[:, 1]  # the 11.2-Hz mode: MAC 0.96 with the reference
-    t = match_modes(ModeSet(ident.poles, worse, tuple("abcdef")), ref, rule="mac-frequency")
+    t = match_modes(ModeSet(ident.poles, worse, tuple("abcdef")), ref)
     assert t["identified_frequency_hz"][1] == pytest.approx(3.0, rel=1e-3)
     with pytest.raises(InputError, match="`rule`"):
         match_modes(ident, ref, rule="frequency")

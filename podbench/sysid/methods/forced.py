@@ -466,7 +466,14 @@ class MultipleLoad(_ForcedMethod):
     pole_order : "auto" or int
         Realization order of the pilot whose stable poles form the basis (``kernel="poles"``):
         ``"auto"``, the lowest even order within 1 % of the best leave-one-record-out error
-        up to :data:`~podbench.sysid.methods.pole_basis.MAX_POLE_ORDER`; or given.
+        up to :data:`~podbench.sysid.methods.pole_basis.MAX_POLE_ORDER` (with
+        ``pole_refine``, then raised while the refined poles' error keeps falling); or
+        given.
+    pole_refine : bool
+        ``kernel="poles"``: move the poles to the training records' least output error,
+        the residues eliminated (variable projection,
+        :func:`~podbench.sysid.methods.pole_basis.refine_poles`; default); False (a
+        variant): the pilot's poles as realized.
     inputs : {"auto", "modal", "measured", "periodic"}
         :data:`ML_INPUTS`: the modal forces ``Uᵀ F`` of forces at the output sensors
         (``"modal"``), the inputs as measured (``"measured"``), or ``"auto"`` (default):
@@ -535,12 +542,12 @@ class MultipleLoad(_ForcedMethod):
         "lines": [Options("auto"), InstanceOf((tuple, list, np.ndarray),
                                               "a sequence of DFT line indices")],
         "kernel": [Options("fir", "poles")],
-        "pole_order": [Options("auto"), Interval("integer", 1)]}
+        "pole_order": [Options("auto"), Interval("integer", 1)], "pole_refine": [Boolean()]}
 
     def __init__(self, *, n_modes=None, solver="auto", solver_options=None, max_cond=1e10,
                  max_growth=1e8, basis="first", n_lags=None, lag_grid=LAG_GRID, prior=None,
                  feedthrough="auto", inputs="auto", period=None, transient_periods=1,
-                 lines="auto", kernel="fir", pole_order="auto"):
+                 lines="auto", kernel="fir", pole_order="auto", pole_refine=True):
         # the dissertation's hyperparameters (§3.3.2), then the kernel's length and prior,
         # then a periodic excitation's
         self.n_modes, self.basis, self.inputs = n_modes, basis, inputs
@@ -548,6 +555,7 @@ class MultipleLoad(_ForcedMethod):
         self.max_cond, self.max_growth = max_cond, max_growth
         self.n_lags, self.lag_grid, self.prior = n_lags, lag_grid, prior
         self.feedthrough, self.kernel, self.pole_order = feedthrough, kernel, pole_order
+        self.pole_refine = pole_refine
         self.period, self.transient_periods, self.lines = period, transient_periods, lines
 
     @property
@@ -651,7 +659,7 @@ class MultipleLoad(_ForcedMethod):
         folds = [pilot_factors(th, n_in, first) for th in fold_kernels(recs, U, info)]
         self.model_, pinfo, pcv = fit_pole_basis(
             recs, U, folds, full, n_in, first, order=self.pole_order,
-            gain=LAG_GAIN)
+            gain=LAG_GAIN, refine=getattr(self, "pole_refine", True))
         L = theta.shape[0] // n_in
         h = np.zeros((L + first, U.shape[1], n_in))
         h[first:] = theta.reshape(L, n_in, -1).transpose(0, 2, 1)
