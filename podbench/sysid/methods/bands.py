@@ -84,12 +84,12 @@ model changes with the level, through friction, clearance or a stiffening spring
 from a low level as from a high one); every other record: the prediction's RMS against the
 training responses', above the range only (:data:`EXTRAPOLATE_BELOW`). ``"response"``: the
 latter for every record (the former rule)."""
-LEVEL_REFERENCE = "range"
+LEVEL_REFERENCE = "effective"
 """What a measured input's level is compared with (:func:`input_excursion`):
-``"range"`` the training levels' range, ``max(x/x_max, x_min/x, 1)``; ``"effective"`` (a
-variant) the pooled fit's effective level, the training levels' mean weighted by each
+``"effective"`` the pooled fit's effective level, the training levels' mean weighted by each
 record's input energy ``Σ u²`` (:func:`effective_level`), the excursion
-``max(x/x_eff, x_eff/x)``. A least-squares fit pooled over records of several levels
+``max(x/x_eff, x_eff/x)``; ``"range"`` (the former rule) the training levels' range,
+``max(x/x_max, x_min/x, 1)``. A least-squares fit pooled over records of several levels
 weighs each record's equations by its input power, so for a structure whose linear model
 ``G(x)`` changes with the level it returns, to first order in the change, ``G`` at that
 weighted mean level (``Σ a_l³/Σ a_l²`` for records of one length and RMS ``a_l``), not a
@@ -756,6 +756,13 @@ load's position as about its size; on the held-out benchmark's dev set the facto
 with β = 0, 0.5, 1 gives 0.66, 0.61, 0.55 within a factor of 2 (0.63, 0.48, 0.33 on the
 83 targets above the range; docs/bands.md). A measured input's level keeps its factor
 (:func:`fit_level_power`)."""
+GAINS_RESPONSE_LEVEL_POWER = 0.0
+"""β of the ``"gains"`` rule's level factor where the level is the prediction's RMS (records
+without a measured input; :data:`RESPONSE_LEVEL_POWER` is the other rules'): off. On the
+held-out benchmark's dev set β = 0, 0.5, 1 give 0.60, 0.53, 0.47 within a factor of 2 (test:
+0.77, 0.64, 0.60); a prediction larger than every training response is mostly a load
+position, and dividing the folds' errors by their own factor lowers the gains for every
+target (docs/bands.md). A measured input's level keeps its factor (:func:`fit_level_power`)."""
 LEVERAGE_POWER = 0.25
 """p of the ``"folds-leverage"`` rule's factor ``max((Λ² + 1)/max_j(Λ_j² + 1), 1)^p``: a
 target whose leverage exceeds every fold's is charged for it (an error of each training
@@ -813,8 +820,8 @@ def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
     folds' errors with the smaller log loss, :func:`rule_losses`)."""
     rule = ESTIMATE_RULE
     a = np.asarray(excursions, dtype=float)
-    if cal.level_rule == "input":
-        cal.level_power = fit_level_power(errors, terms, a)
+    cal.level_power = fit_level_power(errors, terms, a) if cal.level_rule == "input" \
+        else GAINS_RESPONSE_LEVEL_POWER
     if rule == "choose":
         losses = rule_losses(errors, terms, a ** cal.level_power)
         rule = "gains" if losses["gains"] <= losses["folds"] else "folds"
@@ -841,7 +848,7 @@ def _beyond_folds(cal: BandCalibration, errors, terms, excursions) -> None:
     where its leverage lies inside theirs, the gains' beyond (:func:`rule_estimate`)."""
     a = np.asarray(excursions, dtype=float)
     cal.gains_level_power = cal.level_power if cal.level_rule == "input" else \
-        AMPLITUDE_POWER
+        GAINS_RESPONSE_LEVEL_POWER
     d = a ** cal.gains_level_power
     cal.gains = fit_gains(errors, terms, d)
     L = np.array([t.leverage2 + 1.0 for t in terms])
