@@ -279,13 +279,15 @@ def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitu
         monkeypatch, rule):
     """ML on the coupled chain (exact): a target 10× a training load gets, besides the
     10× prediction, a band widened by how far its RMS lies beyond the training records'
-    RMS range (:func:`extrapolation`) to the power the calibration holds: ``AMPLITUDE_POWER``
-    under the ``"gains"`` rule, ``RESPONSE_LEVEL_POWER`` (0: a linear model's relative error
-    is the same for 10× the load) under the ``"folds"`` variant."""
+    RMS range (:func:`extrapolation`) to the power the calibration holds:
+    ``GAINS_RESPONSE_LEVEL_POWER`` under the ``"gains"`` rule (set to 1 here so that the
+    factor is exercised; the default is 0), ``RESPONSE_LEVEL_POWER`` (0: a linear model's
+    relative error is the same for 10× the load) under the ``"folds"`` variant."""
     from podbench.sysid.methods import bands
 
     monkeypatch.setattr(bands, "ESTIMATE_RULE", rule)
-    power = bands.AMPLITUDE_POWER if rule == "gains" else bands.RESPONSE_LEVEL_POWER
+    monkeypatch.setattr(bands, "GAINS_RESPONSE_LEVEL_POWER", 1.0)
+    power = 1.0 if rule == "gains" else bands.RESPONSE_LEVEL_POWER
     case = forced_case("coupled")
     recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
     model = MultipleLoad(n_modes=4, solver="ls").fit(recs)
