@@ -12,6 +12,7 @@ rule's fold estimates; ``bands_heldout._grid_features``).
     python benchmarks/bands_heldout.py --set dev --features --rows dev.csv
     python benchmarks/bands_rules.py dev.csv
     python benchmarks/bands_rules.py dev.csv --rules folds-leverage --leverage-powers 0.25 0.5 1
+    python benchmarks/bands_rules.py dev.csv --rules folds-gains --growth
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-RULES = ("gains", "folds", "folds-leverage", "choose")
+RULES = ("gains", "folds", "folds-leverage", "choose", "folds-gains")
 SCALE_GRID = np.logspace(-4, 4, 321)
 COVERAGE_GRID = np.concatenate([np.linspace(0.0, 0.9, 91)[:-1], np.linspace(0.9, 1.0, 101)])
 
@@ -63,9 +64,7 @@ def _model_estimates(rows, rule: str):
     for _, r in rows.iterrows():
         rho = r.projection_share if np.isfinite(r.projection_share) else None
         t = TargetTerms(r.leverage ** 2, r.blind_spot ** 2, rho)
-        d = r.level_excursion ** cal.level_power
-        est.append(bands.folds_estimate(cal.fold_scale, cal.fold_blind, t, d, cal.fold_leverage)
-                   if cal.gains is None else bands.estimate(cal.gains, t, d))
+        est.append(bands.rule_estimate(cal, t, r.level_excursion))
     return np.array(est), np.asarray(cal.fold_estimates, float), cal.rule
 
 
@@ -132,7 +131,11 @@ def main(argv=None) -> int:
     ap.add_argument("--rules", nargs="*", default=list(RULES), choices=RULES)
     ap.add_argument("--leverage-powers", nargs="*", type=float,
                     default=[bands.LEVERAGE_POWER])
+    ap.add_argument("--growth", action="store_true",
+                    help="\"folds-gains\" beyond the folds' leverage: the folds' estimate times "
+                         "the gains' growth (bands.FOLDS_GAINS_GROWTH)")
     args = ap.parse_args(argv)
+    bands.FOLDS_GAINS_GROWTH = args.growth
     df = pd.read_csv(args.rows)
     df = df[df["status"] == "ok"]
     cols = {}

@@ -217,6 +217,13 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/bands_heldout.py --set dev --features --rows dev.csv": NOT_RUN(
         "the dev set's half hour on 2 cores, each row also carrying the target's terms and "
         "its model's folds; a design of it is run in tests/test_benchmarks.py"),
+    "python benchmarks/bands_studies.py record <study> --rows R": NOT_RUN(
+        "runs a committed study (minutes to an hour on 2 cores) storing its bands; the "
+        "scoring applies the band code's own rule functions, tested in tests/sysid"),
+    "python benchmarks/bands_studies.py score R results/<study>/calibration.csv": NOT_RUN(
+        "reads the rows a 'record' run stores (a study's run)"),
+    "python benchmarks/bands_studies.py score R results/f16_gvt/summary.csv --realized "
+    "rel_whole": NOT_RUN("reads the rows a 'record' run of the F-16 study stores"),
     "python benchmarks/bands_rules.py dev.csv": NOT_RUN(
         "reads the rows of a bands_heldout.py --features run (half an hour on 2 cores); its "
         "offline band is checked against the live one in tests/test_benchmarks.py"),

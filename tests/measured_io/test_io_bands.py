@@ -189,11 +189,12 @@ def test_the_estimate_grows_when_the_force_level_lies_outside_the_training_level
     The structure's linear model changes with the level: the realized error of the ML fit
     is smallest inside the training range (measured 0.24) and larger below (0.39: the
     linear limit) and above (0.96: the spring stiffens). The estimate scales the target's
-    model-form part by the measured input's excursion outside the training range,
-    ``max(L/3, 1/L)^β``, both ways: the three targets share their shape, so their
-    leverage is the same and the estimates' ratios are exactly ``4^β`` and ``(8/3)^β``.
-    Inside, the estimate is within 2× of the realized error (measured 0.249 against
-    0.243)."""
+    model-form part by the measured input's excursion from the pooled fit's effective
+    level, ``L_eff = Σ E_l L_l / Σ E_l`` (``E_l`` each record's input energy; 2.42 N here),
+    ``max(L/L_eff, L_eff/L)^β``, both ways: the three targets share their shape, so their
+    leverage is the same and the estimates' ratios are exactly those excursions' ratios
+    to the power β. At 1.7 N the estimate is within 2× of the realized error (measured
+    0.246 against 0.243)."""
     dt, n = 0.01, 2000
     rng = np.random.default_rng(3)
     train_levels = (1.0, 1.5, 2.0, 3.0)
@@ -217,11 +218,14 @@ def test_the_estimate_grows_when_the_force_level_lies_outside_the_training_level
     lo, hi = cal.amplitude_range
     assert lo == pytest.approx(np.sqrt(np.mean(U[0] ** 2)), rel=1e-12)
     assert hi == pytest.approx(np.sqrt(np.mean(U[3] ** 2)), rel=1e-12)
+    energy = [float(np.sum(U[j] ** 2)) for j in range(4)]
+    eff = sum(e * L for e, L in zip(energy, cal.input_levels, strict=True)) / sum(energy)
+    assert eff == pytest.approx(39.375 / 16.25, rel=0.02)  # Σ L³/Σ L² for unit-RMS shapes
     beta = cal.level_power
     assert beta >= 1.0
     inside = est[1.7]
-    assert est[0.25] / inside == pytest.approx((lo / 0.25) ** beta, rel=1e-6)
-    assert est[8.0] / inside == pytest.approx((8.0 / hi) ** beta, rel=1e-6)
+    assert est[0.25] / inside == pytest.approx((1.7 / 0.25) ** beta, rel=1e-6)
+    assert est[8.0] / inside == pytest.approx((8.0 / eff / (eff / 1.7)) ** beta, rel=1e-6)
     assert real[0.25] > 1.3 * real[1.7] and real[8.0] > 2 * real[1.7]
     assert 0.5 < inside / real[1.7] < 2
 

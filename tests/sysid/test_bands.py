@@ -279,13 +279,15 @@ def test_extrapolation_widens_a_cross_validated_band_with_the_prediction_amplitu
         monkeypatch, rule):
     """ML on the coupled chain (exact): a target 10× a training load gets, besides the
     10× prediction, a band widened by how far its RMS lies beyond the training records'
-    RMS range (:func:`extrapolation`) to the power the calibration holds: ``AMPLITUDE_POWER``
-    under the ``"gains"`` rule, ``RESPONSE_LEVEL_POWER`` (0: a linear model's relative error
-    is the same for 10× the load) under the ``"folds"`` variant."""
+    RMS range (:func:`extrapolation`) to the power the calibration holds:
+    ``GAINS_RESPONSE_LEVEL_POWER`` under the ``"gains"`` rule (set to 1 here so that the
+    factor is exercised; the default is 0), ``RESPONSE_LEVEL_POWER`` (0: a linear model's
+    relative error is the same for 10× the load) under the ``"folds"`` variant."""
     from podbench.sysid.methods import bands
 
     monkeypatch.setattr(bands, "ESTIMATE_RULE", rule)
-    power = bands.AMPLITUDE_POWER if rule == "gains" else bands.RESPONSE_LEVEL_POWER
+    monkeypatch.setattr(bands, "GAINS_RESPONSE_LEVEL_POWER", 1.0)
+    power = 1.0 if rule == "gains" else bands.RESPONSE_LEVEL_POWER
     case = forced_case("coupled")
     recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
     model = MultipleLoad(n_modes=4, solver="ls").fit(recs)
@@ -453,6 +455,50 @@ def test_folds_leverage_factor_by_hand(monkeypatch):
     assert bands.folds_estimate(s, b, inside, 1.0, None) == pytest.approx(s)
     assert bands.folds_estimate(s, b, beyond, 1.0, 10.0) == pytest.approx(
         math.sqrt((s * 2.0) ** 2 + 0.01 ** 2))
+
+
+def test_folds_gains_rule_by_hand(monkeypatch):
+    """``"folds-gains"``: folds whose errors follow ``0.01 sqrt(Λ² + 1)`` exactly (the gains
+    fit them: κ_Λ² = 1e-4, κ_Δ² = 0). A target inside the folds' leverage range gets the
+    folds' median (no blind spot: the ratio is 1), one beyond it the gains' estimate
+    ``0.01 sqrt(Λ² + 1)``, or with the growth option the median times the gains' growth from
+    the range's edge, ``sqrt((Λ² + 1)/max_j(Λ_j² + 1))``. The fold of the largest leverage
+    is beyond the others' and gets the gains' estimate itself (its own error)."""
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.band_target import TargetTerms
+
+    monkeypatch.setattr(bands, "ESTIMATE_RULE", "folds-gains")
+    lev2 = np.array([0.0, 3.0, 15.0, 63.0])
+    terms = [TargetTerms(float(v), 0.0, None) for v in lev2]
+    errors = 0.01 * np.sqrt(lev2 + 1.0)
+    cal = bands.BandCalibration("cross-validation", np.zeros(0), 0.0,
+                                np.ones(bands.N_TIME_BINS), None, 4, 0)
+    bands._rule_constants(cal, errors, terms, np.ones(4))
+    assert cal.rule == "folds-gains" and cal.fold_leverage == pytest.approx(64.0)
+    assert cal.gains[0] == pytest.approx(1e-4) and cal.gains[1] == 0.0
+    assert cal.fold_estimates[3] == pytest.approx(errors[3])
+    assert cal.fold_estimates[0] == pytest.approx(float(np.median(errors[1:])))
+    median = float(np.median(errors))
+    assert bands.rule_estimate(cal, TargetTerms(8.0, 0.0, None), 1.0) == pytest.approx(median)
+    beyond = TargetTerms(255.0, 0.0, None)
+    assert bands.rule_estimate(cal, beyond, 1.0) == pytest.approx(0.16)
+    monkeypatch.setattr(bands, "FOLDS_GAINS_GROWTH", True)
+    assert bands.rule_estimate(cal, beyond, 1.0) == pytest.approx(median * 2.0)
+
+
+def test_effective_level_of_a_pooled_fit_by_hand(monkeypatch):
+    """The input level's reference (``LEVEL_REFERENCE``): the training levels' mean weighted
+    by their input energy, ``Σ a³/Σ a²`` for records of one length (levels 1, 3: 28/10 =
+    2.8 N), the excursion both ways; the former rule (``"range"``) is 1 inside the range."""
+    from podbench.sysid.methods import bands
+
+    monkeypatch.setattr(bands, "LEVEL_REFERENCE", "effective")
+    assert bands.effective_level([1.0, 3.0], [1.0, 9.0]) == pytest.approx(2.8)
+    assert bands.input_excursion(1.4, [1.0, 3.0], [1.0, 9.0]) == pytest.approx(2.0)
+    assert bands.input_excursion(5.6, [1.0, 3.0], [1.0, 9.0]) == pytest.approx(2.0)
+    monkeypatch.setattr(bands, "LEVEL_REFERENCE", "range")
+    assert bands.input_excursion(1.4, [1.0, 3.0], [1.0, 9.0]) == 1.0
+    assert bands.input_excursion(6.0, [1.0, 3.0], [1.0, 9.0]) == pytest.approx(2.0)
 
 
 def test_rule_losses_by_hand():

@@ -84,6 +84,17 @@ model changes with the level, through friction, clearance or a stiffening spring
 from a low level as from a high one); every other record: the prediction's RMS against the
 training responses', above the range only (:data:`EXTRAPOLATE_BELOW`). ``"response"``: the
 latter for every record (the former rule)."""
+LEVEL_REFERENCE = "effective"
+"""What a measured input's level is compared with (:func:`input_excursion`):
+``"effective"`` the pooled fit's effective level, the training levels' mean weighted by each
+record's input energy ``Σ u²`` (:func:`effective_level`), the excursion
+``max(x/x_eff, x_eff/x)``; ``"range"`` (the former rule) the training levels' range,
+``max(x/x_max, x_min/x, 1)``. A least-squares fit pooled over records of several levels
+weighs each record's equations by its input power, so for a structure whose linear model
+``G(x)`` changes with the level it returns, to first order in the change, ``G`` at that
+weighted mean level (``Σ a_l³/Σ a_l²`` for records of one length and RMS ``a_l``), not a
+model valid over the whole range: a target inside the range but far from that level is an
+extrapolation of the model, and one near it is not."""
 LEVEL_POWERS = (1.0, 1.5, 2.0, 3.0)
 """The exponents β of the input level's excursion the folds choose from (:func:`fit_level_power`);
 the smallest is :data:`AMPLITUDE_POWER`'s default."""
@@ -114,6 +125,30 @@ def input_level(record) -> float | None:
     if LEVEL_RULE != "input" or record.u is None or record.collocated:
         return None
     return _rms(record.u)
+
+
+def effective_level(levels, energies) -> float:
+    """The effective level ``Σ E_l a_l / Σ E_l`` of a pooled fit on records of levels
+    ``a_l`` (input RMS) and input energies ``E_l = Σ u_l²`` (:data:`LEVEL_REFERENCE`)."""
+    a = np.asarray(levels, dtype=float)
+    e = np.asarray(energies, dtype=float)
+    return float(np.sum(e * a) / np.sum(e)) if np.sum(e) > 0 else float(np.mean(a))
+
+
+def input_energy(record) -> float:
+    """``Σ u²`` over a record's input channels and samples (input unit² · samples)."""
+    return float(np.sum(np.asarray(record.u, dtype=float) ** 2))
+
+
+def input_excursion(level: float, levels, energies) -> float:
+    """How far a measured input's RMS ``level`` lies from the training records' levels
+    (``levels``, their input ``energies``), both ways (:data:`LEVEL_REFERENCE`)."""
+    if LEVEL_REFERENCE == "range":
+        return extrapolation(level, min(levels), max(levels), below=True)
+    ref = effective_level(levels, energies)
+    if not level > 0 or not ref > 0:
+        return 1.0
+    return float(max(level / ref, ref / level))
 
 
 def levels(records) -> tuple[str, list[float]]:
@@ -363,6 +398,8 @@ class BandCalibration:
     cv_modes: int | None = None      # k of the cross-validation refits
     noise_models: list = field(default_factory=list)  # refits on noisy copies
     amplitude_range: tuple = (0.0, 0.0)  # level range of the training records (levels())
+    input_levels: tuple = ()         # "input" level rule: each record's input RMS
+    input_energies: tuple = ()       # "input" level rule: each record's Σ u² (the weights)
     reference_rms: np.ndarray | None = None  # per-sensor RMS of the training records' W
     inside_score: float | None = None  # mean_square_score of the residuals inside the basis
     gains: tuple | None = None       # (κ_Λ², κ_Δ²) of the target-aware estimate (folds)
@@ -374,7 +411,8 @@ class BandCalibration:
     fold_scale: float | None = None  # "folds" rule: median error inside the basis over d
     fold_blind: float | None = None  # "folds" rule: the folds' median blind spot Δ_j²
     fold_sizes: tuple = ()           # samples of each fold's scores (their order in scores)
-    fold_leverage: float | None = None  # "folds-leverage": the folds' largest Λ_j² + 1
+    fold_leverage: float | None = None  # "folds-leverage", "folds-gains": max_j Λ_j² + 1
+    gains_level_power: float = AMPLITUDE_POWER  # "folds-gains": the gains' β (beyond the folds)
     rule: str = ""                   # the estimate rule this calibration applied
     note: str = ""                   # why no estimate can be made (empty: it can)
     level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
@@ -490,14 +528,17 @@ def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float], list[np.n
     N = len(recs)
     ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
     rule, amps = levels(recs)
+    energy = [input_energy(r) for r in recs] if rule == "input" else [1.0] * N
     refs, excursions = [], []
     for j, Wh in enumerate(Whs):
         rest = [ms[l] for l in range(N) if l != j]
         rest_lv = [amps[l] for l in range(N) if l != j]
         refs.append(np.sqrt(np.mean(rest, axis=0)))
-        own = amps[j] if rule == "input" else _rms(Wh)
-        excursions.append(extrapolation(own, min(rest_lv), max(rest_lv),
-                                        below=True if rule == "input" else None))
+        if rule == "input":
+            excursions.append(input_excursion(
+                amps[j], rest_lv, [energy[l] for l in range(N) if l != j]))
+        else:
+            excursions.append(extrapolation(_rms(Wh), min(rest_lv), max(rest_lv)))
     if len({Wh.shape for Wh in Whs}) == 1:
         stack = np.stack(Whs)
         local = _local_rms(stack)
@@ -618,6 +659,9 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
                           len(residuals) if source == "cross-validation" else 0,
                           len(noise_models), cv_modes, noise_models,
                           (min(amps), max(amps)), _sensor_rms(recs), level_rule=rule)
+    if rule == "input":
+        cal.input_levels = tuple(amps)
+        cal.input_energies = tuple(input_energy(r) for r in recs)
     if source == "cross-validation":
         _fold_estimate(cal, model, recs, U, residuals, Whs, excursions, local)
     else:
@@ -691,7 +735,15 @@ benchmark's random designs and much worse where a target's leverage exceeds ever
 (Chapter 5's ML: it drops the leverage); ``"folds-leverage"`` (a variant) that rule times
 the target's leverage beyond every fold's (:data:`LEVERAGE_POWER`); ``"choose"`` (a
 variant) ``"gains"`` or ``"folds"`` per fitted model, whichever estimates its folds better
-left out (:func:`rule_losses`). docs/bands.md has them all measured."""
+left out (:func:`rule_losses`); ``"folds-gains"`` (a variant) the ``"folds"`` rule for a
+target whose leverage lies inside the folds' range (``Λ² + 1`` at most the folds' largest)
+and the ``"gains"`` rule beyond it (:func:`rule_estimate`), or with
+:data:`FOLDS_GAINS_GROWTH` the ``"folds"`` rule times the gains' growth beyond the range.
+docs/bands.md has them all measured."""
+FOLDS_GAINS_GROWTH = False
+"""``"folds-gains"`` beyond the folds' leverage range: ``False`` the gains' estimate itself;
+``True`` the folds' estimate times ``sqrt(G(Λ²)/G(L_max − 1))``, ``G`` the gains' part
+``κ_Λ²(Λ² + 1) + κ_Δ²Δ²`` at the target's blind spot (continuous at the range's edge)."""
 BLIND_POWER = 0.4
 """γ of the ``"folds"`` rule's blind-spot factor ``(Δ²/median_j Δ_j²)^γ``: chosen on the
 held-out benchmark's dev set over 0–0.5 (docs/bands.md gives the verdicts over that range
@@ -704,6 +756,13 @@ load's position as about its size; on the held-out benchmark's dev set the facto
 with β = 0, 0.5, 1 gives 0.66, 0.61, 0.55 within a factor of 2 (0.63, 0.48, 0.33 on the
 83 targets above the range; docs/bands.md). A measured input's level keeps its factor
 (:func:`fit_level_power`)."""
+GAINS_RESPONSE_LEVEL_POWER = 0.0
+"""β of the ``"gains"`` rule's level factor where the level is the prediction's RMS (records
+without a measured input; :data:`RESPONSE_LEVEL_POWER` is the other rules'): off. On the
+held-out benchmark's dev set β = 0, 0.5, 1 give 0.60, 0.53, 0.47 within a factor of 2 (test:
+0.77, 0.64, 0.60); a prediction larger than every training response is mostly a load
+position, and dividing the folds' errors by their own factor lowers the gains for every
+target (docs/bands.md). A measured input's level keeps its factor (:func:`fit_level_power`)."""
 LEVERAGE_POWER = 0.25
 """p of the ``"folds-leverage"`` rule's factor ``max((Λ² + 1)/max_j(Λ_j² + 1), 1)^p``: a
 target whose leverage exceeds every fold's is charged for it (an error of each training
@@ -761,8 +820,8 @@ def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
     folds' errors with the smaller log loss, :func:`rule_losses`)."""
     rule = ESTIMATE_RULE
     a = np.asarray(excursions, dtype=float)
-    if cal.level_rule == "input":
-        cal.level_power = fit_level_power(errors, terms, a)
+    cal.level_power = fit_level_power(errors, terms, a) if cal.level_rule == "input" \
+        else GAINS_RESPONSE_LEVEL_POWER
     if rule == "choose":
         losses = rule_losses(errors, terms, a ** cal.level_power)
         rule = "gains" if losses["gains"] <= losses["folds"] else "folds"
@@ -777,8 +836,57 @@ def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
         return
     lev = rule == "folds-leverage"
     cal.fold_scale, cal.fold_blind, cal.fold_estimates = fold_rule(errors, terms, d, lev)
-    if lev:
+    if lev or rule == "folds-gains":
         cal.fold_leverage = float(max(t.leverage2 for t in terms) + 1.0)
+    if rule == "folds-gains":
+        _beyond_folds(cal, errors, terms, a)
+
+
+def _beyond_folds(cal: BandCalibration, errors, terms, excursions) -> None:
+    """The ``"folds-gains"`` rule's gains (fitted on every fold at the ``"gains"`` rule's
+    level power), and each fold's own estimate: the ``"folds"`` rule's from the other folds
+    where its leverage lies inside theirs, the gains' beyond (:func:`rule_estimate`)."""
+    a = np.asarray(excursions, dtype=float)
+    cal.gains_level_power = cal.level_power if cal.level_rule == "input" else \
+        GAINS_RESPONSE_LEVEL_POWER
+    d = a ** cal.gains_level_power
+    cal.gains = fit_gains(errors, terms, d)
+    L = np.array([t.leverage2 + 1.0 for t in terms])
+    own = np.array(cal.fold_estimates, dtype=float)
+    for j, t in enumerate(terms):
+        rest = np.delete(L, j)
+        if rest.size and L[j] > rest.max():
+            own[j] = _gains_beyond(cal, t, a[j], float(rest.max()), own[j])
+    cal.fold_estimates = own
+
+
+def _gains_beyond(cal: BandCalibration, terms: TargetTerms, excursion: float,
+                  leverage_ref: float, inside: float) -> float:
+    """A ``"folds-gains"`` estimate beyond the folds' leverage range ``leverage_ref``: the
+    gains' estimate, or (:data:`FOLDS_GAINS_GROWTH`) the folds' estimate ``inside`` times
+    the gains' growth from the range's edge to the target's leverage."""
+    d = excursion ** cal.gains_level_power
+    if not FOLDS_GAINS_GROWTH:
+        return estimate(cal.gains, terms, d)
+    a, b = cal.gains
+    grow = a * (terms.leverage2 + 1.0) + b * terms.blind2
+    edge = a * leverage_ref + b * terms.blind2
+    return inside * math.sqrt(grow / edge) if edge > 0 and grow > 0 else inside
+
+
+def rule_estimate(cal: BandCalibration, terms: TargetTerms, excursion: float) -> float:
+    """A target's estimate under the calibration's rule (:data:`ESTIMATE_RULE`) from its
+    terms and its level excursion ``a`` (:func:`target_excursion`)."""
+    d = excursion ** cal.level_power
+    if cal.rule == "gains":
+        return estimate(cal.gains, terms, d)
+    if cal.rule != "folds-gains":
+        return folds_estimate(cal.fold_scale, cal.fold_blind, terms, d,
+                              cal.fold_leverage if cal.rule == "folds-leverage" else None)
+    inside = folds_estimate(cal.fold_scale, cal.fold_blind, terms, d)
+    if cal.fold_leverage is not None and terms.leverage2 + 1.0 > cal.fold_leverage:
+        return _gains_beyond(cal, terms, excursion, cal.fold_leverage, inside)
+    return inside
 
 
 def rule_losses(errors, terms, factors) -> dict:
@@ -988,21 +1096,19 @@ def _cross_validated(model, record, Wh, cal: BandCalibration, c: float):
     if terms is None:
         terms = TargetTerms(0.0, 0.0, None)
     a = target_excursion(record, Wh, cal)
-    if cal.gains is None:
-        err = folds_estimate(cal.fold_scale, cal.fold_blind, terms, a ** cal.level_power,
-                             cal.fold_leverage)
-    else:
-        err = estimate(cal.gains, terms, a ** cal.level_power)
+    err = rule_estimate(cal, terms, a)
     return err, _difficulty(Wh, cal, err), cal.quantile(c), terms, a
 
 
 def target_excursion(record, Wh, cal: BandCalibration) -> float:
-    """How far a target lies outside the training records' level range (:func:`levels`):
-    its measured input's RMS, both ways, or its prediction's RMS, above."""
+    """How far a target lies from the training records' levels (:func:`levels`): its
+    measured input's RMS against their effective level, both ways
+    (:func:`input_excursion`), or its prediction's RMS above their range."""
     if cal.level_rule == "input":
         level = input_level(record)
         if level is not None:
-            return extrapolation(level, *cal.amplitude_range, below=True)
+            return input_excursion(level, cal.input_levels or cal.amplitude_range,
+                                   cal.input_energies or (1.0, 1.0))
     return extrapolation(_rms(Wh), *cal.amplitude_range)
 
 
