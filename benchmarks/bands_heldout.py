@@ -217,7 +217,8 @@ def _features(model, p) -> dict:
     join = lambda xs: ";".join(f"{float(x):.6g}" for x in xs)  # noqa: E731
     if cal.fold_errors is not None:
         out.update(fold_errors=join(cal.fold_errors), fold_estimates=join(cal.fold_estimates),
-                   fold_factors=join(cal.fold_factors))
+                   fold_factors=join(cal.fold_factors),
+                   fold_excursions=join(cal.fold_excursions))
         out.update(fold_lev2=join(t.leverage2 for t in cal.fold_terms),
                    fold_blind2=join(t.blind2 for t in cal.fold_terms),
                    fold_rho=join((t.rho or 0.0) for t in cal.fold_terms))

@@ -48,10 +48,13 @@ def _model_estimates(rows, rule: str):
              zip(_floats(r0.fold_lev2), _floats(r0.fold_blind2), _floats(r0.fold_rho),
                  strict=True)]
     beta = float(r0.level_power)
-    if not beta > 0:
-        raise SystemExit("bands_rules: the rows must come from a run whose level power is "
-                         "above 0 (the default rule's): the folds' excursions are d^(1/β)")
-    excursions = _floats(r0.fold_factors) ** (1.0 / beta)
+    if "fold_excursions" in rows.columns and isinstance(r0.fold_excursions, str):
+        excursions = _floats(r0.fold_excursions)
+    elif beta > 0:  # rows stored before the excursions were: a = d^(1/β)
+        excursions = _floats(r0.fold_factors) ** (1.0 / beta)
+    else:
+        raise SystemExit("bands_rules: rows without fold_excursions need a level power above "
+                         "0 to recover them from the folds' factors d = a^β")
     cal = bands.BandCalibration("cross-validation", np.zeros(0), 0.0,
                                 np.ones(bands.N_TIME_BINS), None, len(errors), 0)
     old = bands.ESTIMATE_RULE

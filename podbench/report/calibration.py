@@ -75,8 +75,8 @@ def _spearman(x, y) -> float:
     from scipy.stats import spearmanr
 
     ok = np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < 3:
-        return float("nan")
+    if ok.sum() < 3 or np.ptp(x[ok]) == 0 or np.ptp(y[ok]) == 0:
+        return float("nan")  # undefined: fewer than three pairs, or one side constant
     return float(spearmanr(x[ok], y[ok]).statistic)
 
 

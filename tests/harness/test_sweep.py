@@ -15,9 +15,9 @@ from podbench.core.resources import bundled_scenarios
 from podbench.core.response import Response
 from podbench.errors import InputError, ScenarioFileError
 from podbench.harness.metrics import roundoff_errors
-from podbench.harness.tables import table_csv
 from podbench.harness.runner import NoiseSpec, noisy, run_unit
 from podbench.harness.sweep import SWEEP_COLUMNS, plan_sweep, run_sweep
+from podbench.harness.tables import table_csv
 from podbench.report.sweep import sweep_markdown
 from podbench.study.scenarios import apply_overrides, load_scenario
 

@@ -408,6 +408,7 @@ class BandCalibration:
     fold_estimates: np.ndarray | None = None  # the estimate's value for each fold
     fold_terms: list | None = None   # each fold's TargetTerms (what the gains were fitted on)
     fold_factors: np.ndarray | None = None  # each fold's level factor d = a^β
+    fold_excursions: np.ndarray | None = None  # each fold's level excursion a
     fold_scale: float | None = None  # "folds" rule: median error inside the basis over d
     fold_blind: float | None = None  # "folds" rule: the folds' median blind spot Δ_j²
     fold_sizes: tuple = ()           # samples of each fold's scores (their order in scores)
@@ -828,7 +829,7 @@ def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
     if rule != "gains" and cal.level_rule != "input":
         cal.level_power = RESPONSE_LEVEL_POWER
     d = a ** cal.level_power
-    cal.fold_factors, cal.rule = d, rule
+    cal.fold_factors, cal.fold_excursions, cal.rule = d, a, rule
     if rule == "gains":
         cal.gains = fit_gains(errors, terms, d)
         cal.fold_estimates = np.array([estimate(cal.gains, t, f)
