@@ -108,6 +108,8 @@ class Record:
     name : str
         Where the record came from (a file name), used in messages.
 
+    Notes
+    -----
     Errors are one line naming the parameter (the dissertation's form: ``Parameter `W```) or
     the record and the field (``x.npz: field `inputs```).
     """

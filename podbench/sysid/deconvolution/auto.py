@@ -125,6 +125,8 @@ class Auto(Solver):
     robust : {"subspace", "kernel", "realization"}
         The solver used on noisy data (default ``"subspace"``; each with its defaults).
 
+    Notes
+    -----
     Diagnostics: those of the solver chosen, plus ``choice`` (``"block"``, ``"ls"``,
     ``"subspace"``, ``"realization"`` or ``"kernel"``), ``noise_test`` (``"kernel"`` or
     ``"evidence"``), ``noise_floor`` (the deciding test's estimate; with ``robust="kernel"``

@@ -255,6 +255,8 @@ class BlockSubstitution(Solver):
     leaf : int
         Samples per directly substituted block (default 32; speed only).
 
+    Notes
+    -----
     Diagnostics: ``shift`` (``d``, leading samples shifted past), ``condition`` (of
     ``G[d]``), ``growth`` (``‖A‖·‖X‖/‖B‖``, ``‖A‖`` bounded by ``Δt Σ_s ‖G[s]‖_F`` and
     ``‖B‖`` over the equations after the shift, the quantity ``max_growth`` bounds).

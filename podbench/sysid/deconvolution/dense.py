@@ -577,6 +577,8 @@ class LeastSquares(DenseSolver):
     max_dense_bytes : float
         Largest dense matrix formed (default :data:`DENSE_MAX_BYTES`, 2 GiB).
 
+    Notes
+    -----
     Diagnostics: ``rank`` (effective rank of ``A``), ``rcond`` (the cut used),
     ``condition`` (``σ_1/σ_min`` of ``A``; ``inf`` for an exactly singular ``A``).
     """
@@ -633,6 +635,8 @@ class TruncatedTLS(DenseSolver):
     max_dense_bytes : float
         Largest dense matrix formed (default :data:`DENSE_MAX_BYTES`, 2 GiB).
 
+    Notes
+    -----
     Diagnostics: ``rank`` (singular triplets kept, :func:`tls_rank`), ``rank_rule``,
     ``rcond`` (the cut, if that rule applied), ``condition`` (``σ_1/σ_p`` of ``[A | B]``
     over the kept ones; ``None`` if none is kept).
@@ -823,6 +827,8 @@ class AppendixTLS(DenseSolver):
     max_columns, max_dense_bytes
         Size limits as :class:`TruncatedTLS`.
 
+    Notes
+    -----
     Diagnostics: ``rank`` (directions kept; the smallest over ML's columns) and
     ``rank_max``, ``rcond`` (``1/tol``, the largest over the columns), ``tls_den`` (the
     smallest ``1 − ΣV²``).

@@ -256,6 +256,8 @@ class KernelRegularized(Solver):
     max_iter : int
         Its iteration limit (the iterate is returned, ``converged`` false, if reached).
 
+    Notes
+    -----
     Diagnostics (``info``): ``lam``, ``rho``, ``gamma`` (geometric mean over columns),
     ``c``, ``sigma2`` (geometric means), ``noise_floor`` and ``noise_floor_min``
     (``σ_l/rms(y_l)``, largest and smallest over the columns), ``log_evidence``

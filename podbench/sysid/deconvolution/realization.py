@@ -295,6 +295,8 @@ class Realization(Solver):
         Block rows ``s`` of the ERA Hankel matrix (default: as many as the pilot's lags
         allow, ``s ≤ (n_pilot − 1)/2``, with ``s·max(k, r) ≤`` :data:`MAX_HANKEL_ROWS`).
 
+    Notes
+    -----
     Diagnostics (``info``): ``order`` (the ``N`` used), ``order_rule`` (``"holdout"`` or
     ``"fixed"``), ``holdout_residual`` (relative, at the chosen order; None if fixed),
     ``holdout_best_order`` (the order of the smallest held-out residual), ``poles``

@@ -162,6 +162,8 @@ class STLS(Solver):
         LSQR's ``atol`` and ``btol`` (default 1e-6: an inexact Gauss–Newton step; the
         stopping rule is on the objective), in (0, 1).
 
+    Notes
+    -----
     Diagnostics: ``reg``, ``reg_rule`` (as :class:`CGLS`), ``iterations`` (LSQR iterations
     of all steps, the first step's conjugate-gradient iterations included), ``solves``
     (Gauss–Newton steps taken), ``shift``; and ``objective_start`` / ``objective`` (the

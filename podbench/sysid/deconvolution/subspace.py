@@ -311,6 +311,8 @@ class Subspace(Solver):
         whole record, or ``max(256, 8192 // k)`` if shorter); the chosen order's poles and
         residues are then identified from the whole record.
 
+    Notes
+    -----
     Diagnostics (``info``): ``order``, ``order_rule``, ``holdout_residual``,
     ``holdout_best_order``, ``candidates`` (orders above the rank floor, up to
     ``max_order``), ``horizon`` (the one used), ``horizons`` (the candidates),

@@ -480,6 +480,8 @@ class FFTTikhonov(Solver):
     pad : float
         Transform length as a multiple of the samples after the shift, >= 1 (default 2).
 
+    Notes
+    -----
     Diagnostics: ``reg`` (the parameter used, the GCV choice if ``reg="gcv"``),
     ``reg_rule`` (``"gcv"`` or ``"fixed"``), ``shift`` (leading zero samples), ``n_fft``
     (transform length).
@@ -512,6 +514,8 @@ class CGLS(Solver):
     max_iter : int
         Iteration limit of one solve (default 1000); :class:`ConvergenceError` beyond it.
 
+    Notes
+    -----
     Diagnostics: ``reg``, ``reg_rule`` (as :class:`FFTTikhonov`), ``iterations`` (all
     conjugate-gradient iterations, those of the GCV trial solves included), ``solves``
     (solves started, one with a fixed ``reg``), ``shift``.
