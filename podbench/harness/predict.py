@@ -38,6 +38,7 @@ its noise: its coverage is that of the measurement, not of the noise-free respon
 from __future__ import annotations
 
 import csv
+import inspect
 import io
 import json
 import re
@@ -162,6 +163,16 @@ def _periodic_params(entry, est, period) -> dict:
     return {"period": period}
 
 
+def _period_keyword(est, period) -> dict:
+    """``{"period": period}`` for ``command_line_params`` when the files carry a period and
+    the method's ``command_line_params`` takes one (a user's class written before the
+    keyword existed may not)."""
+    if period is None:
+        return {}
+    accepts = inspect.signature(est.command_line_params).parameters
+    return {"period": period} if "period" in accepts else {}
+
+
 def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes,
                            period: int | None = None):
     """The estimator of ``entry`` with the parameters ``--solver`` and ``--n-modes`` mean
@@ -179,7 +190,8 @@ def command_line_estimator(entry, train: list[Record], *, solver: str, n_modes,
         raise InputError(f"Parameter `method`: {entry.name}: the configuration leaves "
                          f"{', '.join(missing)} to its caller; name a method that fixes it")
     est = entry.build(**{p: given[p] for p in entry.supplied})
-    cli = est.command_line_params(train, solver=solver, n_modes=n_modes)
+    cli = est.command_line_params(train, solver=solver, n_modes=n_modes,
+                                  **_period_keyword(est, period))
     cli.update(_periodic_params(entry, est, period))
     if "n_lags" in entry.params and entry.params["n_lags"] is None:
         cli.pop("prior", None)  # a configuration of the whole-record kernel: no lag prior

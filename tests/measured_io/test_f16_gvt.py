@@ -370,7 +370,8 @@ def test_rational_poles_recover_two_modes_and_their_shapes():
 def test_predict_and_fit_take_the_period_from_the_files(tmp_path):
     """`podbench predict/fit --method ML-periodic | BLA | ML-interp` on the shipped files
     (shortened): the period is the files' `period_samples`, and the prediction is that of
-    the method fitted in Python with the period given."""
+    the method fitted in Python with the period given; `--method ML` on them is
+    ML-periodic, and `--solver ls` keeps the truncated kernel."""
     _copy_levels(tmp_path, levels=(1, 2, 3))
     files = level_files(tmp_path / "data")
     train, target = [files[1], files[3]], files[2]
@@ -383,6 +384,16 @@ def test_predict_and_fit_take_the_period_from_the_files(tmp_path):
             got = z["y_hat"]
         want = est.fit([_short(1), _short(3)]).predict(_short(2))
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
+    # plain ML on files that carry a period is the kernel over one period (the study's ML
+    # row); --solver ls keeps the truncated kernel on the measured inputs
+    res = api.predict("ML", train, [target], tmp_path / "pred-ML")
+    assert res.config["parameters"]["inputs"] == "periodic"
+    with np.load(tmp_path / "pred-ML" / f"{target.stem}.npz") as z:
+        np.testing.assert_allclose(z["y_hat"], direct["ML-periodic"].predict(_short(2)),
+                                   rtol=0, atol=1e-9 * np.abs(want).max())
+    res = api.predict("ML", train, [target], tmp_path / "pred-ML-ls", solver="ls")
+    assert res.config["parameters"]["inputs"] == "measured"
+    assert res.config["parameters"]["n_lags"] == "auto"
     model = pb.fit("BLA", train, tmp_path / "fit-bla")
     np.testing.assert_allclose(model.predict(_short(2)), direct["BLA"].predict(_short(2)),
                                rtol=0, atol=1e-9 * np.abs(want).max())

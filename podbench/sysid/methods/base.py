@@ -255,11 +255,15 @@ class PODMethod(ParamsMixin):
         are not forces at the outputs), or None; ``fit`` raises it before anything else."""
         return None
 
-    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None,
+                            period: int | None = None) -> dict:
         """The parameters ``podbench predict --solver S --n-modes K`` mean for this method
         and these training records: ``n_modes`` and ``solver`` where the method has them.
         An option the method does not have is refused (not silently dropped): ``--n-modes``
-        always, ``--solver`` unless it is the default ``auto``."""
+        always, ``--solver`` unless it is the default ``auto``. ``period`` is the samples per
+        period the training files carry (``period_samples``), None if they carry none; a
+        method with a form for a periodic excitation may take it (ML does), the others
+        ignore it."""
         names = self._get_param_names()
         name = self.abbreviation or type(self).__name__
         out: dict = {}

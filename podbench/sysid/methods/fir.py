@@ -67,10 +67,11 @@ class FIRLeastSquares(MultipleLoad):
     def inputs(self):
         return "measured"
 
-    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None,
+                            period: int | None = None) -> dict:
         """ML's command-line parameters restricted to those FIR-LS has (its inputs, solver
         and basis are fixed)."""
-        out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        out = super().command_line_params(records, solver=solver, n_modes=n_modes)  # no period
         names = self._get_param_names()
         return {k: v for k, v in out.items() if k in names}
 

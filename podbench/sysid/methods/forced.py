@@ -573,14 +573,26 @@ class MultipleLoad(_ForcedMethod):
         """Free responses (no inputs); modal forces asked of inputs elsewhere."""
         return self._inputs_refusal(records)
 
-    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None,
+                            period: int | None = None) -> dict:
         """``--solver`` on measured inputs names the kernel: ``auto`` (the TC prior with three
         or more training records, else none), ``ls`` (no prior), ``tc`` (the TC prior),
         each a truncated kernel with its lags by leave-one-record-out; any other name is a
         deconvolution solver for the kernel over the whole record. On forces at the outputs
         it is the deconvolution solver, as for every method. On a periodic excitation
-        (``inputs="periodic"``) only ``auto``: the kernel over one period is solved per line."""
+        (``inputs="periodic"``) only ``auto``: the kernel over one period is solved per line.
+
+        Measured inputs whose training files carry a ``period`` (samples per period of a
+        periodic excitation in steady state, the F-16 multisines) with ``--solver auto`` and
+        ``inputs="auto"``: the kernel over one period (``inputs="periodic"``), the model the
+        records are: in steady state the response to a periodic input is the circular
+        convolution of one period, exact at every excited line, where a truncated kernel
+        cuts the slowest modes' memory. ``--solver ls`` or ``tc`` keep the truncated kernel."""
         out = super().command_line_params(records, solver=solver, n_modes=n_modes)
+        if (period is not None and solver == "auto" and self.inputs == "auto"
+                and not self._modal(records)):
+            return {**{k: v for k, v in out.items() if k != "solver"},
+                    "inputs": "periodic", "period": int(period)}
         if self.inputs == "periodic":
             if solver != "auto":
                 raise InputError(f"Parameter `solver`: not with inputs='periodic' (the kernel "

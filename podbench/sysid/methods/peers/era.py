@@ -356,7 +356,8 @@ class ERA(PeerMethod):
         else:
             super()._fit(records, basis)
 
-    def command_line_params(self, records, *, solver: str = "auto", n_modes=None) -> dict:
+    def command_line_params(self, records, *, solver: str = "auto", n_modes=None,
+                            period: int | None = None) -> dict:
         """On measured inputs the Hankel matrix of :data:`ERA_BLOCKS` seconds. ``--n-modes
         K`` means K modes, as for every method: the realization order ``2K`` (a mode is a
         complex pole pair), not the size of the basis."""
