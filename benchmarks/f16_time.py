@@ -107,6 +107,8 @@ def _time_tasks(plan, levels, wanted, cpu) -> list[float]:
 
 def srim_horizons(plan, levels, horizons) -> None:
     """CPU seconds of the mdof-SRIM fit on each training set at each horizon (s)."""
+    import numpy as np
+
     from podbench.sysid.methods.mdof_peer import Mdof
 
     trains = sorted({s.train for s in plan.sets if all(n in levels for n in s.train)
@@ -117,10 +119,15 @@ def srim_horizons(plan, levels, horizons) -> None:
         recs = [levels[n] for n in train]
         for hz in horizons:
             est = Mdof(method="srim", horizon=hz)
-            _, s = _timed(est.fit, recs)
+            t = time.process_time()
+            try:
+                est.fit(recs)
+                radius = f"{est.info_['spectral_radius']:.5f}"
+            except (np.linalg.LinAlgError, ValueError) as exc:  # the peer fails: say so
+                radius = f"failed ({type(exc).__name__}: {exc})"
+            s = time.process_time() - t
             print(f"{'+'.join(map(str, train))},{sum(r.n_samples for r in recs)},{hz:g},"
-                  f"{int(round(hz / recs[0].dt))},{s:.2f},{est.info_['spectral_radius']:.5f}",
-                  flush=True)
+                  f"{int(round(hz / recs[0].dt))},{s:.2f},{radius}", flush=True)
 
 
 def main(argv=None) -> int:
