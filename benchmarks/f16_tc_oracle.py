@@ -35,6 +35,25 @@ from the **training levels alone**, each a named variant (none is tuned on the v
   ``df = trace(RᵀAR (RᵀAR + ρI)⁻¹)``, RSS over the outputs.
 
 Both ``evidence`` and ``gcv`` choose from one training level too (the study's rule cannot).
+
+    python benchmarks/f16_tc_oracle.py --no-oracle --measured   # rules from the records' noise
+
+``--measured`` adds three rules of the same marginal likelihood whose nuisance parameter is
+not estimated but read from what the training records show of themselves (each a named
+variant; none sees the validation level):
+
+* ``evidence-noise``: the noise variance per output fixed at the period-to-period variance
+  of the training levels' steady state (the BLA's noise variance: the spread of the
+  periods about their mean, ``P/(P − 1)`` corrected), ``−2 log p(y) = Σ_outputs
+  [log det(I + RᵀAR/ρ) + (c − Nᵀ(RᵀAR + ρI)⁻¹N)/σ²]`` (+ a constant), ``ρ = γ·trace/rows``
+  as above (the prior's scale ``σ²/ρ``);
+* ``evidence-total``: the same with ``σ²`` the training levels' own BLA residual (noise on
+  every line and the nonlinear distortion on the non-excited lines: what one multisine
+  realization separates of the total variance);
+* ``evidence-damping``: TC's decay time fixed by the pooled training BLA's slowest mode,
+  ``τ = 1/(2 min ζω)`` (the prior's variance ``λ^k`` decays as the square of the kernel's
+  envelope ``exp(−ζωt)``; the stable physical modes of the 24-pole rational fit, as
+  modes.csv, or its physical modes when none is stable), lags and γ by ``evidence``.
 """
 
 from __future__ import annotations
@@ -58,6 +77,14 @@ from podbench.sysid.methods.inputs import (  # noqa: E402
     _tc_weights,
     _whiten,
 )
+from podbench.sysid.methods.periodic import BestLinearApproximation  # noqa: E402
+from podbench.sysid.modal import (  # noqa: E402
+    RESPONSE_POLES,
+    physical_mask,
+    response_fit,
+    response_modes,
+)
+from podbench.sysid.periodic import steady_periods  # noqa: E402
 
 LAGS_S = (0.25, 0.5, 1.0, 1.5, 2.0, 3.0)
 TAUS = (0.05, 0.1, 0.2, 0.4, 0.8, 1.6)
@@ -168,6 +195,114 @@ def rules(train, targets, dt: float) -> dict:
     return out
 
 
+MEASURED = ("evidence-noise", "evidence-total", "evidence-damping")
+
+
+def noise_variance(recs, plan) -> np.ndarray:
+    """Per output channel, the variance of the training records' steady-state periods about
+    their mean ((m/s²)², ``P/(P − 1)`` corrected; the BLA's noise variance in time)."""
+    out = []
+    for r in recs:
+        y = steady_periods(r.y, plan.period, plan.transient_periods, r.name)
+        out.append(np.sum((y - y.mean(axis=0)) ** 2, axis=(0, 2))
+                   / ((y.shape[0] - 1) * y.shape[2]))
+    return np.mean(out, axis=0)
+
+
+def _bla(recs, plan):
+    return BestLinearApproximation(period=plan.period,
+                                   transient_periods=plan.transient_periods).fit(recs)
+
+
+def total_variance(recs, plan) -> np.ndarray:
+    """Per output channel, the mean square of each training record's own BLA residual over
+    its steady-state periods ((m/s²)²: noise and the distortion on the non-excited lines)."""
+    out = []
+    for r in recs:
+        y = steady_periods(r.y, plan.period, plan.transient_periods, r.name)
+        out.append(np.mean((y - _bla([r], plan).predict_periodic(r)[None]) ** 2, axis=(0, 2)))
+    return np.mean(out, axis=0)
+
+
+def damping_tau(recs, plan) -> tuple[float, float, float]:
+    """``(τ, f, ζ)``: TC's decay time ``1/(2ζω)`` of the pooled training BLA's slowest
+    stable physical mode (24-pole rational fit, as modes.csv), its frequency (Hz) and
+    damping ratio."""
+    bla = _bla(recs, plan)
+    G = bla.frequency_response()[:, 0]
+    channels = recs[0].output_channels or tuple(str(i) for i in range(G.shape[0]))
+    modes, _, _ = response_modes(G, bla.frequencies_, recs[0].dt, channels)
+    if not len(modes.frequency_hz):  # none stable: the physical poles of the 24-pole fit
+        modes = response_fit(G, bla.frequencies_, RESPONSE_POLES, channels)[0]
+        modes = modes.subset(physical_mask(modes, recs[0].dt))
+    decay = 2 * np.pi * np.asarray(modes.frequency_hz) * np.asarray(modes.damping_ratio)
+    j = int(np.argmin(decay))
+    return (float(1.0 / (2.0 * decay[j])), float(modes.frequency_hz[j]),
+            float(modes.damping_ratio[j]))
+
+
+def measured_rules(train, targets, dt: float, plan) -> dict:
+    """The choices of :data:`MEASURED` from the training records alone and their errors on
+    ``targets``: ``{rule: ((lags_s, tau, gamma), [errors], note)}``."""
+    Lmax = int(round(max(LAGS_S) / dt))
+    tr = [_channel_grams(r, Lmax, 0) for r in train]
+    va = [_channel_grams(r, Lmax, 0) for r in targets]
+    n = sum(r.n_samples for r in train)
+    fixed = {"evidence-noise": noise_variance(train, plan),
+             "evidence-total": total_variance(train, plan)}
+    tau_d, f_d, z_d = damping_tau(train, plan)
+    scores: dict = {r: {} for r in MEASURED}
+    thetas = {}
+    for s in LAGS_S:
+        L = int(round(s / dt))
+        grams = [(g[0][:L, :L], g[1][:L], g[2]) for g in tr]
+        for tau in (*TAUS, tau_d):
+            white = _whiten(grams, _tc_weights(L, dt, tau), 1)
+            M = sum(w[0] for w in white)
+            N = sum(w[1] for w in white)
+            c = np.diag(sum(w[2] for w in white))
+            mu, V = np.linalg.eigh(M)
+            mu = np.clip(mu, 0.0, None)
+            VN = V.T @ N
+            R = _tc_factor(L, 1, dt, tau)
+            for g in GAMMAS:
+                rho = g * float(np.trace(M)) / L
+                key = (s, tau, g)
+                thetas[key] = R @ (V @ (VN / (mu + rho)[:, None]))
+                fitted = np.sum(VN * VN / (mu + rho)[:, None], axis=0)
+                logdet = float(np.sum(np.log1p(mu / rho)))
+                if tau != tau_d:
+                    for rule, s2 in fixed.items():
+                        scores[rule][key] = float(np.sum(logdet + (c - fitted) / s2))
+                else:
+                    s2 = np.maximum(c - fitted, 1e-300) / n
+                    scores["evidence-damping"][key] = float(n * np.sum(np.log(s2))
+                                                            + c.size * logdet)
+    notes = {r: "sigma " + "/".join(f"{v:.2e}" for v in np.sqrt(fixed[r])) + " m/s2"
+             for r in fixed}
+    notes["evidence-damping"] = f"slowest mode {f_d:.3f} Hz, zeta {z_d:.4f}"
+    out = {}
+    for rule, sc in scores.items():
+        key = min(sc, key=sc.get)
+        L = int(round(key[0] / dt))
+        out[rule] = (key, [_error(thetas[key], v[0][:L, :L], v[1][:L], v[2]) for v in va],
+                     notes[rule])
+    return out
+
+
+def _print_measured(sets, levels, dt, plan) -> None:
+    print("\ntrain,target,rule,lags_s,tau_s,gamma,rel_whole,note")
+    for train, targets in sets.items():
+        targets = sorted(targets)
+        res = measured_rules([levels[t] for t in train], [levels[n] for n in targets], dt,
+                             plan)
+        for j, n in enumerate(targets):
+            for rule in MEASURED:
+                (s, tau, g), errs, note = res[rule]
+                print(f"{'+'.join(map(str, train))},{n},{rule},{s},{tau:.3g},{g:g},"
+                      f"{errs[j]:.4f},{note}", flush=True)
+
+
 def _print_rules(sets, levels, dt) -> None:
     print("\ntrain,target,rule,lags_s,tau_s,gamma,rel_whole")
     for train, targets in sets.items():
@@ -182,7 +317,8 @@ def _print_rules(sets, levels, dt) -> None:
 
 
 def main(argv=None) -> int:
-    with_rules = "--rules" in (sys.argv[1:] if argv is None else argv)
+    args = sys.argv[1:] if argv is None else argv
+    with_rules, with_measured = "--rules" in args, "--measured" in args
     plan = load_f16_gvt(ROOT / "scenarios" / "f16_gvt" / "f16_gvt.toml")
     levels = load_levels(plan)
     dt = levels[1].dt
@@ -195,7 +331,7 @@ def main(argv=None) -> int:
             continue
         sets.setdefault(s.train, set()).update(n for n in s.targets if n in levels)
     with single_blas_thread():
-        for train, targets in sets.items():
+        for train, targets in ({} if "--no-oracle" in args else sets).items():
             targets = sorted(targets)
             res = oracle([levels[t] for t in train], [levels[n] for n in targets], dt)
             for j, n in enumerate(targets):
@@ -205,6 +341,8 @@ def main(argv=None) -> int:
                       f"{tc[0]};{tc[1]};{tc[2]:g},{res['tc'][tc][j]:.4f}", flush=True)
         if with_rules:
             _print_rules(sets, levels, dt)
+        if with_measured:
+            _print_measured(sets, levels, dt, plan)
     return 0
 
 

@@ -14,6 +14,14 @@ and per part, the time the executor's schedule of these tasks takes on two idle 
 (:func:`makespan`, what ``--jobs 2`` reaches at best), then the
 total, each also in units of the CPU time of ``benchmarks/study_time.py``'s reference
 workload (:func:`reference_cpu`), measured in the same run. No table is written.
+
+    python benchmarks/f16_time.py --srim-horizons 0.125,0.25,0.5,0.75
+
+times mdof's SRIM fit alone (the peer as the study configures it, order 20) on each of the
+study's training sets that it runs (a validation level present) at each prediction
+horizon (s; the study's 0.5 s is 200 samples at 400 Hz, mdof's documented default
+``min(300, nt)`` samples is 0.75 s), and prints its CPU seconds and the identified ``A``'s
+spectral radius: what the peer's cost depends on.
 """
 
 from __future__ import annotations
@@ -97,6 +105,31 @@ def _time_tasks(plan, levels, wanted, cpu) -> list[float]:
     return [s for _, s in sorted(timed, key=lambda cs: -cs[0])]
 
 
+def srim_horizons(plan, levels, horizons) -> None:
+    """CPU seconds of the mdof-SRIM fit on each training set at each horizon (s)."""
+    import numpy as np
+
+    from podbench.sysid.methods.mdof_peer import Mdof
+
+    trains = sorted({s.train for s in plan.sets if all(n in levels for n in s.train)
+                     and any(n in levels for n in s.targets)
+                     and (s.methods is None or "mdof-SRIM" in s.methods)}, key=len)
+    print("train,samples,horizon_s,horizon_samples,cpu_s,spectral_radius")
+    for train in trains:
+        recs = [levels[n] for n in train]
+        for hz in horizons:
+            est = Mdof(method="srim", horizon=hz)
+            t = time.process_time()
+            try:
+                est.fit(recs)
+                radius = f"{est.info_['spectral_radius']:.5f}"
+            except (np.linalg.LinAlgError, ValueError) as exc:  # the peer fails: say so
+                radius = f"failed ({type(exc).__name__}: {exc})"
+            s = time.process_time() - t
+            print(f"{'+'.join(map(str, train))},{sum(r.n_samples for r in recs)},{hz:g},"
+                  f"{int(round(hz / recs[0].dt))},{s:.2f},{radius}", flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--methods", default=None,
@@ -104,6 +137,9 @@ def main(argv=None) -> int:
                          "'modes and pole sweep' for the levels' modes)")
     ap.add_argument("--parts", default=",".join(PARTS),
                     help=f"parts to time, separated by commas ({', '.join(PARTS)})")
+    ap.add_argument("--srim-horizons", default=None,
+                    help="time mdof's SRIM fit alone at these horizons (s, separated by "
+                         "commas) on every training set, instead of the study")
     args = ap.parse_args(argv)
     parts = set(args.parts.split(","))
     unknown = parts - set(PARTS)
@@ -111,6 +147,11 @@ def main(argv=None) -> int:
         ap.error(f"unknown parts: {sorted(unknown)} (expected {', '.join(PARTS)})")
     plan = load_f16_gvt(ROOT / "scenarios" / "f16_gvt" / "f16_gvt.toml")
     levels = h.load_levels(plan)
+    if args.srim_horizons:
+        with single_blas_thread():
+            srim_horizons(plan, levels, [float(x) for x in args.srim_horizons.split(",")])
+        print(f"reference workload CPU {reference_cpu():.2f} s")
+        return 0
     cpu: dict = defaultdict(float)
     order: list[float] = []
     with single_blas_thread():

@@ -169,7 +169,9 @@ COMMANDS: dict[str, object] = {
         "shared machine); the study command itself is run (slow)"),
     "python benchmarks/f16_tc_oracle.py": SLOW,
     "python benchmarks/f16_tc_oracle.py --rules": SLOW,
+    "python benchmarks/f16_tc_oracle.py --no-oracle --measured": SLOW,
     "python benchmarks/f16_time.py": SLOW,
+    "python benchmarks/f16_time.py --srim-horizons 0.25,0.5,0.75": SLOW,
     "python benchmarks/study_time.py --jobs 1,2": NOT_RUN(
         "times two cold runs of the whole Chapter 5 study (tens of minutes on the shared "
         "machine); the study command itself is run (slow)"),
