@@ -385,7 +385,9 @@ def _add_fit_arguments(p, *, required: bool) -> None:
                         "training file) on free responses; configurations such as ML-TC")
     p.add_argument("--train", nargs="+", required=required, default=None, metavar="FILE")
     p.add_argument("--solver", default="auto",
-                   help="ML's kernel: auto (TC prior with >= 3 training records), ls, tc "
+                   help="ML's kernel: auto (the kernel over one period when the training "
+                        "files carry period_samples, a periodic excitation in steady "
+                        "state; else the TC prior with >= 3 training records), ls, tc "
                         "(truncated kernel, lags by leave-one-record-out), or a "
                         "deconvolution solver name (block, cgls, ...) for the kernel over "
                         "the whole record (records of one length); on displacement/force "
