@@ -65,3 +65,24 @@ def test_mdof_peer_predicts_an_exact_system(method):
     m = Mdof(method=method, order=4, horizon=0.1, markov=0.3).fit(recs[:3])
     err = np.linalg.norm(m.predict(recs[3]) - recs[3].y) / np.linalg.norm(recs[3].y)
     assert err < 1e-6
+
+
+def test_a_failed_realization_is_one_line_naming_the_horizon(monkeypatch):
+    """When mdof's SRIM finds no model (the zero-state B, D least squares does not converge
+    on an unstable realization, as at a 20-sample horizon on the F-16's level 3), the fit
+    raises one line naming `horizon`, not numpy's LinAlgError."""
+    from podbench.errors import ConvergenceError
+    from podbench.sysid.methods import mdof_peer
+
+    def fails(*args):
+        raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
+
+    monkeypatch.setattr(mdof_peer, "_bd_zero_state", fails)
+    sys = _system()
+    u = np.random.default_rng(4).normal(size=(2, 300))
+    recs = [Record(u=u, y=modal_simulate(*sys, u), dt=0.01, input_units="m/s^2",
+                   output_units="m/s^2", name="r0")]
+    with pytest.raises(ConvergenceError, match=r"^Parameter `horizon`: mdof-SRIM failed at a "
+                                               r"horizon of 10 samples \(0\.1 s\): SVD did not "
+                                               r"converge .*; try a longer horizon$"):
+        Mdof(method="srim", order=4, horizon=0.1).fit(recs)

@@ -34,7 +34,7 @@ import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy 
 
 from podbench import _compat
 from podbench.core.records import check_compatible
-from podbench.errors import InputError
+from podbench.errors import ConvergenceError, InputError
 from podbench.sysid.methods.base import PODMethod
 from podbench.sysid.methods.inputs import measured_basis
 from podbench.sysid.params import Boolean, Interval, Options
@@ -175,17 +175,17 @@ class Mdof(PODMethod):
         Us = [r.u for r in records]
         ycat, ucat = np.hstack(Ys), np.hstack(Us)
         no = max(2, int(round(self.horizon / dt)))
-        if self.method == "srim":
-            if self.fix_srim:
-                A, _, C, _ = realize.srim(ucat, ycat, horizon=no, order=self.order, find="AC")
-                B, D = _bd_zero_state(A, C, Ys, Us)
-            else:
-                A, B, C, D = realize.srim(ucat, ycat, horizon=no, order=self.order)
-        else:
-            okid = okid_fixed() if self.fix_okid else markov_mod.okid
-            m = max(2 * no + 2, int(round(self.markov / dt)))
-            H = okid(ucat, ycat, m=m)
-            A, B, C, D = realize.era(H, horizon=no, order=self.order)
+        with np.errstate(over="ignore", invalid="ignore"):
+            try:
+                A, B, C, D = self._realize(markov_mod, realize, ucat, ycat, Ys, Us, no, dt)
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                A = B = C = D = None
+                why = str(exc).splitlines()[0]
+        if A is None or not all(np.all(np.isfinite(x)) for x in (A, B, C, D)):
+            why = why if A is None else "a non-finite state-space matrix"
+            raise ConvergenceError(
+                f"Parameter `horizon`: {self.abbreviation} failed at a horizon of {no} samples "
+                f"({self.horizon} s): {why}; try a longer horizon")
         self.model_ = tuple(np.asarray(x, dtype=float) for x in (A, B, C, D))
         self.info_ = {"order": int(np.asarray(A).shape[0]),
                       "spectral_radius": float(np.max(np.abs(np.linalg.eigvals(A)))),
@@ -195,6 +195,19 @@ class Mdof(PODMethod):
         self.n_modes_ = U.shape[1]
         self.dt_ = dt
         self.reference_ = records[0]
+
+    def _realize(self, markov_mod, realize, ucat, ycat, Ys, Us, no: int, dt: float):
+        """``(A, B, C, D)`` of mdof's SRIM or OKID-ERA at a horizon of ``no`` samples."""
+        if self.method == "srim":
+            if self.fix_srim:
+                A, _, C, _ = realize.srim(ucat, ycat, horizon=no, order=self.order, find="AC")
+                B, D = _bd_zero_state(A, C, Ys, Us)
+                return A, B, C, D
+            return realize.srim(ucat, ycat, horizon=no, order=self.order)
+        okid = okid_fixed() if self.fix_okid else markov_mod.okid
+        m = max(2 * no + 2, int(round(self.markov / dt)))
+        H = okid(ucat, ycat, m=m)
+        return realize.era(H, horizon=no, order=self.order)
 
     def _predict(self, record) -> np.ndarray:
         check_compatible(self.reference_, record, min_samples=1)
