@@ -123,6 +123,31 @@ def test_bands_rules_reproduces_the_live_band_offline(monkeypatch):
     np.testing.assert_allclose(isc, rows["interval_score"], rtol=0.01)
 
 
+def test_bands_rules_mondrian_quantile_is_the_category_folds_own():
+    """The offline conformal quantile from the folds' stored coverage curves is the
+    ⌈0.9(N + 1)⌉-th smallest of the pooled scores r/c (to the width grid's step), and a
+    Mondrian category's is that of its own folds' scores alone."""
+    from benchmarks import bands_rules as R
+
+    rng = np.random.default_rng(3)
+    scores = [rng.lognormal(0.0, 0.5, 400), 3.0 * rng.lognormal(0.0, 0.5, 600)]
+    c = np.array([0.5, 2.0])
+    n = np.array([s.size for s in scores], float)
+    cdfs = [np.searchsorted(np.sort(s * cj), R.SCALE_GRID, side="right") / s.size
+            for s, cj in zip(scores, c, strict=True)]
+    step = np.log(R.SCALE_GRID[1] / R.SCALE_GRID[0])
+
+    def exact(parts):
+        pooled = np.sort(np.concatenate(parts))
+        return pooled[int(np.ceil(0.9 * (pooled.size + 1))) - 1]
+
+    q = R._log_quantile(n, c, cdfs, 0.9)
+    assert abs(q - np.log(exact(scores))) < step
+    q1 = R._log_quantile(n[1:], c[1:], cdfs[1:], 0.9)
+    assert abs(q1 - np.log(exact(scores[1:]))) < step
+    assert q1 > q  # the second fold's scores are the larger
+
+
 def test_f16_time_schedules_tasks_as_the_executor_hands_them_out():
     from benchmarks.f16_time import makespan
 
