@@ -148,6 +148,29 @@ def test_bands_rules_mondrian_quantile_is_the_category_folds_own():
     assert q1 > q  # the second fold's scores are the larger
 
 
+def test_bands_amplitude_load_levels_by_quadrature():
+    """A pulse's peak, impulse ∫|F| dt and energy ∫F² dt (hits included) against a fine
+    quadrature of its shape: half-sine 500 lbf, 1.5 ms, one 0.4 rebound."""
+    from types import SimpleNamespace
+
+    from benchmarks.bands_amplitude import load_level
+
+    p = SimpleNamespace(amplitude=-500.0, duration=1.5e-3, shape="half_sine",
+                        hits=[[0.01, 0.4]])
+    t = np.linspace(0.0, p.duration, 200001)
+    f = 500.0 * np.sin(np.pi * t / p.duration)
+    impulse = np.trapezoid(f, t) * 1.4
+    energy = np.trapezoid(f ** 2, t) * (1.0 + 0.4 ** 2)
+    assert load_level(p, "peak") == (500.0, pytest.approx(energy, rel=1e-8))
+    assert load_level(p, "impulse")[0] == pytest.approx(impulse, rel=1e-8)
+    assert load_level(p, "rms")[0] == pytest.approx(np.sqrt(energy), rel=1e-8)
+    tri = SimpleNamespace(amplitude=2.0, duration=1.0, shape="triangle", hits=[])
+    t = np.linspace(0.0, 1.0, 200001)
+    f = 2.0 * (1.0 - np.abs(2.0 * t - 1.0))
+    assert load_level(tri, "impulse")[0] == pytest.approx(np.trapezoid(f, t), rel=1e-8)
+    assert load_level(tri, "peak")[1] == pytest.approx(np.trapezoid(f ** 2, t), rel=1e-8)
+
+
 def test_f16_time_schedules_tasks_as_the_executor_hands_them_out():
     from benchmarks.f16_time import makespan
 
