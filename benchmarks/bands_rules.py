@@ -13,6 +13,7 @@ rule's fold estimates; ``bands_heldout._grid_features``).
     python benchmarks/bands_rules.py dev.csv
     python benchmarks/bands_rules.py dev.csv --rules folds-leverage --leverage-powers 0.25 0.5 1
     python benchmarks/bands_rules.py dev.csv --rules folds-gains --growth
+    python benchmarks/bands_rules.py dev.csv --rules gains --mondrian none leverage level
 """
 
 from __future__ import annotations
@@ -71,9 +72,48 @@ def _model_estimates(rows, rule: str):
     return np.array(est), np.asarray(cal.fold_estimates, float), cal.rule
 
 
-def _band(rows, est, own, coverage=0.9):
+MONDRIAN = ("none", "leverage", "level")
+"""Categories of a per-category (Mondrian) conformal quantile within one fitted model, read
+from what the records show: ``"leverage"`` a fold (target) whose ``Λ² + 1`` exceeds every
+other fold's (every fold's) against the rest; ``"level"`` a fold (target) whose level
+excursion exceeds 1 (a prediction beyond the others' range) against the rest; ``"none"``
+the pooled quantile (the band code's)."""
+
+
+def _log_quantile(n, c, cdfs, coverage: float) -> float:
+    """The log of the conformal quantile of the scores ``r_j/c_j`` pooled over the folds
+    given (bisection in log q on their stored coverage curves)."""
+    lk = np.log(SCALE_GRID)
+    rank = math.ceil(coverage * (n.sum() + 1)) / n.sum()
+    lo, hi = -40.0, 40.0
+    for _ in range(90):
+        mid = 0.5 * (lo + hi)
+        share = sum(nj * np.interp(mid + math.log(cj), lk, f)
+                    for nj, cj, f in zip(n, c, cdfs, strict=True)) / n.sum()
+        lo, hi = (lo, mid) if share >= rank else (mid, hi)
+    return hi
+
+
+def _categories(rows, mondrian: str):
+    """``(fold categories, row categories)`` (booleans: beyond the rest) of one model."""
+    r0 = rows.iloc[0]
+    if mondrian == "leverage":
+        L = _floats(r0.fold_lev2) + 1.0
+        folds = np.array([L[j] > np.delete(L, j).max() if L.size > 1 else False
+                          for j in range(L.size)])
+        tgt = (rows["leverage"].to_numpy(float) ** 2 + 1.0) > L.max()
+        return folds, tgt
+    if mondrian == "level":
+        a = _floats(r0.fold_excursions) if "fold_excursions" in rows.columns else \
+            _floats(r0.fold_factors)
+        return a > 1.0, rows["level_excursion"].to_numpy(float) > 1.0
+    return None, None
+
+
+def _band(rows, est, own, coverage=0.9, mondrian: str = "none"):
     """Each row's coverage, interval score and best constant band's interval score under a
-    rule's estimates (NaN without the grid features)."""
+    rule's estimates (NaN without the grid features); ``mondrian``: the quantile of the
+    folds of the target's category (:data:`MONDRIAN`; pooled where it has no fold)."""
     nan = np.full(len(rows), np.nan)
     r0 = rows.iloc[0]
     if "fold_cdf" not in rows.columns or not isinstance(r0.fold_cdf, str):
@@ -82,15 +122,17 @@ def _band(rows, est, own, coverage=0.9):
     cdfs = [_floats(s) for s in r0.fold_cdf.split("|")]
     n = _floats(r0.fold_sizes)
     c = own / np.sqrt(1.0 + own ** 2)
-    rank = math.ceil(coverage * (n.sum() + 1)) / n.sum()
-    lo, hi = -40.0, 40.0
-    for _ in range(90):  # the pooled quantile of the scores r_j/c_j (bisection in log q)
-        mid = 0.5 * (lo + hi)
-        share = sum(nj * np.interp(mid + math.log(cj), lk, f)
-                    for nj, cj, f in zip(n, c, cdfs, strict=True)) / n.sum()
-        lo, hi = (lo, mid) if share >= rank else (mid, hi)
+    pooled = _log_quantile(n, c, cdfs, coverage)
+    fcat, tcat = _categories(rows, mondrian)
+    per_cat = {}
+    if fcat is not None:
+        for cat in (False, True):
+            sel = np.flatnonzero(fcat == cat)
+            per_cat[cat] = _log_quantile(n[sel], c[sel], [cdfs[j] for j in sel], coverage) \
+                if sel.size else pooled
     cov, isc, csc = nan.copy(), nan.copy(), nan.copy()
     for i, (_, r) in enumerate(rows.iterrows()):
+        hi = pooled if tcat is None else per_cat[bool(tcat[i])]
         k = math.log(math.exp(hi) * est[i] / math.sqrt(1.0 + est[i] ** 2))
         cov[i] = np.interp(k, lk, _floats(r.target_cdf))
         isc[i] = math.exp(np.interp(k, lk, np.log(_floats(r.target_is))))
@@ -98,8 +140,9 @@ def _band(rows, est, own, coverage=0.9):
     return cov, isc, csc
 
 
-def score_rule(df, rule: str) -> dict:
-    """The held-out scores (``bands_heldout.scores``) of ``rule`` on the stored rows."""
+def score_rule(df, rule: str, mondrian: str = "none") -> dict:
+    """The held-out scores (``bands_heldout.scores``) of ``rule`` on the stored rows
+    (``mondrian``: the band's quantile per category, :data:`MONDRIAN`)."""
     import pandas as pd
 
     from benchmarks.bands_heldout import scores
@@ -108,7 +151,7 @@ def score_rule(df, rule: str) -> dict:
     chosen = []
     for _, rows in df.groupby(["cls", "method", "seed", "noise"], sort=False):
         est, own, applied = _model_estimates(rows, rule)
-        cov, isc, csc = _band(rows, est, own)
+        cov, isc, csc = _band(rows, est, own, mondrian=mondrian)
         out.loc[rows.index, "error_estimate"] = est
         for col, v in (("coverage", cov), ("interval_score", isc),
                        ("constant_interval_score", csc)):
@@ -121,6 +164,9 @@ def score_rule(df, rule: str) -> dict:
         r = g["error_estimate"] / g["total_error"]
         s[f"within_factor_2_{m}"] = float(np.mean((r >= 0.5) & (r <= 2)))
     s["models_on_folds"] = f"{sum(c != 'gains' for c in chosen)}/{len(chosen)}"
+    if np.isfinite(ok["coverage"].to_numpy(float)).any():
+        for (m, c, lv), g in ok.groupby(["method", "cls", "noise"]):
+            s[f"coverage {m} {c} {100 * lv:g} %"] = float(g["coverage"].mean())
     return pd.Series(s)
 
 
@@ -134,6 +180,9 @@ def main(argv=None) -> int:
     ap.add_argument("--rules", nargs="*", default=list(RULES), choices=RULES)
     ap.add_argument("--leverage-powers", nargs="*", type=float,
                     default=[bands.LEVERAGE_POWER])
+    ap.add_argument("--mondrian", nargs="*", default=["none"], choices=MONDRIAN,
+                    help="the band's quantile per category of folds (MONDRIAN); one column "
+                         "each")
     ap.add_argument("--growth", action="store_true",
                     help="\"folds-gains\" beyond the folds' leverage: the folds' estimate times "
                          "the gains' growth (bands.FOLDS_GAINS_GROWTH)")
@@ -147,7 +196,10 @@ def main(argv=None) -> int:
             old = bands.LEVERAGE_POWER
             bands.LEVERAGE_POWER = old if p is None else p
             try:
-                cols[rule if p is None else f"{rule} p={p:g}"] = score_rule(df, rule)
+                for mon in args.mondrian:
+                    name = (rule if p is None else f"{rule} p={p:g}") + \
+                        ("" if mon == "none" else f", Mondrian {mon}")
+                    cols[name] = score_rule(df, rule, mon)
             finally:
                 bands.LEVERAGE_POWER = old
     table = pd.DataFrame(cols)

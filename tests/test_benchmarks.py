@@ -123,6 +123,54 @@ def test_bands_rules_reproduces_the_live_band_offline(monkeypatch):
     np.testing.assert_allclose(isc, rows["interval_score"], rtol=0.01)
 
 
+def test_bands_rules_mondrian_quantile_is_the_category_folds_own():
+    """The offline conformal quantile from the folds' stored coverage curves is the
+    ⌈0.9(N + 1)⌉-th smallest of the pooled scores r/c (to the width grid's step), and a
+    Mondrian category's is that of its own folds' scores alone."""
+    from benchmarks import bands_rules as R
+
+    rng = np.random.default_rng(3)
+    scores = [rng.lognormal(0.0, 0.5, 400), 3.0 * rng.lognormal(0.0, 0.5, 600)]
+    c = np.array([0.5, 2.0])
+    n = np.array([s.size for s in scores], float)
+    cdfs = [np.searchsorted(np.sort(s * cj), R.SCALE_GRID, side="right") / s.size
+            for s, cj in zip(scores, c, strict=True)]
+    step = np.log(R.SCALE_GRID[1] / R.SCALE_GRID[0])
+
+    def exact(parts):
+        pooled = np.sort(np.concatenate(parts))
+        return pooled[int(np.ceil(0.9 * (pooled.size + 1))) - 1]
+
+    q = R._log_quantile(n, c, cdfs, 0.9)
+    assert abs(q - np.log(exact(scores))) < step
+    q1 = R._log_quantile(n[1:], c[1:], cdfs[1:], 0.9)
+    assert abs(q1 - np.log(exact(scores[1:]))) < step
+    assert q1 > q  # the second fold's scores are the larger
+
+
+def test_bands_amplitude_load_levels_by_quadrature():
+    """A pulse's peak, impulse ∫|F| dt and energy ∫F² dt (hits included) against a fine
+    quadrature of its shape: half-sine 500 lbf, 1.5 ms, one 0.4 rebound."""
+    from types import SimpleNamespace
+
+    from benchmarks.bands_amplitude import load_level
+
+    p = SimpleNamespace(amplitude=-500.0, duration=1.5e-3, shape="half_sine",
+                        hits=[[0.01, 0.4]])
+    t = np.linspace(0.0, p.duration, 200001)
+    f = 500.0 * np.sin(np.pi * t / p.duration)
+    impulse = np.trapezoid(f, t) * 1.4
+    energy = np.trapezoid(f ** 2, t) * (1.0 + 0.4 ** 2)
+    assert load_level(p, "peak") == (500.0, pytest.approx(energy, rel=1e-8))
+    assert load_level(p, "impulse")[0] == pytest.approx(impulse, rel=1e-8)
+    assert load_level(p, "rms")[0] == pytest.approx(np.sqrt(energy), rel=1e-8)
+    tri = SimpleNamespace(amplitude=2.0, duration=1.0, shape="triangle", hits=[])
+    t = np.linspace(0.0, 1.0, 200001)
+    f = 2.0 * (1.0 - np.abs(2.0 * t - 1.0))
+    assert load_level(tri, "impulse")[0] == pytest.approx(np.trapezoid(f, t), rel=1e-8)
+    assert load_level(tri, "peak")[1] == pytest.approx(np.trapezoid(f ** 2, t), rel=1e-8)
+
+
 def test_f16_time_schedules_tasks_as_the_executor_hands_them_out():
     from benchmarks.f16_time import makespan
 

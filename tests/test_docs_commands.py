@@ -229,6 +229,9 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/bands_rules.py dev.csv": NOT_RUN(
         "reads the rows of a bands_heldout.py --features run (half an hour on 2 cores); its "
         "offline band is checked against the live one in tests/test_benchmarks.py"),
+    "python benchmarks/bands_amplitude.py ROWS --set SET": NOT_RUN(
+        "reads the rows of a bands_heldout.py --features run (half an hour on 2 cores); its "
+        "load levels are checked by hand in tests/test_benchmarks.py"),
     "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),

@@ -102,3 +102,36 @@ def test_a_method_without_a_model_form_term_gives_no_estimate():
                              F=np.zeros_like(case.W_w0), dt=case.dt), coverage=0.9)
     assert math.isnan(p.error_estimate)
     assert "no error estimate" in p.note and "left out" in p.note
+
+
+def test_one_row_coefficients_match_the_svd_and_lstsq():
+    """One excitation row per bin (one input): the closed form E_bᴴ e_b/‖E_b‖² gives the
+    numbers of the batched SVD and of a per-bin minimum-norm least squares, bins below
+    RCOND × the largest norm dropped (zero) in all three."""
+    rng = np.random.default_rng(7)
+    B, N = 40, 4
+    E = rng.standard_normal((B, 1, N)) + 1j * rng.standard_normal((B, 1, N))
+    E[5] *= 1e-9  # below RCOND × the largest: dropped
+    E[9] = 0.0
+    e = rng.standard_normal((B, 1)) + 1j * rng.standard_normal((B, 1))
+    closed = band_target._coefficients(E, e)
+    svd = band_target._coefficients_svd(E, e)
+    np.testing.assert_allclose(closed, svd, rtol=1e-12, atol=1e-14)
+    top = max(np.linalg.norm(E[b]) for b in range(B))
+    for b in range(B):
+        if np.linalg.norm(E[b]) > band_target.RCOND * top:
+            ref = np.linalg.lstsq(E[b], e[b], rcond=None)[0]
+        else:
+            ref = np.zeros(N)
+        np.testing.assert_allclose(closed[b], ref, rtol=1e-12, atol=1e-14)
+    assert np.all(closed[5] == 0) and np.all(closed[9] == 0)
+    # the target's own row gives c with E_b c = e_b exactly wherever kept
+    kept = [b for b in range(B) if b not in (5, 9)]
+    np.testing.assert_allclose(np.einsum("bn,bn->b", E[kept, 0], closed[kept]),
+                               e[kept, 0], rtol=1e-12)
+    # real rows (a free response in one mode) stay real
+    Er, er = E.real.copy(), e.real.copy()
+    cr = band_target._coefficients(Er, er)
+    assert cr.dtype == np.float64
+    np.testing.assert_allclose(cr, band_target._coefficients_svd(Er, er), rtol=1e-12,
+                               atol=1e-14)

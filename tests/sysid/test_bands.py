@@ -501,6 +501,27 @@ def test_effective_level_of_a_pooled_fit_by_hand(monkeypatch):
     assert bands.input_excursion(6.0, [1.0, 3.0], [1.0, 9.0]) == pytest.approx(2.0)
 
 
+def test_nearest_level_of_a_model_kept_per_level(monkeypatch):
+    """A model kept per training level (``levels_``: ML-interp) is compared with the nearest
+    training level, both ways: levels 1, 3, 4 N asked at 2 N → 2/1 = 1.5 from 3 is nearer:
+    1.5; at 3.5 N: 4/3.5; at 8 N: 2; at 0.5 N: 2. A pooled model keeps LEVEL_REFERENCE."""
+    from types import SimpleNamespace
+
+    from podbench.sysid.methods import bands
+
+    monkeypatch.setattr(bands, "LEVEL_REFERENCE", "effective")
+    lv, en = [1.0, 3.0, 4.0], [1.0, 9.0, 16.0]
+    assert bands.input_excursion(2.0, lv, en, "nearest") == pytest.approx(1.5)
+    assert bands.input_excursion(3.5, lv, en, "nearest") == pytest.approx(4.0 / 3.5)
+    assert bands.input_excursion(8.0, lv, en, "nearest") == pytest.approx(2.0)
+    assert bands.input_excursion(0.5, lv, en, "nearest") == pytest.approx(2.0)
+    assert bands.input_excursion(3.0, lv, en, "nearest") == 1.0
+    # the effective level (1 + 27 + 64)/26 = 3.538...: 2 N lies 1.77x from it
+    assert bands.input_excursion(2.0, lv, en) == pytest.approx(92 / 26 / 2.0)
+    assert bands.level_reference(SimpleNamespace(levels_=np.array(lv))) == "nearest"
+    assert bands.level_reference(SimpleNamespace()) == "effective"
+
+
 def test_rule_losses_by_hand():
     """``rule_losses``: each fold estimated without it, the mean squared log ratio. Folds
     whose errors follow ``0.01 sqrt(Λ² + 1)`` exactly are explained by the gains left out

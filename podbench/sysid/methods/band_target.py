@@ -148,13 +148,38 @@ def excitations(model, records, U) -> Excitations | None:
 
 def _coefficients(E: np.ndarray, e: np.ndarray) -> np.ndarray:
     """``c = E⁺ e`` per bin (B, N), singular values below :data:`RCOND` × the largest of
-    all bins dropped."""
+    all bins dropped.
+
+    With one excitation row per bin (one input, one mode) the pseudo-inverse has a closed
+    form: a 1 × N matrix ``E_b`` has the single singular value ``‖E_b‖`` and the
+    minimum-norm solution of ``E_b c = e_b`` is ``c = E_bᴴ e_b / ‖E_b‖²`` — the same
+    numbers as the SVD's, without a batched decomposition of every bin."""
+    if E.shape[1] == 1:
+        return _coefficients_one_row(E[:, 0, :], e[:, 0])
+    return _coefficients_svd(E, e)
+
+
+def _coefficients_svd(E: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``c = E⁺ e`` per bin through a batched SVD (any number of rows)."""
     u, s, vh = np.linalg.svd(E, full_matrices=False)
     top = float(np.max(s)) if s.size else 0.0
     if top == 0:
         return np.zeros((E.shape[0], E.shape[2]), dtype=E.dtype)
     inv = np.where(s > RCOND * top, 1.0 / np.where(s > 0, s, 1.0), 0.0)
     return np.einsum("bji,bj,bkj,bk->bi", vh.conj(), inv, u.conj(), e)
+
+
+def _coefficients_one_row(E: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``c = E_bᴴ e_b / ‖E_b‖²`` per bin for rows ``E`` (B, N) and right-hand sides ``e``
+    (B,), bins whose norm is below :data:`RCOND` × the largest dropped (zero)."""
+    norm2 = np.sum(E.real ** 2 + E.imag ** 2, axis=1) if np.iscomplexobj(E) \
+        else np.sum(E ** 2, axis=1)
+    s = np.sqrt(norm2)
+    top = float(np.max(s)) if s.size else 0.0
+    if top == 0:
+        return np.zeros(E.shape, dtype=np.result_type(E, e))
+    inv2 = np.where(s > RCOND * top, 1.0 / np.where(s > 0, norm2, 1.0), 0.0)
+    return E.conj() * (inv2 * e)[:, None]
 
 
 def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetTerms:

@@ -140,15 +140,34 @@ def input_energy(record) -> float:
     return float(np.sum(np.asarray(record.u, dtype=float) ** 2))
 
 
-def input_excursion(level: float, levels, energies) -> float:
+def input_excursion(level: float, levels, energies, reference: str | None = None) -> float:
     """How far a measured input's RMS ``level`` lies from the training records' levels
-    (``levels``, their input ``energies``), both ways (:data:`LEVEL_REFERENCE`)."""
-    if LEVEL_REFERENCE == "range":
+    (``levels``, their input ``energies``), both ways: against ``reference`` (default
+    :data:`LEVEL_REFERENCE`; ``"nearest"`` for a model kept per level,
+    :func:`level_reference`)."""
+    reference = reference or LEVEL_REFERENCE
+    if reference == "range":
         return extrapolation(level, min(levels), max(levels), below=True)
+    if reference == "nearest":
+        lv = np.asarray(levels, dtype=float)
+        lv = lv[lv > 0]
+        if not level > 0 or lv.size == 0:
+            return 1.0
+        return float(np.min(np.maximum(level / lv, lv / level)))
     ref = effective_level(levels, energies)
     if not level > 0 or not ref > 0:
         return 1.0
     return float(max(level / ref, ref / level))
+
+
+def level_reference(model) -> str:
+    """What a fitted model's input levels are compared with: ``"nearest"`` for a model that
+    keeps one identification per training level and interpolates between them at the
+    target's level (it has ``levels_``: ML-interp), whose model at a level between two
+    training levels is built from those two, so its distance from what was identified is
+    the distance to the nearest training level, ``min_l max(x/x_l, x_l/x)``; else
+    :data:`LEVEL_REFERENCE` (a pooled fit sits at its effective level)."""
+    return "nearest" if getattr(model, "levels_", None) is not None else LEVEL_REFERENCE
 
 
 def levels(records) -> tuple[str, list[float]]:
@@ -418,6 +437,7 @@ class BandCalibration:
     note: str = ""                   # why no estimate can be made (empty: it can)
     level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
     level_power: float = AMPLITUDE_POWER  # β of the level's excursion d = a^β
+    level_reference: str = ""        # input_excursion's reference ("": LEVEL_REFERENCE)
 
     def quantile(self, coverage: float) -> float:
         """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
@@ -519,7 +539,8 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
             for j in range(len(recs))]
 
 
-def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float], list[np.ndarray]]:
+def _fold_envelopes(Whs, recs, reference: str | None = None
+                    ) -> tuple[list[np.ndarray], list[float], list[np.ndarray]]:
     """``(envelopes, excursions, local)``: each fold's envelope of its prediction, floored by the
     per-sensor RMS of the records it was fitted on (computed for all folds at once where
     the predictions share a shape), and how far its level lies outside the others'
@@ -537,7 +558,7 @@ def _fold_envelopes(Whs, recs) -> tuple[list[np.ndarray], list[float], list[np.n
         refs.append(np.sqrt(np.mean(rest, axis=0)))
         if rule == "input":
             excursions.append(input_excursion(
-                amps[j], rest_lv, [energy[l] for l in range(N) if l != j]))
+                amps[j], rest_lv, [energy[l] for l in range(N) if l != j], reference))
         else:
             excursions.append(extrapolation(_rms(Wh), min(rest_lv), max(rest_lv)))
     if len({Wh.shape for Wh in Whs}) == 1:
@@ -577,7 +598,7 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
             cv_modes = len(recs) - 1
         U_cv = U if cv_modes is None else U[:, :cv_modes]
         Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
-        envs, excursions, local = _fold_envelopes(Whs, recs)
+        envs, excursions, local = _fold_envelopes(Whs, recs, level_reference(model))
         for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
@@ -661,6 +682,7 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
                           len(noise_models), cv_modes, noise_models,
                           (min(amps), max(amps)), _sensor_rms(recs), level_rule=rule)
     if rule == "input":
+        cal.level_reference = level_reference(model)
         cal.input_levels = tuple(amps)
         cal.input_energies = tuple(input_energy(r) for r in recs)
     if source == "cross-validation":
@@ -1109,7 +1131,7 @@ def target_excursion(record, Wh, cal: BandCalibration) -> float:
         level = input_level(record)
         if level is not None:
             return input_excursion(level, cal.input_levels or cal.amplitude_range,
-                                   cal.input_energies or (1.0, 1.0))
+                                   cal.input_energies or (1.0, 1.0), cal.level_reference)
     return extrapolation(_rms(Wh), *cal.amplitude_range)
 
 
