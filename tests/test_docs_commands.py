@@ -159,6 +159,7 @@ COMMANDS: dict[str, object] = {
     "podbench run base_excited": SLOW,
     "podbench run f16_gvt": SLOW,
     "podbench predict --method ML": SYNOPSIS,
+    "podbench predict --method ML --solver tc": SYNOPSIS,
     ("podbench predict --method ML --train scenarios/f16_gvt/data/f16_fullmsine_level1_12N.npz "
      "scenarios/f16_gvt/data/f16_fullmsine_level3_37N.npz scenarios/f16_gvt/data/"
      "f16_fullmsine_level5_74N.npz --target scenarios/f16_gvt/data/"
