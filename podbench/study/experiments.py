@@ -409,12 +409,15 @@ def strike_forces(exp: Experiment, test: TestCampaign, structure, case: str,
 def _strike_responses(s, test: TestCampaign, cname: str, Fs, simulate, runs=None):
     """``(Response, strike forces)``: the clean record of a case, its ``W`` row ``i`` from
     strike ``i + 1`` (one strike per sensor row) and ``F`` the first strike's load. Identical
-    strikes are simulated once (``runs``: the simulations so far, keyed by test and force,
-    shared between calls)."""
+    strikes are simulated once (``runs``: the simulations so far, shared between calls and
+    between tests: keyed by the structure entry and its overrides, the sampling and the
+    force, so two tests of one structure with the same strikes — the same scatter draws read
+    with another ``force_record`` — share them)."""
     runs = {} if runs is None else runs
 
     def run(F):
-        key = (test.name, F.tobytes())
+        key = (test.structure, repr(sorted(test.overrides.items())), test.n_samples,
+               float(test.dt).hex(), F.tobytes())
         if key not in runs:
             runs[key] = simulate(s, n_samples=test.n_samples, dt=test.dt, force=F, label=cname)
         return runs[key]

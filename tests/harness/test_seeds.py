@@ -199,6 +199,30 @@ def test_other_seeds_are_the_experiment_with_another_noise_seed():
                                   recs[(0, "linear_beam", "noise_1pct", "load8")].W)
 
 
+def test_tests_with_the_same_strikes_share_their_simulations(monkeypatch):
+    """Two tests of one structure whose strikes are the same (the 10 % scatter read with
+    the first and with the mean load cell) simulate them once; each record is the one the
+    test gives alone, bit for bit."""
+    from podbench.study import experiments
+
+    exp = load_experiment(CH5)
+    names = ("linear_beam_scatter_a10pct", "linear_beam_scatter_a10pct_force_mean")
+    calls = []
+    real = experiments.simulate
+    monkeypatch.setattr(experiments, "simulate",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    both = generate_seeds(exp, (1,), {(n, "noise_1pct") for n in names})
+    shared = len(calls)
+    for name in names:
+        calls.clear()
+        alone = generate_seeds(exp, (1,), {(name, "noise_1pct")})
+        assert len(calls) == shared  # 3 cases x 6 strikes, each simulated once
+        for key, rec in alone.items():
+            np.testing.assert_array_equal(both[key].W, rec.W)
+            np.testing.assert_array_equal(both[key].F, rec.F)
+    assert shared == 18
+
+
 def test_which_scenarios_the_seeds_change():
     exp = load_experiment(CH5)
     for name, varied in (("linear_beam_noise_0pct", False), ("linear_beam_noise_5pct", True),

@@ -160,3 +160,27 @@ def test_tls_gram_gives_way_to_the_svd_where_the_tls_denominator_vanishes():
         Xr, _ = dense._tls_svd(A, B, None, None, None)
     np.testing.assert_array_equal(X, Xr)           # the SVD answered
     assert not np.any(X)
+
+
+def test_cgls_keeps_its_answer_like_the_dense_solvers(monkeypatch):
+    """``"cgls"`` (conjugate gradients, deterministic) returns a repeated solve from the same
+    memo: the first answer bit for bit, without iterating again; another right-hand side
+    is solved afresh."""
+    from podbench.sysid.deconvolution import tikhonov
+
+    rng = np.random.default_rng(10)
+    q, B = _system(rng)
+    dense._MEMO.clear()
+    runs = []
+    real = tikhonov.cgls_iterate
+    monkeypatch.setattr(tikhonov, "cgls_iterate", lambda *a: runs.append(1) or real(*a))
+    solver = tikhonov.CGLS(reg=1e-3)
+    first = solver.solve(ConvolutionSystem(q, B, 1e-3))
+    again = solver.solve(ConvolutionSystem([x.copy() for x in q], B.copy(), 1e-3))
+    assert len(runs) == 1
+    assert np.array_equal(first.X, again.X) and first.info == again.info
+    dense._MEMO.clear()
+    assert np.array_equal(solver.solve(ConvolutionSystem(q, B, 1e-3)).X, first.X)
+    other = solver.solve(ConvolutionSystem(q, 2.0 * B, 1e-3))
+    assert len(runs) == 3
+    np.testing.assert_allclose(other.X, 2.0 * first.X, rtol=1e-6, atol=1e-9 * np.abs(first.X).max())

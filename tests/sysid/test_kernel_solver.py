@@ -185,3 +185,25 @@ def test_evidence_quadratic_has_no_cancellation_on_square_systems():
     for g in (1e-14 * d.max(), 1e-8 * d.max(), 1e-2 * d.max(), 10 * d.max()):
         exact = float(np.sum(y**2 * g / (d + g)))
         assert abs(_quadratic(float(y @ y), d, z2, g) - exact) <= 1e-12 * exact
+
+
+def test_shape_decompositions_shared_by_refits_on_the_same_forces():
+    """A refit on the same forces with other responses (a band's noise refit) reuses the
+    kept shape decompositions: the same answer, bit for bit, as with none kept, the same
+    evaluation count, and the shapes it shares are not decomposed again."""
+    from podbench.sysid.deconvolution import kernel
+
+    Qs, B, dt, _ = _chain(n=48, k=2, noise=0.01)
+    B2 = B + 0.01 * B.std() * np.random.default_rng(7).standard_normal(B.shape)
+    solver = dc.KernelRegularized(n_hyper=24)
+    kernel._DECOMPOSED.clear()
+    first = solver.solve(dc.ConvolutionSystem(Qs, B, dt))
+    shapes = set(kernel._DECOMPOSED)
+    assert len(shapes) == first.info["evaluations"] >= 25  # the 5 x 5 grid and the search
+    again = solver.solve(dc.ConvolutionSystem(Qs, B2, dt))
+    added = len(kernel._DECOMPOSED) - len(shapes)
+    assert added <= again.info["evaluations"] - 25  # the grid's 25 starts were read back
+    kernel._DECOMPOSED.clear()
+    fresh = solver.solve(dc.ConvolutionSystem(Qs, B2, dt))
+    np.testing.assert_array_equal(again.X, fresh.X)
+    assert again.info == fresh.info

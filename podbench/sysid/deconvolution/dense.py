@@ -476,11 +476,11 @@ def truncated_tls(
 
 # ----------------------------------------------------------------------- solver objects
 MEMO_SIZE = 16
-"""Solutions that the built-in dense solvers keep per process (least recently used first
-out). A study solves the same system with the same solver more than once (a method and its
-coupled twin in the same basis, ``"auto"``'s exact solve on clean records, a band's refits):
-the memo returns the first answer, bit for bit, instead of a second ``O((kn)³)``
-factorization."""
+"""Solutions that the built-in dense solvers and ``"cgls"`` keep per process (least recently
+used first out). A study solves the same system with the same solver more than once (a
+method and its coupled twin in the same basis, ``"auto"``'s exact solve on clean records, a
+band's refits): the memo returns the first answer, bit for bit, instead of a second
+``O((kn)³)`` factorization (or conjugate-gradient solve)."""
 
 _MEMO: OrderedDict = OrderedDict()
 
@@ -495,6 +495,27 @@ def _memo_key(solver, system: ConvolutionSystem) -> tuple:
     params = repr(sorted(solver.get_params(deep=False).items()))
     return (type(solver).__qualname__, params, h.hexdigest(), float(system.dt).hex(),
             bool(system.vector))
+
+
+def memoized(solver, system: ConvolutionSystem, compute):
+    """``compute(system)`` → ``(X, info)``, or the answer kept from the same solve in this
+    process (:data:`MEMO_SIZE`; keyed by :func:`_memo_key`), a copy, bit for bit, with the
+    first solve's warnings issued again. For deterministic solvers only."""
+    key = _memo_key(solver, system)
+    hit = _MEMO.get(key)
+    if hit is None:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            X, info = compute(system)
+        hit = (np.array(X, dtype=float), dict(info), list(caught))
+        _MEMO[key] = hit
+        while len(_MEMO) > MEMO_SIZE:
+            _MEMO.popitem(last=False)
+    else:
+        _MEMO.move_to_end(key)
+    for w in hit[2]:  # the first solve's warnings, every time
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return hit[0].copy(), dict(hit[1])
 
 
 class DenseSolver(Solver):
@@ -520,21 +541,7 @@ class DenseSolver(Solver):
     def _solve(self, system: ConvolutionSystem):
         if type(self) not in _MEMO_CLASSES:
             return self._solve_dense(system)
-        key = _memo_key(self, system)
-        hit = _MEMO.get(key)
-        if hit is None:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                X, info = self._solve_dense(system)
-            hit = (np.array(X, dtype=float), dict(info), list(caught))
-            _MEMO[key] = hit
-            while len(_MEMO) > MEMO_SIZE:
-                _MEMO.popitem(last=False)
-        else:
-            _MEMO.move_to_end(key)
-        for w in hit[2]:  # the first solve's warnings, every time
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-        return hit[0].copy(), dict(hit[1])
+        return memoized(self, system, self._solve_dense)
 
     def _solve_dense(self, system: ConvolutionSystem):
         """Form ``A`` and solve (:meth:`_solve` without the memo)."""

@@ -35,6 +35,9 @@ products (``O(k² n log n)`` per iteration, ``A`` never formed).
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
+
 import numpy as np
 import scipy  # scipy.signal, scipy.optimize: loaded on first use (SciPy's lazy submodules)
 import scipy.fft
@@ -131,6 +134,16 @@ def _quadratic(yy: float, d: np.ndarray, z2: np.ndarray, g: float) -> float:
             - float(np.sum(z2[~big] / (d[~big] + g))))
 
 
+DECOMPOSE_CACHE_BYTES = 256 * 2**20
+"""Bytes of shape decompositions ``(d, V, S)`` kept per process (:meth:`_Evidence.decompose`,
+least recently used out). They depend on the forces and the shape only, not on the
+responses: a fit's refits on the same forces with other responses (a prediction band's
+noise refits, ``"auto"``'s evidence test on each) try the same shapes — the 25 starts of
+the grid, and mostly the same Nelder–Mead path — and get them back, bit for bit."""
+
+_DECOMPOSED: OrderedDict = OrderedDict()
+
+
 class _Evidence:
     """The profiled evidence of the first ``m`` samples, for shapes ``(λ, ρ)``."""
 
@@ -146,16 +159,31 @@ class _Evidence:
         self.h = A.T @ y  # (k·m, r)
         self.yy = np.sum(y**2, axis=0)  # (r,)
         self.evaluations = 0
+        self._key = hashlib.sha256(np.ascontiguousarray(self.gram).tobytes()).hexdigest()
 
     def decompose(self, lam: float, rho: float):
-        """``(d, V, S)``: eigenpairs of ``Sᵀ AᵀA S`` (block-diagonal ``S``)."""
+        """``(d, V, S)``: eigenpairs of ``Sᵀ AᵀA S`` (block-diagonal ``S``); kept per process
+        (:data:`DECOMPOSE_CACHE_BYTES`, keyed by the bytes of ``AᵀA`` and the shape), read
+        only."""
+        self.evaluations += 1
+        key = (self._key, self.k, self.m, float(lam).hex(), float(rho).hex())
+        hit = _DECOMPOSED.get(key)
+        if hit is not None:
+            _DECOMPOSED.move_to_end(key)
+            return hit
         k, m = self.k, self.m
         S = _factor(m, lam, rho)
         G4 = self.gram.reshape(k, m, k, m)
         H = np.einsum("pa,ipjq,qb->iajb", S, G4, S, optimize=True).reshape(k * m, k * m)
         d, V = scipy.linalg.eigh(H, overwrite_a=True, check_finite=False)
-        self.evaluations += 1
-        return np.maximum(d, 0.0), V, S
+        out = (np.maximum(d, 0.0), V, S)
+        for arr in out:
+            arr.flags.writeable = False
+        _DECOMPOSED[key] = out
+        total = sum(a.nbytes for entry in _DECOMPOSED.values() for a in entry)
+        while total > DECOMPOSE_CACHE_BYTES and len(_DECOMPOSED) > 1:
+            total -= sum(a.nbytes for a in _DECOMPOSED.popitem(last=False)[1])
+        return out
 
     def project(self, V, S):
         k, m = self.k, self.m

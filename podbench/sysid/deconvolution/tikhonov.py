@@ -19,6 +19,7 @@ import scipy.fft
 from podbench.errors import ConvergenceError, IllConditionedError, InputError
 from podbench.sysid.deconvolution._base import Solver
 from podbench.sysid.deconvolution._cg import coldot, fft_operators, pcg
+from podbench.sysid.deconvolution.dense import memoized
 from podbench.sysid.deconvolution.determined import StoppingRule
 from podbench.sysid.deconvolution.system import ConvolutionSystem, first_sample
 from podbench.sysid.params import COUNT, NON_NEGATIVE, POSITIVE, Interval, Options, check_param
@@ -542,5 +543,11 @@ class CGLS(Solver):
         return p["reg"], p["tol"], 1000 if p["max_iter"] is None else p["max_iter"]
 
     def _solve(self, system: ConvolutionSystem):
-        X, info = cgls_iterate(system, *self._cgls_params())
+        """``cgls_iterate``'s answer, kept per process like the dense solvers' (a method and
+        its coupled twin in the same basis solve the same system: the same bytes again; not
+        for a subclass)."""
+        def compute(sy):
+            return cgls_iterate(sy, *self._cgls_params())
+
+        X, info = memoized(self, system, compute) if type(self) is CGLS else compute(system)
         return system.stack(X), info
