@@ -22,6 +22,13 @@ choose it. Levels:
 
     python benchmarks/bands_heldout.py --set dev --features --rows dev.csv
     python benchmarks/bands_amplitude.py dev.csv --set dev
+    python benchmarks/bands_amplitude.py dev.csv --set dev --note
+
+``--note`` scores the per-target note instead (:func:`podbench.sysid.methods.bands.load_note`:
+a target whose load lies beyond every training load by more than the folds measured): the
+designs' records are rebuilt as the held-out run measured them (noise included), the note
+computed for every target, and the rows' estimates compared between targets with and
+without it (the note does not change an estimate; does it mark the low ones?).
 """
 
 from __future__ import annotations
@@ -119,15 +126,63 @@ def model_estimates(rows, kind: str, set_name: str):
     return np.array(est), beta
 
 
+def notes(df, set_name: str):
+    """The :func:`~podbench.sysid.methods.bands.load_note` of every row's target (the
+    training and target records rebuilt as ``bands_heldout.run_design`` measures them)."""
+    import pandas as pd
+
+    from benchmarks import bands_heldout as H
+    from podbench.sysid.methods import bands
+
+    out = {}
+    for d in H.designs(set_name):
+        sel = df[df["seed"] == d.seed]
+        if sel.empty:
+            continue
+        train, targets = H.simulate_design(d)
+        for level in sorted(set(sel["noise"])):
+            recs = [H.noisy_record(r, level, d, f"train{j}") for j, r in enumerate(train)]
+            cal = bands.BandCalibration("cross-validation", np.zeros(0), 0.0,
+                                        np.ones(bands.N_TIME_BINS), None, len(recs), 0)
+            cal.load_levels = tuple(bands.load_levels(r) for r in recs)
+            for i, r in sel[sel["noise"] == level].iterrows():
+                t = H.noisy_record(targets[int(r.target)], level, d, f"target{int(r.target)}")
+                out[i] = bands.load_note(t, cal)
+    return pd.Series(out, dtype=object)
+
+
+def note_report(df, set_name: str) -> None:
+    """Estimate/realized of the targets with and without a note, per method × class."""
+    df = df.assign(note_=notes(df, set_name))
+    df["ratio"] = df["error_estimate"] / df["total_error"]
+    df["noted"] = df["note_"].fillna("") != ""
+    print("method class noted | targets | median estimate/realized | share below 1/2 | "
+          "share within ×2 | mean coverage")
+    for key, g in df.groupby(["method", "cls", "noted"]):
+        r = g["ratio"]
+        print(f"{key[0]} {key[1]} {key[2]} | {len(g)} | {r.median():.2f} | "
+              f"{(r < 0.5).mean():.2f} | {((r >= 0.5) & (r <= 2)).mean():.2f} | "
+              f"{g['coverage'].mean():.3f}")
+    for noted, g in df.groupby("noted"):
+        r = g["ratio"]
+        print(f"all noted={noted} | {len(g)} | {r.median():.2f} | {(r < 0.5).mean():.2f} | "
+              f"{((r >= 0.5) & (r <= 2)).mean():.2f} | {g['coverage'].mean():.3f}")
+
+
 def main(argv=None) -> int:
     import pandas as pd
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rows", help="a CSV of bands_heldout.py --features")
     ap.add_argument("--set", required=True, help="the set the rows are of (dev, test)")
+    ap.add_argument("--note", action="store_true",
+                    help="score the per-target note (bands.load_note) instead")
     args = ap.parse_args(argv)
     df = pd.read_csv(args.rows)
     df = df[df["status"] == "ok"].copy()
+    if args.note:
+        note_report(df, args.set)
+        return 0
     cols, fired = {}, {}
     for kind in LEVELS:
         ok = pd.Series(False, index=df.index)

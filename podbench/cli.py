@@ -527,6 +527,8 @@ def cmd_predict(args) -> int:
     for r in rows:
         band = (f", error_estimate {r['error_estimate'] or '(none: ' + r['note'] + ')'}, "
                 f"coverage {r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
+        if band and r["error_estimate"] and r["note"]:  # an estimate that may be low
+            band += f" (note: {r['note']})"
         print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
               f"{band}")
     print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")

@@ -180,6 +180,52 @@ def levels(records) -> tuple[str, list[float]]:
     return "response", [_rms(r.W) for r in records]
 
 
+def load_levels(record) -> dict | None:
+    """The size of a record's load by two measures, where the load is not a measured input
+    whose level the estimate charges itself (:func:`input_level`): a force ``F`` at the
+    sensors, its peak ``max|F|`` (force unit) and impulse ``Σ_i Σ_t |F_i(t)| dt`` (force
+    unit · s; ``dt`` 1 for a record without one); an initial displacement ``w0``, its peak
+    ``max|w0|`` and norm ``‖w0‖`` (length unit). None for any other record."""
+    if record.u is not None:
+        if not record.collocated or input_level(record) is not None:
+            return None
+        F = np.abs(np.asarray(record.u, dtype=float))
+        return {"peak": float(F.max()), "impulse": float(F.sum()) * float(record.dt or 1.0)}
+    if record.w0 is not None:
+        w0 = np.asarray(record.w0, dtype=float)
+        return {"peak": float(np.abs(w0).max()), "norm": float(np.linalg.norm(w0))}
+    return None
+
+
+def load_note(record, cal) -> str:
+    """Why a cross-validated estimate may be low for this target (empty when there is no
+    reason): its load (:func:`load_levels`) lies beyond the largest training record's by
+    more than any fold's lay beyond the other folds' (and by more than
+    :data:`LEVEL_SPREAD`). The folds then never showed how the error grows with the load's
+    size, and the estimate does not grow with it; on a linear structure it need not (the
+    relative error of a linear model does not change with the load's size), on a nonlinear
+    one the error does. The estimate is kept; the note tells the user."""
+    lv = load_levels(record) if cal.load_levels else None
+    if lv is None:
+        return ""
+    out = []
+    for name, x in lv.items():
+        train = np.array([t[name] for t in cal.load_levels], dtype=float)
+        if train.size < 2 or not (x > 0 and train.max() > 0):
+            continue
+        folds = max(train[j] / max(np.delete(train, j).max(), 1e-300)
+                    for j in range(train.size))
+        reach = max(LEVEL_SPREAD, float(folds))
+        if x / train.max() > reach:
+            out.append(f"{name} {x / train.max():.3g}× the largest training record's, "
+                       f"a fold's at most {folds:.3g}× the other folds'")
+    if not out:
+        return ""
+    return ("the target's load lies beyond every training load by more than the folds "
+            "measured (" + "; ".join(out) + "): the estimate does not grow with the "
+            "load's size, and on a nonlinear structure it may be low")
+
+
 def diagonal_split(pattern, excitation, respond) -> tuple[np.ndarray, np.ndarray]:
     """The diagonal assumption's error of a single-record method (SL, POVR), split into
     what the record determines and what it cannot (module docstring, *One design only*).
@@ -282,8 +328,9 @@ class Prediction:
         Scalars of the calibration (conformal quantile, folds, noise level, the target's
         leverage, blind spot and projection share, …).
     note : str
-        Why no error estimate can be made (``error_estimate`` is then NaN); empty when
-        it can.
+        Why no error estimate can be made (``error_estimate`` is then NaN), or why the
+        estimate given may be low (:func:`load_note`: a load beyond the training loads'
+        size that the folds could not measure); empty otherwise.
     """
 
     mean: np.ndarray
@@ -438,6 +485,7 @@ class BandCalibration:
     level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
     level_power: float = AMPLITUDE_POWER  # β of the level's excursion d = a^β
     level_reference: str = ""        # input_excursion's reference ("": LEVEL_REFERENCE)
+    load_levels: tuple = ()          # each training record's load_levels() (folds only)
 
     def quantile(self, coverage: float) -> float:
         """The conformal quantile: the ⌈(1 − α)(N + 1)⌉-th smallest score (N scores);
@@ -686,6 +734,8 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
         cal.input_levels = tuple(amps)
         cal.input_energies = tuple(input_energy(r) for r in recs)
     if source == "cross-validation":
+        lv = [load_levels(r) for r in recs] if rule == "response" else []
+        cal.load_levels = tuple(lv) if lv and all(x is not None for x in lv) else ()
         _fold_estimate(cal, model, recs, U, residuals, Whs, excursions, local)
     else:
         _in_sample_scale(cal, residuals, envs)
@@ -1101,7 +1151,7 @@ def predict_band(model, record, coverage: float, cal: BandCalibration,
         if terms.rho is not None:
             details["projection_share"] = terms.rho
         half = np.sqrt((q * s_model) ** 2 + z ** 2 * var_noise)
-        note = ""
+        note = load_note(record, cal)
     else:
         err, half, note, more = _one_design(model, record, Wh, cal, c, z, var_noise)
         details.update(more)
