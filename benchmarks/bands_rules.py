@@ -14,6 +14,11 @@ rule's fold estimates; ``bands_heldout._grid_features``).
     python benchmarks/bands_rules.py dev.csv --rules folds-leverage --leverage-powers 0.25 0.5 1
     python benchmarks/bands_rules.py dev.csv --rules folds-gains --growth
     python benchmarks/bands_rules.py dev.csv --rules gains --mondrian none leverage level
+    python benchmarks/bands_rules.py dev.csv --rules gains --recenter
+
+``--recenter`` (a variant, measured in docs/bands.md): every estimate of a model divided by
+the median over its folds of the fold's estimate over its realized error (the folds'
+own bias of the fitted rule, known without the truth).
 """
 
 from __future__ import annotations
@@ -140,6 +145,11 @@ def _band(rows, est, own, coverage=0.9, mondrian: str = "none"):
     return cov, isc, csc
 
 
+RECENTER = False
+"""``--recenter``: divide a model's estimates (and its folds') by the folds' median ratio
+of estimate to realized error."""
+
+
 def score_rule(df, rule: str, mondrian: str = "none") -> dict:
     """The held-out scores (``bands_heldout.scores``) of ``rule`` on the stored rows
     (``mondrian``: the band's quantile per category, :data:`MONDRIAN`)."""
@@ -151,6 +161,9 @@ def score_rule(df, rule: str, mondrian: str = "none") -> dict:
     chosen = []
     for _, rows in df.groupby(["cls", "method", "seed", "noise"], sort=False):
         est, own, applied = _model_estimates(rows, rule)
+        if RECENTER:
+            c = float(np.exp(-np.median(np.log(own / _floats(rows.iloc[0].fold_errors)))))
+            est, own = est * c, own * c
         cov, isc, csc = _band(rows, est, own, mondrian=mondrian)
         out.loc[rows.index, "error_estimate"] = est
         for col, v in (("coverage", cov), ("interval_score", isc),
@@ -186,8 +199,12 @@ def main(argv=None) -> int:
     ap.add_argument("--growth", action="store_true",
                     help="\"folds-gains\" beyond the folds' leverage: the folds' estimate times "
                          "the gains' growth (bands.FOLDS_GAINS_GROWTH)")
+    ap.add_argument("--recenter", action="store_true",
+                    help="divide each model's estimates by its folds' median estimate/error")
     args = ap.parse_args(argv)
     bands.FOLDS_GAINS_GROWTH = args.growth
+    global RECENTER
+    RECENTER = args.recenter
     df = pd.read_csv(args.rows)
     df = df[df["status"] == "ok"]
     cols = {}
