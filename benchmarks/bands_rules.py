@@ -18,7 +18,9 @@ rule's fold estimates; ``bands_heldout._grid_features``).
 
 ``--recenter`` (a variant, measured in docs/bands.md): every estimate of a model divided by
 the median over its folds of the fold's estimate over its realized error (the folds'
-own bias of the fitted rule, known without the truth).
+own bias of the fitted rule, known without the truth). ``--l1`` (a variant): the gains
+fitted by least absolute log residuals (for each κ_Δ² on the grid, κ_Λ² the median instead
+of the geometric mean; :func:`fit_l1`).
 """
 
 from __future__ import annotations
@@ -145,6 +147,33 @@ def _band(rows, est, own, coverage=0.9, mondrian: str = "none"):
     return cov, isc, csc
 
 
+def fit_l1(errors, terms, factors):
+    """``(loss, κ_Λ², κ_Δ²)`` as :func:`podbench.sysid.methods.bands._fit`, with the sum of
+    absolute log residuals for the sum of squares (the median for the geometric mean)."""
+    from podbench.sysid.methods import bands
+
+    e2 = np.asarray(errors, dtype=float) ** 2
+    rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
+    y = np.maximum(e2 - rho2, bands.FLOOR_SHARE * e2) / np.asarray(factors, float) ** 2
+    L = np.array([t.leverage2 + 1.0 for t in terms])
+    D = np.array([t.blind2 for t in terms])
+    ok = np.isfinite(y) & (y > 0) & np.isfinite(L) & np.isfinite(D)
+    if not np.any(ok):
+        return math.inf, 0.0, 0.0
+    y, L, D = y[ok], L[ok], D[ok]
+    cands = [0.0]
+    if np.any(D > 0):
+        base = float(np.median(y[D > 0] / D[D > 0]))
+        cands += list(base * np.logspace(-4, 1, bands.GAIN_GRID))
+    best = None
+    for b in cands:
+        a = float(np.exp(np.median(np.log(np.maximum(y - b * D, 1e-12 * y) / L))))
+        loss = float(np.sum(np.abs(np.log(y) - np.log(a * L + b * D))))
+        if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
+            best = (loss, a, b)
+    return best
+
+
 RECENTER = False
 """``--recenter``: divide a model's estimates (and its folds') by the folds' median ratio
 of estimate to realized error."""
@@ -201,10 +230,14 @@ def main(argv=None) -> int:
                          "the gains' growth (bands.FOLDS_GAINS_GROWTH)")
     ap.add_argument("--recenter", action="store_true",
                     help="divide each model's estimates by its folds' median estimate/error")
+    ap.add_argument("--l1", action="store_true",
+                    help="fit the gains by least absolute log residuals (fit_l1)")
     args = ap.parse_args(argv)
     bands.FOLDS_GAINS_GROWTH = args.growth
     global RECENTER
     RECENTER = args.recenter
+    if args.l1:
+        bands._fit = fit_l1
     df = pd.read_csv(args.rows)
     df = df[df["status"] == "ok"]
     cols = {}
