@@ -123,6 +123,43 @@ def test_bands_rules_reproduces_the_live_band_offline(monkeypatch):
     np.testing.assert_allclose(isc, rows["interval_score"], rtol=0.01)
 
 
+def test_bands_learning_step_matches_the_band_folds_and_explicit_refits():
+    """``bands_learning.learning_step`` on one held-out MDS design (LTI, 1 % noise, k = N):
+    its leave-one-out errors are the band's own fold errors, and each leave-two-out error
+    is the record predicted by MDS refitted here on the other N − 2 records in N − 2 modes
+    (its error inside those modes plus the full basis's projection error); the step is
+    their geometric-mean ratio."""
+    from benchmarks import bands_heldout as H
+    from benchmarks.bands_learning import correction, learning_step
+    from podbench.sysid.methods import MDS
+
+    d = H.designs("dev", ("LTI",), ("MDS",), 1)[0]
+    recs = [H.noisy_record(r, 0.01, d, f"train{j}") for j, r in enumerate(H.simulate_design(d)[0])]
+    model = H.make_method(d).fit(recs)
+    out = learning_step(model, recs)
+    N = len(recs)
+    e1 = np.array([float(x) for x in out["e1_all"].split(";")])
+    np.testing.assert_allclose(e1, model.calibrate_band().fold_errors, rtol=1e-5)
+    U = model.modes_
+    U2 = U[:, :N - 2]
+    e2 = np.zeros((N, N))
+    for j in range(N):
+        for l in range(N):
+            if l != j:
+                m = MDS(n_modes=N - 2).fit([recs[i] for i in range(N) if i not in (j, l)],
+                                           basis=U2)
+                W = np.asarray(recs[j].W, float)
+                R = U2 @ (U2.T @ W) - np.asarray(m.predict(recs[j])) + (W - U @ (U.T @ W))
+                e2[j, l] = np.linalg.norm(R) / np.linalg.norm(W)
+    g2 = np.exp([np.mean(np.log(np.delete(e2[j], j))) for j in range(N)])
+    np.testing.assert_allclose([float(x) for x in out["e2_all"].split(";")], g2, rtol=1e-5)
+    assert out["step"] == pytest.approx(np.exp(np.mean(np.log(e1 / g2))), rel=1e-5)
+    # the power law through (N − 2, e2) and (N − 1, e1), one record further
+    p = -np.log(out["step"]) / np.log((N - 1) / (N - 2))
+    assert correction(out["step"], N, "power") == pytest.approx(((N - 1) / N) ** p)
+    assert correction(out["step"], N, "step") == out["step"]
+
+
 def test_bands_rules_mondrian_quantile_is_the_category_folds_own():
     """The offline conformal quantile from the folds' stored coverage curves is the
     ⌈0.9(N + 1)⌉-th smallest of the pooled scores r/c (to the width grid's step), and a

@@ -233,6 +233,10 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/bands_amplitude.py ROWS --set SET": NOT_RUN(
         "reads the rows of a bands_heldout.py --features run (half an hour on 2 cores); its "
         "load levels are checked by hand in tests/test_benchmarks.py"),
+    "python benchmarks/bands_amplitude.py ROWS --set SET --note": NOT_RUN(
+        "rebuilds the held-out designs' records (minutes) and reads the rows of a "
+        "bands_heldout.py --features run; the note it scores is tested in "
+        "tests/sysid/test_band_note.py"),
     "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),
