@@ -15,7 +15,10 @@ level correction ``c`` to every target estimate of that model offline:
 
 * ``"step"``: ``c = s`` (the same ratio one record further);
 * ``"power"``: ``e ∝ n^(−p)`` fitted through the two points, ``c = ((N − 1)/N)^p``
-  with ``p = −ln s / ln((N − 1)/(N − 2))``.
+  with ``p = −ln s / ln((N − 1)/(N − 2))``;
+* ``"pooled"``: no correction; the gains fitted on the leave-one-out folds and the
+  leave-two-out predictions together (each with its own terms against the records it was
+  predicted from), as more calibration points of the same two-gain law.
 
     python benchmarks/bands_learning.py --set dev --rows learn_dev.csv
     python benchmarks/bands_learning.py --score learn_dev.csv dev.csv
@@ -58,7 +61,7 @@ def _errors(model, recs, keep, U, k_fold, frozen) -> np.ndarray:
 
 def learning_step(model, recs) -> dict:
     """``{n, k, e1 (geomean), e2 (geomean), step}`` of one fitted model (module doc)."""
-    from podbench.sysid.methods import bands
+    from podbench.sysid.methods import band_target, bands
 
     U = np.asarray(model.modes_, float)
     N, k = len(recs), int(U.shape[1])
@@ -70,16 +73,22 @@ def learning_step(model, recs) -> dict:
         return {"n": N, "k": k, "e1": math.nan, "e2": math.nan, "step": math.nan}
     e1 = _errors(model, recs, list(range(N)), U, k1, frozen)
     e2 = np.full((N, N), np.nan)  # e2[j, l]: record j predicted without j and l
+    pairs = []  # (e2, Λ², Δ², ρ) of every leave-two-out prediction, its terms as a fold's
     for l in range(N):
         keep = [i for i in range(N) if i != l]
         e2[keep, l] = _errors(model, recs, keep, U, k2, frozen)
+        terms = band_target.fold_terms(model, [recs[i] for i in keep], U[:, :k2], U)
+        for j, t in zip(keep, terms or [], strict=False):
+            pairs.append((e2[j, l], t.leverage2, t.blind2, t.rho or 0.0))
     with np.errstate(divide="ignore"):
         g2 = np.exp(np.nanmean(np.log(e2), axis=1))
         step = float(np.exp(np.mean(np.log(e1) - np.log(g2))))
     return {"n": N, "k": k, "e1": float(np.exp(np.mean(np.log(e1)))),
             "e2": float(np.exp(np.mean(np.log(g2)))), "step": step,
             "e1_all": ";".join(f"{x:.6g}" for x in e1),
-            "e2_all": ";".join(f"{x:.6g}" for x in g2)}
+            "e2_all": ";".join(f"{x:.6g}" for x in g2),
+            **{f"pair_{name}": ";".join(f"{p[i]:.6g}" for p in pairs)
+               for i, name in enumerate(("errors", "lev2", "blind2", "rho"))}}
 
 
 def run(set_name: str) -> list[dict]:
@@ -112,37 +121,75 @@ def correction(step: float, n: int, law: str) -> float:
     return ((n - 1) / n) ** p
 
 
+def _pooled(g, lrow):
+    """``(target estimates, the leave-one-out folds' estimates)`` of one model under the
+    ``"pooled"`` variant: the gains (:func:`podbench.sysid.methods.bands.fit_gains`) fitted
+    on its leave-one-out folds (the stored rows') and its leave-two-out predictions
+    together, each with its own terms."""
+    from benchmarks.bands_rules import _floats
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.band_target import TargetTerms
+
+    r0 = g.iloc[0]
+    loo = [TargetTerms(a, b, c if c > 0 else None) for a, b, c in
+           zip(_floats(r0.fold_lev2), _floats(r0.fold_blind2), _floats(r0.fold_rho),
+               strict=True)]
+    errors = list(_floats(r0.fold_errors))
+    terms = list(loo)
+    if isinstance(lrow.get("pair_errors"), str):
+        errors += list(_floats(lrow["pair_errors"]))
+        terms += [TargetTerms(a, b, c if c > 0 else None) for a, b, c in
+                  zip(_floats(lrow["pair_lev2"]), _floats(lrow["pair_blind2"]),
+                      _floats(lrow["pair_rho"]), strict=True)]
+    gains = bands.fit_gains(np.array(errors), terms, np.ones(len(errors)))
+    est = np.array([bands.estimate(gains, TargetTerms(
+        r.leverage ** 2, r.blind_spot ** 2,
+        r.projection_share if np.isfinite(r.projection_share) else None))
+        for _, r in g.iterrows()])
+    return est, np.array([bands.estimate(gains, t) for t in loo])
+
+
 def score(learn_csv: str, rows_csv: str) -> None:
+    """Within ×2, Spearman (and, for ``"pooled"``, the band's coverage cells and interval
+    score) of the corrections on the stored rows, against the default rule."""
     import pandas as pd
 
-    from benchmarks.bands_rules import score_rule
+    from benchmarks.bands_heldout import scores
+    from benchmarks.bands_rules import _band, _model_estimates, score_rule
 
     learn = pd.read_csv(learn_csv).set_index(["cls", "method", "seed", "noise"])
     df = pd.read_csv(rows_csv)
     df = df[df["status"] == "ok"]
-    base = score_rule(df, "gains")
-    cols = {"gains": base}
-    est0 = None
-    for law in ("step", "power"):
+    cols = {"gains": score_rule(df, "gains")}
+    for law in ("step", "power", "pooled"):
         out = df.copy()
-        from benchmarks.bands_rules import _model_estimates
         for key, g in df.groupby(["cls", "method", "seed", "noise"], sort=False):
-            est, _, _ = _model_estimates(g, "gains")
-            c = correction(*learn.loc[key, ["step", "n"]], law) if key in learn.index else 1.0
-            out.loc[g.index, "error_estimate"] = est * c
-        est0 = out
-        r = est0["error_estimate"] / est0["total_error"]
-        s = {"within_factor_2": float(np.mean((r >= 0.5) & (r <= 2)))}
+            lrow = learn.loc[key] if key in learn.index else pd.Series(dtype=object)
+            if law == "pooled":
+                est, own = _pooled(g, lrow)
+                cov, isc, csc = _band(g, est, own)
+                out.loc[g.index, "coverage"] = cov
+                out.loc[g.index, "interval_score"] = isc
+                out.loc[g.index, "constant_interval_score"] = csc
+            else:
+                est = _model_estimates(g, "gains")[0]
+                est = est * (correction(lrow["step"], int(lrow["n"]), law)
+                             if len(lrow) else 1.0)
+            out.loc[g.index, "error_estimate"] = est
+        if law != "pooled":
+            out = out.assign(coverage=np.nan)
+        s = scores(out)
+        if law != "pooled":  # the band is not recomputed under a level correction
+            s["coverage_cells_in_0.85_0.95"] = s["interval_score_ratio"] = math.nan
+        r = out["error_estimate"] / out["total_error"]
         for m in ("MDS", "ML"):
-            sel = est0["method"] == m
+            sel = out["method"] == m
             s[f"within_factor_2_{m}"] = float(np.mean((r[sel] >= 0.5) & (r[sel] <= 2)))
-        from benchmarks.bands_heldout import scores
-        s.update({k: v for k, v in scores(out.assign(coverage=np.nan)).items()
-                  if k.startswith("spearman")})
         cols[law] = pd.Series(s)
-    print(pd.DataFrame(cols).loc[["within_factor_2", "within_factor_2_MDS",
-                                  "within_factor_2_ML", "spearman",
-                                  "spearman_within_model_median"]].round(3).to_string())
+    keys = ["within_factor_2", "within_factor_2_MDS", "within_factor_2_ML", "spearman",
+            "spearman_within_model_median", "coverage_cells_in_0.85_0.95",
+            "coverage_cell_min", "coverage_cell_max", "interval_score_ratio"]
+    print(pd.DataFrame(cols).loc[keys].to_string())
 
 
 def main(argv=None) -> int:

@@ -154,6 +154,8 @@ def test_bands_learning_step_matches_the_band_folds_and_explicit_refits():
     g2 = np.exp([np.mean(np.log(np.delete(e2[j], j))) for j in range(N)])
     np.testing.assert_allclose([float(x) for x in out["e2_all"].split(";")], g2, rtol=1e-5)
     assert out["step"] == pytest.approx(np.exp(np.mean(np.log(e1 / g2))), rel=1e-5)
+    pairs = np.sort([float(x) for x in out["pair_errors"].split(";")])
+    np.testing.assert_allclose(pairs, np.sort(e2[~np.eye(N, dtype=bool)]), rtol=1e-5)
     # the power law through (N − 2, e2) and (N − 1, e1), one record further
     p = -np.log(out["step"]) / np.log((N - 1) / (N - 2))
     assert correction(out["step"], N, "power") == pytest.approx(((N - 1) / N) ** p)
