@@ -149,7 +149,7 @@ def impulse_responses(structure: Structure, peaks=PEAKS, *, duration: float = PU
         key = TruthCache.key(what="nonlinearity.impulse_responses", structure=fp,
                              peak=float(p), duration=float(duration),
                              location=float(location), n=n, dt=float(dt),
-                             scheme="newmark-propagator")
+                             scheme="newmark-propagator-batch")
         keys.append(key)
         hit = cache.load(key, (1, n)) if cache is not None else None
         if hit is not None:  # W: the tip row; F: the impulse (lbf·s) in every entry
