@@ -245,6 +245,9 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/study_time.py --study chapter5 --jobs 2": NOT_RUN(
         "times a cold `podbench run chapter5` between two reference workloads (6 min on 2 "
         "idle cores); the study command itself is run (slow)"),
+    "python benchmarks/chapter5_accounting.py --out DIR": NOT_RUN(
+        "runs the whole Chapter 5 study cold in one process, timing every task and row (10-20 "
+        "min on the shared machine); the study command itself is run (slow)"),
     "python benchmarks/modal.py": NOT_RUN(
         "fits ML and ERA on two structures at two noise levels (minutes; accuracy is measured, "
         "never asserted) and rewrites its rows of results/benchmarks.csv; its one-structure "

@@ -61,7 +61,7 @@ from scipy.linalg.lapack import dpotrs as _potrs
 from podbench.errors import ConvergenceError, DimensionError, IllConditionedError, InputError
 from podbench.structures.structure import Structure
 
-__all__ = ["NewmarkResult", "newmark", "BETA", "GAMMA", "DENSE_MAX_DOFS"]
+__all__ = ["NewmarkResult", "newmark", "newmark_batch", "BETA", "GAMMA", "DENSE_MAX_DOFS"]
 
 BETA = 0.25
 """Newmark β (average acceleration)."""
@@ -469,6 +469,83 @@ def newmark(
         _steps_fixed(model, load, out, q, v, a, iters, rtol, max_iter)
     out.flush()
     return NewmarkResult(q=out.q, v=out.v, a=out.a, newton_iterations=iters)
+
+
+def newmark_batch(structure: Structure, f: np.ndarray, dt: float, *, force_map=None,
+                  record=None, rtol: float = 1e-12, max_iter: int = 30) -> np.ndarray:
+    """Displacements of several independent :func:`newmark` integrations from rest, stepped
+    together: ``f`` (k, n_loads, n_samples) holds the loads of the k runs (lbf; ``force_map``
+    and ``record`` as in :func:`newmark`); returns the recorded displacements (k, p,
+    n_samples) (in), run c those of ``newmark(structure, 0, 0, f[c], dt, ...,
+    propagator=True).q``.
+
+    Where ``propagator=True`` applies (:func:`_steps_propagator`) the k states are the rows
+    of one (k, 3n) array, advanced by one product with the transition matrix per step for
+    all of them (:func:`_steps_propagator_batch`), each run's one-DOF Newton iteration
+    unchanged: every history equals the single run's up to the round-off of a matrix-matrix
+    instead of a matrix-vector product. Elsewhere the runs are integrated one by one.
+    """
+    f = np.asarray(f, dtype=float)
+    if f.ndim != 3:
+        raise DimensionError(f"Parameter `f`: expected (runs, loads, samples), got {f.shape}")
+    k, _, n = f.shape
+    n_dofs = structure.n_dofs
+    zero = np.zeros(n_dofs)
+    T = None if force_map is None else _as_map(force_map, "force_map", n_dofs, f.shape[1])
+    model = _Model(structure, n, float(dt))
+    if not _propagator_applies(model):
+        return np.stack([newmark(structure, zero, zero, f[c], dt, force_map=force_map,
+                                 record=record, rtol=rtol, max_iter=max_iter,
+                                 propagator=True).q for c in range(k)])
+    R = None if record is None else _as_map(record, "record", None, n_dofs)
+    S0 = np.empty((k, 3 * n_dofs))
+    for c in range(k):
+        q, v, a = _initial_state(model, zero, zero, _Loads(f[c], T)(0))
+        S0[c] = np.concatenate([q, v, a])
+    Q = _steps_propagator_batch(model, f, T, S0, rtol, max_iter)  # (n_samples, k, n_dofs)
+    if R is None:
+        return np.ascontiguousarray(Q.transpose(1, 2, 0))
+    return np.stack([np.asarray(R @ Q[:, c, :].T) for c in range(k)])
+
+
+def _steps_propagator_batch(model: _Model, f, T, S, rtol, max_iter) -> np.ndarray:
+    """:func:`_steps_propagator` for the k runs whose states are the rows of ``S`` (k, 3n):
+    per step ``S_lin = S Φᵀ`` (plus each loaded run's ``L f_{j+1}``), each run's scalar
+    Newton iteration, then ``S = S_lin − g wᵀ``. Returns the displacements of every sample,
+    (n_samples, k, n)."""
+    n = model.s.n_dofs
+    h, bh2, gh = model.h, model.bh2, model.gh
+    Phi, L, w = _transition(model, T)
+    PhiT = np.ascontiguousarray(Phi.T)
+    d = int(model.stiffness(0)[2].dofs[0])
+    iv, ia = n + d, 2 * n + d
+    z = float(w[ia])
+    k, n_samples = f.shape[0], f.shape[2]
+    loaded = np.any(f != 0.0, axis=1)  # (k, n_samples)
+    any_loaded = loaded.any(axis=0)
+    starts, blocks = [-CHUNK] * k, [np.empty((0, 0))] * k
+    Q = np.empty((n_samples, k, n))
+    Q[0] = S[:, :n]
+    G = np.zeros((k, 1))
+    for j in range(1, n_samples):
+        SL = S @ PhiT
+        if any_loaded[j]:
+            for c in np.flatnonzero(loaded[:, j]):
+                if not 0 <= j - starts[c] < CHUNK:
+                    starts[c], blocks[c] = j, (L @ f[c][:, j:j + CHUNK]).T
+                SL[c] += blocks[c][j - starts[c]]
+        qd, vd, ad, yd = S[:, d].tolist(), S[:, iv].tolist(), S[:, ia].tolist(), \
+            SL[:, ia].tolist()
+        engaged = False
+        for c in range(k):
+            g, _ = _scalar_newton(
+                model, j, ad[c], qd[c] + h * vd[c] + bh2 * ad[c], vd[c] + gh * ad[c], yd[c], z,
+                lambda x=SL[c, :n]: math.sqrt(x.dot(x)), rtol, max_iter)
+            G[c, 0] = g
+            engaged = engaged or g != 0.0
+        S = SL - G * w if engaged else SL
+        Q[j] = S[:, :n]
+    return Q
 
 
 def _steps_general(model: _Model, load, out, q, v, a, iters, rtol, max_iter) -> None:

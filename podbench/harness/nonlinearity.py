@@ -50,7 +50,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from podbench.dynamics import simulate
 from podbench.dynamics.excitations import Pulse
-from podbench.dynamics.newmark import newmark
+from podbench.dynamics.newmark import newmark_batch
 from podbench.errors import InputError
 from podbench.harness.cache import TruthCache, structure_fingerprint
 from podbench.harness.executor import execute
@@ -142,37 +142,42 @@ def impulse_responses(structure: Structure, peaks=PEAKS, *, duration: float = PU
 
     n = int(round(t_end / dt)) + 1
     fp = structure_fingerprint(structure) if cache is not None else ""
-    tips, imps = [], []
-    for p in peaks:
+    tips: list = [None] * len(peaks)
+    imps: list = [None] * len(peaks)
+    keys, todo = [], []
+    for i, p in enumerate(peaks):
         key = TruthCache.key(what="nonlinearity.impulse_responses", structure=fp,
                              peak=float(p), duration=float(duration),
                              location=float(location), n=n, dt=float(dt),
-                             scheme="newmark-propagator")
+                             scheme="newmark-propagator-batch")
+        keys.append(key)
         hit = cache.load(key, (1, n)) if cache is not None else None
         if hit is not None:  # W: the tip row; F: the impulse (lbf·s) in every entry
-            tips.append(hit["W"][0])
-            imps.append(float(hit["F"][0, 0]))
-            continue
-        F = Pulse(location, float(p), duration, shape="half_sine").sample(structure, n, dt)
-        tips.append(_tip_response(structure, F, dt))
-        imps.append(float(F.sum() * dt))
-        if cache is not None:
-            cache.store(key, {"W": tips[-1][None, :], "F": np.full((1, n), imps[-1]),
-                              "w0": np.zeros(1), "v0": np.zeros(1), "t": np.arange(n) * dt})
+            tips[i], imps[i] = hit["W"][0], float(hit["F"][0, 0])
+        else:
+            todo.append(i)
+    if todo:
+        F = np.stack([Pulse(location, float(peaks[i]), duration, shape="half_sine")
+                      .sample(structure, n, dt) for i in todo])
+        for i, Fi, tip in zip(todo, F, _tip_responses(structure, F, dt), strict=True):
+            tips[i], imps[i] = tip, float(Fi.sum() * dt)
+            if cache is not None:
+                cache.store(keys[i], {"W": tip[None, :], "F": np.full((1, n), imps[i]),
+                                      "w0": np.zeros(1), "v0": np.zeros(1),
+                                      "t": np.arange(n) * dt})
     return ImpulseSet(t=np.arange(n) * dt, peaks=tuple(float(p) for p in peaks),
                       impulses=np.array(imps), tip=np.array(tips))
 
 
-def _tip_response(structure: Structure, F: np.ndarray, dt: float) -> np.ndarray:
-    """The tip sensor's displacement (in) from rest under the sensor loads ``F`` (lbf): the
-    Newmark integration of :func:`podbench.dynamics.simulate`, with the linear part stepped
-    by its transition matrix (``propagator``: equal to round-off, about 2.5× faster on the
-    rubber-band beam), recording the last sensor only."""
+def _tip_responses(structure: Structure, F: np.ndarray, dt: float) -> np.ndarray:
+    """The tip sensor's displacement (in) from rest under each of the sensor loads ``F``
+    (runs, sensors, samples; lbf): the Newmark integration of
+    :func:`podbench.dynamics.simulate`, with the linear part stepped by its transition matrix
+    and the runs stepped together (:func:`podbench.dynamics.newmark.newmark_batch`: one
+    matrix product per step for all of them, each run's own Newton iteration; equal to
+    single runs to round-off), recording the last sensor only: (runs, samples)."""
     S = structure.sensor_matrix()
-    zero = np.zeros(structure.n_dofs)
-    res = newmark(structure, zero, zero, F, dt, force_map=S.T, record=S[-1:],
-                  propagator=True)
-    return res.q[0]
+    return newmark_batch(structure, F, dt, force_map=S.T, record=S[-1:])[:, 0, :]
 
 
 def _trend(values, rtol: float = 1e-6) -> str:
@@ -248,7 +253,9 @@ def phase_lag(t: np.ndarray, ref: np.ndarray, sig: np.ndarray, times, period: fl
         starts = c - half + shifts
         ok = (starts >= 0) & (starts < win.shape[0])
         shifts, starts = shifts[ok], starts[ok]
-        corr = (win[starts] @ r) / (norms[starts] * np.linalg.norm(r) + 1e-300)
+        s0, s1 = int(starts[0]), int(starts[-1]) + 1  # consecutive: one slice of ``sig``
+        corr = (np.correlate(sig[s0:s1 + 2 * half], r, "valid")
+                / (norms[s0:s1] * np.linalg.norm(r) + 1e-300))
         k = int(np.argmax(corr))
         delta = 0.0
         if 0 < k < corr.size - 1:

@@ -42,7 +42,8 @@ from podbench.study.resolve import resolve_structure
 from podbench.study.scenarios import EXPERIMENT_FILE, load_scenario
 from podbench.sysid.conditioning import condition
 
-__all__ = ["run_seeds", "plan_seeds", "seed_unit", "SeedPlan", "seed_table", "SEED_COLUMNS"]
+__all__ = ["run_seeds", "plan_seeds", "seed_unit", "SeedPlan", "seed_table", "SEED_COLUMNS",
+           "task_arrays"]
 
 SEED_COLUMNS = ("scenario", "structure", "method", "target", "seed", *ERROR_COLUMNS,
                 *NORM_COLUMNS, "status")
@@ -100,8 +101,9 @@ class SeedPlan:
 def plan_seeds(claims_file, claims, scenarios: dict) -> SeedPlan | None:
     """The tasks of :func:`run_seeds` (None without ``noise_seeds`` or without a check
     among the claims of ``scenarios``): the records of the other seeds generated from the
-    experiment file beside the claims file (in this process), one task per (scenario,
-    structure, seed)."""
+    experiment file beside the claims file (in this process, except those of tests whose
+    strikes scatter with the seed: each task generates its own, :func:`task_arrays`), one
+    task per (scenario, structure, seed)."""
     seeds = tuple(claims_file.noise_seeds)
     if not seeds:
         return None
@@ -137,10 +139,37 @@ def plan_seeds(claims_file, claims, scenarios: dict) -> SeedPlan | None:
         wanted |= {k[:2] for k in keys.values() if k is not None}
         units += [(str(sc.path), structure, k, methods, targets, twinned, keys)
                   for k in seeds[1:]]
-    records = generate_seeds(exp, seeds[1:], wanted) if units else {}
+    # records whose strikes scatter with the seed (one simulation per strike and seed) are
+    # generated in their tasks, in parallel; the others (one simulation shared by every
+    # seed, then only noise) here, once
+    scattered = {w for w in wanted if _scatters(exp.tests[w[0]])}
+    records = generate_seeds(exp, seeds[1:], wanted - scattered) if units else {}
     args = [(*u, {c: _arrays(records[(u[2], *key)]) for c, key in u[6].items()
-                  if key is not None}) for u in units]
+                  if key is not None and key[:2] not in scattered},
+             (str(folder), tuple(sorted({k[:2] for k in u[6].values()
+                                         if k is not None and k[:2] in scattered}))))
+            for u in units]
     return SeedPlan(seeds, args, frozenset(varied))
+
+
+def _scatters(test) -> bool:
+    """Whether a test's strikes (hence its clean simulations) change with the seed."""
+    return test.amplitude_scatter > 0 or test.hit_jitter > 0
+
+
+def task_arrays(task) -> dict:
+    """``case → (W, F)`` of a task of :func:`plan_seeds`: the records generated in the plan,
+    with those of the scattered tests generated here (the same bytes as generated in the
+    plan: the draws are keyed by seed, experiment, structure and case; two tasks reading
+    the same strikes through another load cell record simulate them each, as keeping the
+    simulations across tasks would hold the DOF histories of every strike in memory)."""
+    seed, keys, arrays = task[2], task[6], task[7]
+    folder, scattered = task[8] if len(task) > 8 else ("", ())  # a task without any
+    if not scattered:
+        return arrays
+    records = generate_seeds(load_experiment(folder), [seed], set(scattered))
+    return {**arrays, **{c: _arrays(records[(seed, *key)]) for c, key in keys.items()
+                         if key is not None and key[:2] in scattered}}
 
 
 def run_seeds(claims_file, claims, scenarios: dict, *, jobs: int = 1,
@@ -177,7 +206,8 @@ def seed_unit(task) -> list[dict]:
     """One (scenario, structure, seed): fit the checked methods on the seed's records (and
     their coupled twins where a check reads the diagonalization error), predict the checked
     targets; rows of :data:`SEED_COLUMNS`."""
-    path, entry, seed, methods, targets, twinned, keys, arrays = task
+    path, entry, seed, methods, targets, twinned, keys = task[:7]
+    arrays = task_arrays(task)
     sc = load_scenario(path)
     structure = resolve_structure(entry, sc)
     recs: dict = {}

@@ -1,5 +1,6 @@
-"""Newmark's transition-matrix path (``newmark(..., propagator=True)``) against an independent
-whole-system Newmark with a full Newton iteration, and against the default path."""
+"""Newmark's transition-matrix path (``newmark(..., propagator=True)``, and several runs
+stepped together by ``newmark_batch``) against an independent whole-system Newmark with a
+full Newton iteration, and against the default path."""
 
 import dataclasses
 
@@ -9,6 +10,8 @@ from dynamics_systems import chain
 
 from podbench.dynamics import newmark
 from podbench.dynamics.excitations import Pulse
+from podbench.dynamics.newmark import newmark_batch
+from podbench.errors import DimensionError
 from podbench.structures import CubicSpring, OneSidedSpring
 from podbench.structures.files import load_structure
 
@@ -103,3 +106,46 @@ def test_propagator_is_ignored_where_it_does_not_apply():
         b = newmark(s, q0, np.zeros(4), f, 0.01, propagator=True)
         np.testing.assert_array_equal(a.q, b.q)
         np.testing.assert_array_equal(a.newton_iterations, b.newton_iterations)
+
+
+@pytest.mark.parametrize("element", [
+    OneSidedSpring(dof=3, k=3.0e4, slack=0.002),
+    OneSidedSpring(dof=3, k=3.0e4, prestretch=0.002, side=-1),
+    CubicSpring(3, 5.0e6),
+])
+def test_batch_equals_single_runs_and_the_full_newton_reference(element):
+    # three loads of different sizes and places stepped together (the runs switch the
+    # element at different steps): each run equals its own propagator run to round-off
+    # and the independent full-Newton Newmark to 1e-12 of its amplitude
+    s = chain(4, nonlinear=(element,))
+    h, n = 2.0e-3, 601
+    f = np.zeros((3, 4, n))
+    f[0, 1, 1:8] = 40.0
+    f[1, 1, 1:8] = 5.0
+    f[2, 2, 3:6] = -60.0
+    zero = np.zeros(4)
+    batch = newmark_batch(s, f, h)
+    assert batch.shape == (3, 4, n)
+    for c in range(3):
+        single = newmark(s, zero, zero, f[c], h, propagator=True).q
+        ref = _full_newton_reference(s, zero, zero, f[c], h)
+        scale = np.abs(ref).max()
+        assert np.abs(batch[c] - single).max() <= 1e-13 * scale
+        assert np.abs(batch[c] - ref).max() <= 1e-12 * scale
+    # the runs differ (not one run copied)
+    assert not np.allclose(batch[2], batch[0], rtol=1e-3)
+
+
+def test_batch_records_through_the_output_matrix_and_falls_back_where_needed():
+    rng = np.random.default_rng(5)
+    f = rng.normal(size=(2, 4, 40))
+    R = np.array([[0.0, 0.0, 0.0, 1.0]])
+    zero = np.zeros(4)
+    for s in (chain(4), chain(4, nonlinear=(CubicSpring(3, 5e5), CubicSpring(1, 2e5))),
+              chain(4, nonlinear=(CubicSpring(3, 5e5),))):
+        batch = newmark_batch(s, f, 0.01, record=R)
+        for c in range(2):
+            single = newmark(s, zero, zero, f[c], 0.01, record=R, propagator=True).q
+            np.testing.assert_allclose(batch[c], single, rtol=0, atol=1e-13 * np.abs(single).max())
+    with pytest.raises(DimensionError, match="`f`"):
+        newmark_batch(chain(4), f[0], 0.01)

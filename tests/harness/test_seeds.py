@@ -13,7 +13,14 @@ import pytest
 from podbench.core.recordfiles import read_record
 from podbench.core.resources import bundled_scenarios
 from podbench.errors import ScenarioFileError
-from podbench.harness.seeds import _varied, run_seeds, seed_table, seed_unit
+from podbench.harness.seeds import (
+    _varied,
+    plan_seeds,
+    run_seeds,
+    seed_table,
+    seed_unit,
+    task_arrays,
+)
 from podbench.study.claims import (
     TIE,
     TIE_CHECK,
@@ -296,3 +303,23 @@ def test_run_seeds_refits_only_the_checked_rows_of_the_varied_scenarios():
                                       ("linear_beam_noise_1pct", 0.2976))])
     e = evaluate_claims([claim], main, seeds=sr)[0]
     assert e.verdict == "reproduced" and "holds on 5 of 5" in e.details[0].shown
+
+
+@pytest.mark.heavy
+def test_scattered_records_generated_in_their_task_are_the_plans_bytes():
+    """A task of a strike-scatter scenario carries no records for its scattered test (they
+    are generated in the task, in parallel): what it generates is, byte for byte, what
+    generating every seed's records in the plan gives."""
+    cf = load_claims_file(CH5 / "claims.toml")
+    sc = load_scenario(CH5 / "linear_beam_scatter_a10pct.toml")
+    sp = plan_seeds(cf, cf.claims, {sc.name: sc})
+    task = sp.tasks[0]
+    folder, scattered = task[8]
+    assert scattered and task[7] == {}  # nothing generated in the plan for this task
+    got = task_arrays(task)
+    ref = generate_seeds(load_experiment(CH5), [task[2]], set(scattered))
+    assert set(got) == {c for c, k in task[6].items() if k is not None}
+    for case, key in task[6].items():
+        W, F = got[case]
+        np.testing.assert_array_equal(W, ref[(task[2], *key)].W)
+        np.testing.assert_array_equal(F, ref[(task[2], *key)].F)
