@@ -226,11 +226,11 @@ def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetT
     c = _coefficients(E, e)
     power = np.sum(np.abs(R) ** 2, axis=1)  # (B, N)
     num = float(np.sum(np.abs(c) ** 2 * power))
-    den = float(np.sum(np.abs(np.einsum("bqn,bn->bq", R, c)) ** 2))
+    den = float(np.sum(np.abs((R @ c[..., None])[..., 0]) ** 2))
     lev2 = num / den if den > 0 else math.inf
     blind2 = 0.0
     if ex.X is not None and x is not None:
-        left = x - np.einsum("bmn,bn->bm", ex.X[..., keep], c)
+        left = x - (ex.X[..., keep] @ c[..., None])[..., 0]
         if U_full is not None:  # a fold in fewer modes: only what the whole basis misses
             left = left - (left @ U_full) @ U_full.T
         inside = float(np.sum(np.abs(e) ** 2))
