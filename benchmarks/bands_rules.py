@@ -15,6 +15,11 @@ rule's fold estimates; ``bands_heldout._grid_features``).
     python benchmarks/bands_rules.py dev.csv --rules folds-gains --growth
     python benchmarks/bands_rules.py dev.csv --rules gains --mondrian none leverage level
     python benchmarks/bands_rules.py dev.csv --rules gains --recenter
+    python benchmarks/bands_rules.py dev.csv --rules gains --leverage-exponents 1 0.75 0.5
+
+``--leverage-exponents`` (a variant, measured in docs/bands.md): the gains' leverage term
+``κ_Λ²(Λ² + 1)^γ`` with γ chosen per model from the values given by the fit's log loss on
+its folds (:data:`podbench.sysid.methods.bands.GAINS_LEVERAGE_EXPONENTS`).
 
 ``--recenter`` (a variant, measured in docs/bands.md): every estimate of a model divided by
 the median over its folds of the fold's estimate over its realized error (the folds'
@@ -76,7 +81,12 @@ def _model_estimates(rows, rule: str):
         rho = r.projection_share if np.isfinite(r.projection_share) else None
         t = TargetTerms(r.leverage ** 2, r.blind_spot ** 2, rho)
         est.append(bands.rule_estimate(cal, t, r.level_excursion))
+    EXPONENTS_CHOSEN.append(cal.leverage_exponent)
     return np.array(est), np.asarray(cal.fold_estimates, float), cal.rule
+
+
+EXPONENTS_CHOSEN: list = []
+"""The gains' leverage exponent γ each scored model applied (``--leverage-exponents``)."""
 
 
 MONDRIAN = ("none", "leverage", "level")
@@ -206,6 +216,9 @@ def score_rule(df, rule: str, mondrian: str = "none") -> dict:
         r = g["error_estimate"] / g["total_error"]
         s[f"within_factor_2_{m}"] = float(np.mean((r >= 0.5) & (r <= 2)))
     s["models_on_folds"] = f"{sum(c != 'gains' for c in chosen)}/{len(chosen)}"
+    g = np.array(EXPONENTS_CHOSEN[-len(chosen):])
+    s["leverage_exponents"] = " ".join(f"{x:g}:{np.count_nonzero(g == x)}"
+                                       for x in sorted(set(g.tolist()), reverse=True))
     if np.isfinite(ok["coverage"].to_numpy(float)).any():
         for (m, c, lv), g in ok.groupby(["method", "cls", "noise"]):
             s[f"coverage {m} {c} {100 * lv:g} %"] = float(g["coverage"].mean())
@@ -232,8 +245,13 @@ def main(argv=None) -> int:
                     help="divide each model's estimates by its folds' median estimate/error")
     ap.add_argument("--l1", action="store_true",
                     help="fit the gains by least absolute log residuals (fit_l1)")
+    ap.add_argument("--leverage-exponents", nargs="*", type=float, default=None,
+                    help="the \"gains\" rule's leverage exponents γ the folds choose from "
+                         "(bands.GAINS_LEVERAGE_EXPONENTS; default: the band code's)")
     args = ap.parse_args(argv)
     bands.FOLDS_GAINS_GROWTH = args.growth
+    if args.leverage_exponents:
+        bands.GAINS_LEVERAGE_EXPONENTS = tuple(args.leverage_exponents)
     global RECENTER
     RECENTER = args.recenter
     if args.l1:

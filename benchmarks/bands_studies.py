@@ -7,6 +7,8 @@ against the study table's realized errors (rows matched in order by the stored e
 
     python benchmarks/bands_studies.py record chapter5 --rows ch5.jsonl
     python benchmarks/bands_studies.py score ch5.jsonl results/chapter5/calibration.csv
+    python benchmarks/bands_studies.py score peers.jsonl results/peers/summary.csv \
+        --leverage-exponents 1 0.75 0.5
 """
 
 from __future__ import annotations
@@ -115,10 +117,15 @@ def rule_estimate(r: dict, rule: str, level_reference: str | None, growth: bool)
         bands.ESTIMATE_RULE, bands.LEVEL_REFERENCE, bands.FOLDS_GAINS_GROWTH = old
 
 
-def score(rows_path: str, table: str, realized: str = "total_error") -> str:
+def score(rows_path: str, table: str, realized: str = "total_error",
+          exponents: tuple | None = None) -> str:
     """A markdown table: within ×2 (ML rows and the others), Spearman and the median
-    estimate/realized of every rule on the matched rows."""
+    estimate/realized of every rule on the matched rows; ``exponents``: one row more, the
+    ``"gains"`` rule with the leverage exponent γ chosen per band's folds among them
+    (:data:`~podbench.sysid.methods.bands.GAINS_LEVERAGE_EXPONENTS`)."""
     from scipy.stats import spearmanr
+
+    from podbench.sysid.methods import bands
 
     rows, t = load(rows_path, table)
     tot = t[realized].to_numpy(float)
@@ -127,12 +134,19 @@ def score(rows_path: str, table: str, realized: str = "total_error") -> str:
     lines = [f"{len(rows)} of the table's cross-validated rows matched", "",
              "| rule | within ×2 | ML rows | other rows | Spearman | median estimate/realized |",
              "|---|---|---|---|---|---|"]
-    for rule, ref, growth in variants:
-        est = np.array([rule_estimate(r, rule, ref, growth) for r in rows])
+    extra = [("gains", None, False, exponents)] if exponents else []
+    for rule, ref, growth, gammas in [v + (None,) for v in variants] + extra:
+        old = bands.GAINS_LEVERAGE_EXPONENTS
+        bands.GAINS_LEVERAGE_EXPONENTS = gammas or old
+        try:
+            est = np.array([rule_estimate(r, rule, ref, growth) for r in rows])
+        finally:
+            bands.GAINS_LEVERAGE_EXPONENTS = old
         ratio = est / tot
         ok = (ratio >= 0.5) & (ratio <= 2.0)
         part = [f"{np.mean(ok[m]):.3f}" if m.any() else "—" for m in (ml, ~ml)]
-        name = rule + (" (growth)" if growth else "") + (f", level {ref}" if ref else "")
+        name = rule + (" (growth)" if growth else "") + (f", level {ref}" if ref else "") + \
+            (f", γ from {{{', '.join(f'{g:g}' for g in gammas)}}}" if gammas else "")
         lines.append(f"| {name} | {np.mean(ok):.3f} | {part[0]} | {part[1]} | "
                      f"{spearmanr(est, tot).correlation:.3f} | {np.median(ratio):.2f} |")
     return "\n".join(lines) if rows else "no rows matched"
@@ -150,10 +164,13 @@ def main(argv=None) -> int:
     sc.add_argument("table", help="the study's table with error_estimate and the realized")
     sc.add_argument("--realized", default="total_error",
                     help="the realized error's column (f16_gvt: rel_whole)")
+    sc.add_argument("--leverage-exponents", nargs="*", type=float, default=None,
+                    help="one row more: the gains with γ chosen among these per band")
     args = ap.parse_args(argv)
     if args.cmd == "record":
         return record(args.study, args.rows, args.level_reference)
-    print(score(args.rows, args.table, args.realized))
+    print(score(args.rows, args.table, args.realized,
+                tuple(args.leverage_exponents) if args.leverage_exponents else None))
     return 0
 
 

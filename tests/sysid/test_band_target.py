@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from podbench.methods import MDS, MultipleLoad
 
 from podbench import Record
@@ -135,3 +136,64 @@ def test_one_row_coefficients_match_the_svd_and_lstsq():
     assert cr.dtype == np.float64
     np.testing.assert_allclose(cr, band_target._coefficients_svd(Er, er), rtol=1e-12,
                                atol=1e-14)
+
+
+def _svd_route(monkeypatch):
+    monkeypatch.setattr(band_target, "_coefficients_qr", lambda E, e: None)
+
+
+@pytest.mark.parametrize("p, N, dtype", [(3, 5, complex), (5, 3, complex), (4, 4, float)])
+def test_qr_coefficients_match_the_svd_and_lstsq(p, N, dtype):
+    """Several excitation rows per bin (wide, tall, square): the QR route gives the batched
+    SVD's minimum-norm c and a per-bin least squares to round-off, bins below RCOND × the
+    largest (by norm) exactly zero in both; a bin of lower rank than min(p, N) is left to
+    the SVD (the QR route declines, the result is the SVD's exactly)."""
+    rng = np.random.default_rng(11)
+    B = 60
+
+    def draw(*shape):
+        x = rng.standard_normal(shape)
+        return x + 1j * rng.standard_normal(shape) if dtype is complex else x
+
+    E, e = draw(B, p, N), draw(B, p)
+    E[7] *= 1e-9  # far below the cut: c = 0
+    E[8] = 0.0
+    r = min(p, N)  # a bin of condition number 1e3
+    E[20] = (np.linalg.qr(draw(p, r))[0] * 10.0 ** -np.arange(r)) @ \
+        np.conj(np.linalg.qr(draw(N, r))[0].T) * np.linalg.norm(E[3])
+    qr = band_target._coefficients_qr(E, e)
+    svd = band_target._coefficients_svd(E, e)
+    assert qr is not None and qr.dtype == svd.dtype
+    np.testing.assert_allclose(qr, svd, rtol=1e-12, atol=1e-12 * np.max(np.abs(svd)))
+    assert np.all(qr[7] == 0) and np.all(qr[8] == 0)
+    for b in (0, 20, 41):
+        ref = np.linalg.lstsq(E[b], e[b], rcond=None)[0]
+        np.testing.assert_allclose(qr[b], ref, rtol=1e-10)
+    low = E.copy()
+    if p <= N:  # a repeated row (wide) or column (tall): rank min(p, N) − 1
+        low[30, -1] = low[30, 0]
+    else:
+        low[30, :, -1] = low[30, :, 0]
+    assert band_target._coefficients_qr(low, e) is None
+    np.testing.assert_array_equal(band_target._coefficients(low, e),
+                                  band_target._coefficients_svd(low, e))
+
+
+def test_the_terms_of_the_qr_route_are_the_svds(monkeypatch):
+    """ML in two modes on five pulse records: every fold's and a target's leverage and
+    blind spot through the QR coefficients equal the SVD route's to 1e-12."""
+    case = forced_case("coupled")
+    recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
+    model = MultipleLoad(n_modes=2, solver="cgls").fit(recs)
+    U = model.modes_
+    ex = band_target.excitations(model, recs, U)
+    assert band_target._coefficients_qr(ex.E, ex.E[..., 0]) is not None  # the QR route
+    target = Record(W=case.W_new, F=case.F_new, dt=case.dt)
+    fast = band_target.fold_terms(model, recs, U) + [band_target.target_terms(model, ex,
+                                                                              target, U)]
+    _svd_route(monkeypatch)
+    slow = band_target.fold_terms(model, recs, U) + [band_target.target_terms(model, ex,
+                                                                              target, U)]
+    for a, b in zip(fast, slow, strict=True):
+        assert math.isclose(a.leverage2, b.leverage2, rel_tol=1e-12)
+        assert math.isclose(a.blind2, b.blind2, rel_tol=1e-12, abs_tol=1e-15)

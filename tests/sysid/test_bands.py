@@ -538,6 +538,40 @@ def test_rule_losses_by_hand():
     assert losses["folds"] == pytest.approx(np.mean((np.log(errors) - np.log(own)) ** 2))
 
 
+def test_leverage_exponent_chosen_by_the_folds_by_hand(monkeypatch):
+    """``GAINS_LEVERAGE_EXPONENTS``: folds whose errors follow ``0.01 (Λ² + 1)^(1/4)``
+    exactly (error² ∝ (Λ² + 1)^0.5) choose γ = 0.5 among (1, 0.5) with κ_Λ² = 1e-4 and a
+    target at Λ² + 1 = 256 gets 0.01·256^(1/4) = 0.04; with the default (1.0,) the same
+    folds give the geometric-mean gain and the target grows as Λ."""
+    from podbench.sysid.methods import bands
+    from podbench.sysid.methods.band_target import TargetTerms
+
+    lev2 = np.array([0.0, 3.0, 15.0, 63.0])
+    terms = [TargetTerms(float(v), 0.0, None) for v in lev2]
+    errors = 0.01 * (lev2 + 1.0) ** 0.25
+    target = TargetTerms(255.0, 0.0, None)
+
+    def calibrated():
+        cal = bands.BandCalibration("cross-validation", np.zeros(0), 0.0,
+                                    np.ones(bands.N_TIME_BINS), None, 4, 0)
+        bands._rule_constants(cal, errors, terms, np.ones(4))
+        return cal
+
+    monkeypatch.setattr(bands, "GAINS_LEVERAGE_EXPONENTS", (1.0, 0.5))
+    cal = calibrated()
+    assert cal.leverage_exponent == 0.5
+    assert cal.gains[0] == pytest.approx(1e-4, rel=1e-12) and cal.gains[1] == 0.0
+    np.testing.assert_allclose(cal.fold_estimates, errors, rtol=1e-12)
+    assert bands.rule_estimate(cal, target, 1.0) == pytest.approx(0.04, rel=1e-12)
+    monkeypatch.setattr(bands, "GAINS_LEVERAGE_EXPONENTS", (1.0,))
+    cal = calibrated()
+    kappa = float(np.exp(np.mean(np.log(errors ** 2 / (lev2 + 1.0)))))
+    assert cal.leverage_exponent == 1.0
+    assert cal.gains[0] == pytest.approx(kappa, rel=1e-12)
+    assert bands.rule_estimate(cal, target, 1.0) == pytest.approx(math.sqrt(kappa * 256.0),
+                                                                  rel=1e-12)
+
+
 @pytest.mark.heavy
 def test_peers_folds_refit_in_one_mode_fewer_with_as_many_records_as_modes():
     """ERA on modal forces with k = N: a fold's N − 1 records excite N − 1 input

@@ -156,7 +156,46 @@ def _coefficients(E: np.ndarray, e: np.ndarray) -> np.ndarray:
     numbers as the SVD's, without a batched decomposition of every bin."""
     if E.shape[1] == 1:
         return _coefficients_one_row(E[:, 0, :], e[:, 0])
-    return _coefficients_svd(E, e)
+    c = _coefficients_qr(E, e)
+    return _coefficients_svd(E, e) if c is None else c
+
+
+def _coefficients_qr(E: np.ndarray, e: np.ndarray) -> np.ndarray | None:
+    """``c = E⁺ e`` per bin through a batched QR, where the bounds below prove that the
+    SVD's cut (:data:`RCOND` × the largest singular value of all bins) keeps every singular
+    value of a bin or none; None otherwise (the SVD decides).
+
+    ``top``, the largest singular value of all bins, lies between ``F/√r`` and ``F``,
+    ``F`` the largest Frobenius norm of a bin and ``r = min(p, N)``. A bin whose norm is at
+    most ``RCOND·F/√r`` has no singular value above the cut: its ``c`` is 0. Of ``E_bᴴ =
+    QR`` (p ≤ N) or ``E_b = QR`` (p > N) the smallest singular value is at least
+    ``1/‖R⁻¹‖_F``; where that exceeds ``RCOND·F`` the bin has full rank above the cut and
+    its minimum-norm solution is ``Q R⁻ᴴ e_b`` (wide) or ``R⁻¹ Qᴴ e_b`` (tall) — the SVD's
+    ``V Σ⁻¹ Uᴴ e_b`` to round-off (both backward stable), at a third of its cost."""
+    B, p, N = E.shape
+    fro = np.sqrt(np.sum(np.abs(E) ** 2, axis=(1, 2)))
+    F = float(np.max(fro)) if fro.size else 0.0
+    if not np.isfinite(F):
+        return None
+    c = np.zeros((B, N), dtype=np.result_type(E, e))
+    if F == 0:
+        return c
+    live = np.flatnonzero(fro > RCOND * F / math.sqrt(min(p, N)))
+    A = np.conj(np.swapaxes(E[live], 1, 2)) if p <= N else E[live]
+    q, r = np.linalg.qr(A)
+    try:
+        r_inv = np.linalg.inv(r)
+    except np.linalg.LinAlgError:
+        return None
+    bound = 1.0 / np.sqrt(np.sum(np.abs(r_inv) ** 2, axis=(1, 2)))
+    if not np.all(np.isfinite(bound) & (bound > RCOND * F)):
+        return None
+    rhs = e[live][..., None]
+    if p <= N:  # E_b = Rᴴ Qᴴ: c = Q R⁻ᴴ e_b
+        c[live] = (q @ (np.conj(np.swapaxes(r_inv, 1, 2)) @ rhs))[..., 0]
+    else:  # E_b = Q R: c = R⁻¹ Qᴴ e_b
+        c[live] = (r_inv @ (np.conj(np.swapaxes(q, 1, 2)) @ rhs))[..., 0]
+    return c
 
 
 def _coefficients_svd(E: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -187,11 +226,11 @@ def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetT
     c = _coefficients(E, e)
     power = np.sum(np.abs(R) ** 2, axis=1)  # (B, N)
     num = float(np.sum(np.abs(c) ** 2 * power))
-    den = float(np.sum(np.abs(np.einsum("bqn,bn->bq", R, c)) ** 2))
+    den = float(np.sum(np.abs((R @ c[..., None])[..., 0]) ** 2))
     lev2 = num / den if den > 0 else math.inf
     blind2 = 0.0
     if ex.X is not None and x is not None:
-        left = x - np.einsum("bmn,bn->bm", ex.X[..., keep], c)
+        left = x - (ex.X[..., keep] @ c[..., None])[..., 0]
         if U_full is not None:  # a fold in fewer modes: only what the whole basis misses
             left = left - (left @ U_full) @ U_full.T
         inside = float(np.sum(np.abs(e) ** 2))

@@ -484,6 +484,7 @@ class BandCalibration:
     note: str = ""                   # why no estimate can be made (empty: it can)
     level_rule: str = "response"     # what the level is: "input" RMS or "response" RMS
     level_power: float = AMPLITUDE_POWER  # β of the level's excursion d = a^β
+    leverage_exponent: float = 1.0   # γ of the gains' leverage term (Λ² + 1)^γ
     level_reference: str = ""        # input_excursion's reference ("": LEVEL_REFERENCE)
     load_levels: tuple = ()          # each training record's load_levels() (folds only)
 
@@ -843,6 +844,13 @@ record reaches the prediction multiplied by Λ, and no fold has shown that much)
 the held-out benchmark's dev set over 0.25–1 (docs/bands.md gives the verdicts)."""
 BLIND_TINY = 1e-12
 """Added to both blind spots² of that ratio (a basis that holds every load: Δ² = 0)."""
+GAINS_LEVERAGE_EXPONENTS = (1.0,)
+"""The exponents γ of the ``"gains"`` rule's leverage term ``κ_Λ²(Λ² + 1)^γ`` the folds of
+each model choose from, by the fit's logarithmic loss on its folds (:func:`_choose_exponent`;
+ties keep the earlier). ``(1.0,)`` (the default): the term as an error of each training
+record proportional to its response reaches the prediction (``Λ``, module
+:mod:`~podbench.sysid.methods.band_target`). A variant ``(1.0, 0.75, 0.5)`` lets the folds
+choose a slower growth (measured in docs/bands.md, not adopted)."""
 
 
 def fold_rule(errors, terms, factors, leverage: bool = False):
@@ -903,6 +911,8 @@ def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
     d = a ** cal.level_power
     cal.fold_factors, cal.fold_excursions, cal.rule = d, a, rule
     if rule == "gains":
+        if GAINS_LEVERAGE_EXPONENTS != (1.0,):
+            terms, d = _choose_exponent(cal, errors, terms, a)
         cal.gains = fit_gains(errors, terms, d)
         cal.fold_estimates = np.array([estimate(cal.gains, t, f)
                                        for t, f in zip(terms, d, strict=True)])
@@ -913,6 +923,34 @@ def _rule_constants(cal: BandCalibration, errors, terms, excursions) -> None:
         cal.fold_leverage = float(max(t.leverage2 for t in terms) + 1.0)
     if rule == "folds-gains":
         _beyond_folds(cal, errors, terms, a)
+
+
+def with_exponent(terms: TargetTerms, gamma: float) -> TargetTerms:
+    """``terms`` with the leverage's ``Λ² + 1`` raised to ``gamma`` (the ``"gains"`` rule's
+    :data:`GAINS_LEVERAGE_EXPONENTS`); the terms themselves at ``gamma = 1``."""
+    if gamma == 1.0:
+        return terms
+    return TargetTerms((terms.leverage2 + 1.0) ** gamma - 1.0, terms.blind2, terms.rho)
+
+
+def _choose_exponent(cal: BandCalibration, errors, terms, excursions):
+    """``(terms, factors)`` of the folds at the :data:`GAINS_LEVERAGE_EXPONENTS` value whose
+    gains (:func:`_fit`, at the level power :func:`fit_level_power` gives them) explain the
+    folds' errors with the least logarithmic loss; sets ``cal.leverage_exponent`` and
+    ``cal.level_power``."""
+    a = np.asarray(excursions, dtype=float)
+    best = None
+    for gamma in GAINS_LEVERAGE_EXPONENTS:
+        t = [with_exponent(x, gamma) for x in terms]
+        beta = fit_level_power(errors, t, a) if cal.level_rule == "input" else \
+            cal.level_power
+        loss = _fit(errors, t, a ** beta)[0]
+        if best is None or loss < best[0] - 1e-12 * max(1.0, best[0]):
+            best = (loss, gamma, beta, t)
+    _, cal.leverage_exponent, cal.level_power, t = best
+    d = a ** cal.level_power
+    cal.fold_factors = d
+    return t, d
 
 
 def _beyond_folds(cal: BandCalibration, errors, terms, excursions) -> None:
@@ -952,7 +990,7 @@ def rule_estimate(cal: BandCalibration, terms: TargetTerms, excursion: float) ->
     terms and its level excursion ``a`` (:func:`target_excursion`)."""
     d = excursion ** cal.level_power
     if cal.rule == "gains":
-        return estimate(cal.gains, terms, d)
+        return estimate(cal.gains, with_exponent(terms, cal.leverage_exponent), d)
     if cal.rule != "folds-gains":
         return folds_estimate(cal.fold_scale, cal.fold_blind, terms, d,
                               cal.fold_leverage if cal.rule == "folds-leverage" else None)
