@@ -188,6 +188,7 @@ def test_the_terms_of_the_qr_route_are_the_svds(monkeypatch):
     U = model.modes_
     ex = band_target.excitations(model, recs, U)
     assert band_target._coefficients_qr(ex.E, ex.E[..., 0]) is not None  # the QR route
+    monkeypatch.setattr(band_target, "COEFFICIENT_ROUTE", "qr")
     target = Record(W=case.W_new, F=case.F_new, dt=case.dt)
     fast = band_target.fold_terms(model, recs, U) + [band_target.target_terms(model, ex,
                                                                               target, U)]

@@ -46,6 +46,15 @@ RCOND = 1e-6
 frequencies) are treated as zero in ``c = X⁺ x̃``: a frequency at which no training record
 is excited contributes nothing that the records could express."""
 
+COEFFICIENT_ROUTE = "svd"
+"""How ``c = E⁺e`` is computed for bins of several excitation rows: ``"svd"`` (the batched
+SVD of every bin) or ``"qr"`` (:func:`_coefficients_qr`, a third of the cost, equal to the
+SVD's to round-off; a named variant, not the default). The estimate is not yet robust to
+round-off in ``c``: with measured inputs and more records than inputs every bin's blind
+spot ``Δ²`` is round-off (about 1e-16), the gains' grid for ``κ_Δ²`` spans decades about
+the value that would explain the folds by ``Δ`` alone, and a 1e-14 change of ``c`` can then
+move an estimate by a factor of 2 (docs/bands.md, *Cost*)."""
+
 
 @dataclass(frozen=True)
 class TargetTerms:
@@ -156,7 +165,7 @@ def _coefficients(E: np.ndarray, e: np.ndarray) -> np.ndarray:
     numbers as the SVD's, without a batched decomposition of every bin."""
     if E.shape[1] == 1:
         return _coefficients_one_row(E[:, 0, :], e[:, 0])
-    c = _coefficients_qr(E, e)
+    c = _coefficients_qr(E, e) if COEFFICIENT_ROUTE == "qr" else None
     return _coefficients_svd(E, e) if c is None else c
 
 
