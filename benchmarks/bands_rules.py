@@ -162,19 +162,10 @@ def fit_l1(errors, terms, factors):
     absolute log residuals for the sum of squares (the median for the geometric mean)."""
     from podbench.sysid.methods import bands
 
-    e2 = np.asarray(errors, dtype=float) ** 2
-    rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
-    y = np.maximum(e2 - rho2, bands.FLOOR_SHARE * e2) / np.asarray(factors, float) ** 2
-    L = np.array([t.leverage2 + 1.0 for t in terms])
-    D = np.array([t.blind2 for t in terms])
-    ok = np.isfinite(y) & (y > 0) & np.isfinite(L) & np.isfinite(D)
-    if not np.any(ok):
+    data = bands.fit_data(errors, terms, factors)
+    if data is None:
         return math.inf, 0.0, 0.0
-    y, L, D = y[ok], L[ok], D[ok]
-    cands = [0.0]
-    if np.any(D > 0):
-        base = float(np.median(y[D > 0] / D[D > 0]))
-        cands += list(base * np.logspace(-4, 1, bands.GAIN_GRID))
+    y, L, D, cands = data
     best = None
     for b in cands:
         a = float(np.exp(np.median(np.log(np.maximum(y - b * D, 1e-12 * y) / L))))

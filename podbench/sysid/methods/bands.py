@@ -1059,8 +1059,11 @@ def fit_gains(errors, terms, factors) -> tuple[float, float]:
     return _fit(errors, terms, factors)[1:]
 
 
-def _fit(errors, terms, factors) -> tuple[float, float, float]:
-    """``(loss, κ_Λ², κ_Δ²)`` of :func:`fit_gains`."""
+def fit_data(errors, terms, factors):
+    """``(y, L, D, candidates)`` of the gains' fit, or None when no fold is usable: each
+    fold's squared error less its projection share over its level factor ``y``, its
+    ``Λ² + 1`` and ``Δ²``, and the grid of ``κ_Δ²`` (0 and :data:`GAIN_GRID` values over
+    five decades about the value that explains the folds by the blind spot alone)."""
     e2 = np.asarray(errors, dtype=float) ** 2
     rho2 = np.array([(t.rho or 0.0) ** 2 for t in terms])
     y = np.maximum(e2 - rho2, FLOOR_SHARE * e2) / np.asarray(factors, float) ** 2
@@ -1068,12 +1071,21 @@ def _fit(errors, terms, factors) -> tuple[float, float, float]:
     D = np.array([t.blind2 for t in terms])
     ok = np.isfinite(y) & (y > 0) & np.isfinite(L) & np.isfinite(D)
     if not np.any(ok):
-        return math.inf, 0.0, 0.0
+        return None
     y, L, D = y[ok], L[ok], D[ok]
     cands = [0.0]
     if np.any(D > 0):
         base = float(np.median(y[D > 0] / D[D > 0]))
         cands += list(base * np.logspace(-4, 1, GAIN_GRID))
+    return y, L, D, cands
+
+
+def _fit(errors, terms, factors) -> tuple[float, float, float]:
+    """``(loss, κ_Λ², κ_Δ²)`` of :func:`fit_gains`."""
+    data = fit_data(errors, terms, factors)
+    if data is None:
+        return math.inf, 0.0, 0.0
+    y, L, D, cands = data
     b = np.array(cands)[:, None]
     # every candidate at once, one row each (the rows reduce as the single vectors would)
     ratio = np.maximum(y - b * D, 1e-12 * y) / L
