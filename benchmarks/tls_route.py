@@ -29,7 +29,8 @@ secular equation kept with the roots found so far against a fresh one per ``tol`
 
 ``--tridiagonal`` times the prototype of ``benchmarks/tls_tridiagonal.py`` (no ``stevd``:
 the secular equation by tridiagonal solves; not adopted, see there) against the current
-route at 0, 1 and 5 % noise, five tols each: factorization and tol rows' CPU seconds, the
+route at 0, 1 and 5 % noise (``--chapter5``: on the linear beam's 5 % records), the SNR
+rule's tol and four others: factorization and tol rows' CPU seconds, the
 kept counts, ``1 − ΣV²`` and ``h``'s deviation from the current route and the full SVD.
 
 Speed is measured here only, never asserted in the tests
@@ -96,9 +97,7 @@ def _svd_h(system, tols):
     """``tlsdeconv`` as the appendix writes it (the full SVD of ``[X y]``), at each tol."""
     import numpy as np
 
-    from benchmarks.dense_tls import DT
-
-    X = system.dense() / DT
+    X = system.dense() / system.dt
     y = system._B2[:, 0]
     _, S, Vt = np.linalg.svd(np.hstack([X, y[:, None]]))
     V = Vt.T
@@ -189,45 +188,58 @@ def run_tol_rows(noise: float, repeat: int) -> list[str]:
     return lines
 
 
-def run_tridiagonal(repeat: int) -> list[str]:
-    """The prototype without ``stevd`` against the current route (module docstring)."""
-    from benchmarks import tls_tridiagonal as tt
+def run_tridiagonal(repeat: int, chapter5: bool = False) -> list[str]:
+    """The prototype without ``stevd`` against the current route (module docstring), on
+    ``benchmarks/dense_tls.py``'s systems at 0, 1 and 5 % noise or (``chapter5``) on the
+    linear beam's 5 % records (``benchmarks/tls_krylov.py``'s ``chapter5_systems``)."""
     from benchmarks.dense_tls import DT, _system
-    from podbench.sysid.deconvolution import ConvolutionSystem, bordered
+    from benchmarks.tls_krylov import chapter5_systems
+    from podbench.sysid.deconvolution import ConvolutionSystem
+    from podbench.sysid.deconvolution.dense import snr_tol
 
     ref = min(_reference() for _ in range(repeat))
     lines = [f"tridiagonal prototype; CPU s, best of {repeat}; reference workload {ref:.3f} s",
-             f"{'system':<14}{'factor':>13}{'tol rows':>13}  per tol "
-             "(10, 20, 100, 1000, 10000): r, 1 − ΣV², h vs current, h vs SVD"]
-    tols = (10.0, 20.0, 100.0, 1000.0, 10000.0)
-    for noise in (0.0, 0.01, 0.05):
-        for label, k, cases in (("SL 1024", 1, 1), ("ML 2048", 2, 2)):
-            Q, B = _system(k, cases, noise)
-            system = ConvolutionSystem(Q, B, DT)
-            G, y, n_rows = system.G, system._B2[:, 0], cases * system.G.shape[0]
-            b, c = bordered.border(G, y), float(y @ y)
-            times = [float("inf")] * 4
-            for _ in range(repeat):
-                bordered._CACHE.clear()
-                t0 = time.process_time()
-                mu, Qf = bordered.gram_eigh(G)
-                t1 = time.process_time()
-                cur = [bordered.bordered_tls(mu, Qf, b, c, t, n_rows, min_den=1e-12)
-                       for t in tols]
-                t2 = time.process_time()
-                tri = tt.gram_tridiagonal(G)
-                t3 = time.process_time()
-                new = [tt.tridiagonal_tls(tri, b, c, t, n_rows, min_den=1e-12) for t in tols]
-                t4 = time.process_time()
-                times = [min(a, x) for a, x in zip(times, (t1 - t0, t2 - t1, t3 - t2, t4 - t3),
-                                                   strict=True)]
-            h_s = _svd_h(ConvolutionSystem(Q, B[:, 0], DT), tols)
-            lines.append(f"{label} {noise:>4.0%} {times[0]:>6.2f}→{times[2]:<5.2f}"
-                         f"{times[1]:>6.2f}→{times[3]:<5.2f}")
-            for t, a, nw, h in zip(tols, cur, new, h_s, strict=True):
-                lines.append(f"{'':<16}tol {t:<6g} r {a[1]}→{nw[1]}, 1−ΣV² {a[2]:.6f}→"
-                             f"{nw[2]:.3g}, {_rel(nw[0], a[0]):.1e}, {_rel(nw[0], h):.1e} "
-                             f"(current vs SVD {_rel(a[0], h):.1e})")
+             f"{'system':<14}{'factor':>13}{'tol rows':>13}  per tol: r, 1 − ΣV², h vs "
+             "current, h vs SVD (current vs SVD)"]
+    if chapter5:
+        systems = chapter5_systems()
+    else:
+        systems = [(f"{label} {noise:.0%}", ConvolutionSystem(*_system(k, cases, noise), DT))
+                   for noise in (0.0, 0.01, 0.05)
+                   for label, k, cases in (("SL 1024", 1, 1), ("ML 2048", 2, 2))]
+    for label, system in systems:
+        tols = (snr_tol(system, 0), 10.0, 100.0, 1000.0, 10000.0)
+        lines += _tridiagonal_rows(label, system, tols, repeat)
+    return lines
+
+
+def _tridiagonal_rows(label, system, tols, repeat) -> list[str]:
+    from benchmarks import tls_tridiagonal as tt
+    from podbench.sysid.deconvolution import bordered
+
+    G, y = system.G, system._B2[:, 0]
+    n_rows = G.shape[0] * G.shape[1]
+    b, c = bordered.border(G, y), float(y @ y)
+    times = [float("inf")] * 4
+    for _ in range(repeat):
+        bordered._CACHE.clear()
+        t0 = time.process_time()
+        mu, Qf = bordered.gram_eigh(G)
+        t1 = time.process_time()
+        cur = [bordered.bordered_tls(mu, Qf, b, c, t, n_rows, min_den=1e-12) for t in tols]
+        t2 = time.process_time()
+        tri = tt.gram_tridiagonal(G)
+        t3 = time.process_time()
+        new = [tt.tridiagonal_tls(tri, b, c, t, n_rows, min_den=1e-12) for t in tols]
+        t4 = time.process_time()
+        times = [min(a, x) for a, x in zip(times, (t1 - t0, t2 - t1, t3 - t2, t4 - t3),
+                                           strict=True)]
+    h_s = _svd_h(system, tols)
+    lines = [f"{label:<14}{times[0]:>6.2f}→{times[2]:<5.2f}{times[1]:>6.2f}→{times[3]:<5.2f}"]
+    for t, a, nw, h in zip(tols, cur, new, h_s, strict=True):
+        lines.append(f"{'':<16}tol {t:<6.4g} r {a[1]}→{nw[1]}, 1−ΣV² {a[2]:.6f}→"
+                     f"{nw[2]:.3g}, {_rel(nw[0], a[0]):.1e}, {_rel(nw[0], h):.1e} "
+                     f"({_rel(a[0], h):.1e})")
     return lines
 
 
@@ -237,9 +249,11 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="best of N (default 3)")
     ap.add_argument("--tridiagonal", action="store_true",
                     help="time the prototype without stevd (benchmarks/tls_tridiagonal.py)")
+    ap.add_argument("--chapter5", action="store_true",
+                    help="with --tridiagonal: on the linear beam's 5 %% records")
     args = ap.parse_args(argv)
     if args.tridiagonal:
-        print("\n".join(run_tridiagonal(args.repeat)))
+        print("\n".join(run_tridiagonal(args.repeat, args.chapter5)))
         return 0
     print("\n".join(run(args.noise, args.repeat) + run_tol_rows(args.noise, args.repeat)))
     return 0

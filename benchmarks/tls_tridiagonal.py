@@ -8,14 +8,16 @@ by tridiagonal solves (one LAPACK ``gtsv`` on the block-diagonal matrix of every
 ``(λ_j − T)⁻¹b̃``, one application of ``H`` at the end. Timed and checked against the
 current route and the full SVD by ``python benchmarks/tls_route.py --tridiagonal``.
 
-Why it is not adopted (measured there): the solves cannot deflate. Chapter 5's ``XᵀX``
-has eigenvalues ``0 ± ε‖A‖`` (the forces' smooth pulses: σ down to ~1e-17 σ_1) whose
-components of ``b̃`` are round-off; the current route removes them (``|β_k| <= 8ε‖G‖``,
-Dongarra–Sorensen) before it looks for roots, but a solve with ``T − λ`` near ``λ ≈ 0``
-amplifies that round-off by ``1/|λ − μ|``, so the one discarded direction that carries
-``y`` (the smallest root of ``G``, ``1 − ΣV² ≈ 1``) is lost or wrong; and its roots cost
-more than the saved ``stevd`` (Newton on ``δ·g`` without the two-pole model: more steps,
-each a length-``M`` solve).
+Why it is not adopted (measured there): it is less accurate and slower. It cannot deflate:
+Chapter 5's ``XᵀX`` has eigenvalues ``0 ± ε‖A‖`` (the forces' smooth pulses: σ down to
+~1e-17 σ_1) whose components of ``b̃`` are round-off; the current route removes them
+(``|β_k| <= 8ε‖G‖``, Dongarra–Sorensen) before it brackets roots, and works in ``δ = λ − μ_p``
+of the nearer pole, but a solve with ``T − λ`` near such a pole amplifies the round-off by
+``1/|λ − μ|``. On the linear beam's 5 % systems the kept counts are the same and ``h`` is
+1e-7…1e-5 from the full SVD's (the current route 1e-12…1.6e-8); on the synthetic systems
+the discarded direction that carries ``y`` (``1 − ΣV² ≈ 1``, a root within ``8ε‖G‖`` of
+the cluster) is lost. Its roots cost more than the ``stevd`` saved: Newton on ``δ·g``
+without the two-pole model takes more steps, each a length-``M`` solve.
 """
 
 from __future__ import annotations
