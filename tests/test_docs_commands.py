@@ -242,6 +242,8 @@ COMMANDS: dict[str, object] = {
         "design of it is run in tests/test_benchmarks.py"),
     "python benchmarks/dense_tls.py": SLOW,
     "python benchmarks/tls_route.py": SLOW,
+    "python benchmarks/tls_route.py --tridiagonal --chapter5": SLOW,
+    "python benchmarks/tls_krylov.py": SLOW,
     "python benchmarks/study_time.py --study chapter5 --jobs 2": NOT_RUN(
         "times a cold `podbench run chapter5` between two reference workloads (6 min on 2 "
         "idle cores); the study command itself is run (slow)"),
