@@ -390,7 +390,9 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
                                 nonlinearity=nonlinearity, seeds=seeds, seconds=seconds)
     n_sim, n_cached = response_counts(results)
     drawn = sorted((out / "figures").glob(f"*.{figure_format}")) if figures else []
-    return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
+    fits_csv = out / "fits.csv"  # empty when no fit succeeded (every row says why it failed)
+    fits = pd.read_csv(fits_csv) if fits_csv.stat().st_size > 1 else pd.DataFrame()
+    return StudyResult(out=out, summary=df, fits=fits,
                        claims=evaluated, figures=drawn, scenarios=scenarios, seconds=seconds,
                        simulated=n_sim, cached=n_cached, _units=results)
 

@@ -566,6 +566,10 @@ def cmd_run(args) -> int:
         see = "summary.md" if (out / "summary.md").is_file() else "summary.csv"
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
               f"(see {see})")
+    if len(failed) == len(df) > 0:  # nothing measured: a mistake in the scenario, not a result
+        first = failed.iloc[0]
+        raise InputError(f"every row failed, nothing was measured; the first, {first.structure} "
+                         f"/ {first.method}: {first.status} (all: {out}/{see})")
     paths, _ = api.resolve_study(args.paths)
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:

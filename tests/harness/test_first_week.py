@@ -193,3 +193,47 @@ def test_more_modes_than_load_cases_is_refused_before_any_fit(tmp_path):
     with pytest.raises(InputError, match=r"beam_forced.toml.*n_modes.*6 modes from 4 training "
                                          r"cases: ML .* k ≤ 4"):
         load_scenario(f)
+
+
+def _beam_forced(tmp_path, *edits) -> Path:
+    """scenarios/chapter4/beam_forced.toml on lti_beam alone, with ``edits`` (old, new)."""
+    text = (ROOT / "scenarios" / "chapter4" / "beam_forced.toml").read_text(encoding="utf-8")
+    for old, new in (('"lti_beam", "ltv_beam", "nl_beam"', '"lti_beam"'), *edits):
+        assert old in text
+        text = text.replace(old, new, 1)
+    f = tmp_path / "beam_forced.toml"
+    f.write_text(text, encoding="utf-8")
+    return f
+
+
+@pytest.mark.parametrize("edits, words", [
+    ([("n_modes = 4", "n_modes = 40")], "40 modes, but SL's POMs number at most 25 (25 sensors)"),
+    ([("n_samples = 500", "n_samples = 3")],
+     "4 modes, but SL's POMs number at most 3 (1 training record of scenario.n_samples = 3)"),
+])
+def test_more_pod_modes_than_sensors_or_samples_is_refused_before_any_simulation(
+        edits, words, tmp_path):
+    from podbench.errors import ScenarioFileError
+    from podbench.harness.runner import plan
+
+    f = _beam_forced(tmp_path, *edits)
+    with pytest.raises(ScenarioFileError) as info:
+        plan([f])  # validates; simulates nothing
+    msg = str(info.value)
+    assert "beam_forced.toml: field `methods[0].n_modes` on lti_beam: " in msg
+    assert msg.endswith(words) and "\n" not in msg
+    # ERA's n_modes is an order (2 n_modes), not POMs: 40 on 25 sensors is not refused here
+    era = _beam_forced(tmp_path, ('method = "SL"\nn_modes = 4', 'method = "ERA"\nn_modes = 40'),
+                       ('options = { solver = "block" }\ntwin = "ML"', ""))
+    assert len(plan([era])) == 1
+
+
+def test_a_run_whose_every_row_failed_is_an_error_not_a_table(tmp_path, capsys):
+    # 2 samples from rest: each record has rank 1, so every fit of 2 modes fails
+    f = _beam_forced(tmp_path, ("n_samples = 500", "n_samples = 2"), ("n_modes = 4", "n_modes = 2"))
+    out = tmp_path / "out"
+    argv = ["run", str(f), "--out", str(out), "--no-figures", "--no-cache", "-q", "--jobs", "1"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "every row failed, nothing was measured" in err
+    assert "numerical rank 1" in err and f"{out}/summary.md" in err
