@@ -18,7 +18,7 @@ import textwrap
 import traceback
 from pathlib import Path
 
-from podbench.core.hints import did_you_mean
+from podbench.core.hints import did_you_mean, noise_level_hint
 from podbench.core.resources import (
     DEFAULT_BASELINE,
     DEFAULT_CACHE,
@@ -288,7 +288,8 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
                         "tcp://host:8786 (workers need podbench and the same project folder "
                         "at the same path); replaces --jobs, which it refuses")
     w.add_argument("--noise", default=None, metavar="LIST",
-                   help="relative noise levels, comma-separated (e.g. 0,0.01,0.05)")
+                   help="noise levels in [0, 1], comma-separated: std = level × each "
+                        "channel's RMS (e.g. 0,0.01,0.05 for 0, 1 and 5 %%)")
     w.add_argument("--n-modes", default=None, metavar="LIST",
                    help="mode counts k, comma-separated (e.g. 3,4,5)")
     w.add_argument("--seeds", default=None, metavar="LIST",
@@ -780,6 +781,9 @@ def _list_arg(text, name: str, kind):
             raise InputError(f"--{name}: expected finite numbers, got {v!r} in {text!r}")
         if minimum is not None and v < minimum:
             raise InputError(f"--{name}: expected values >= {minimum:g}, got {v!r} in {text!r}")
+        if name == "noise" and v > 1:  # std = level × the channel's RMS: 5 is 500 %
+            raise InputError(f"--noise: expected levels in [0, 1] (std = level × each "
+                             f"channel's RMS), got {v:g} in {text!r}{noise_level_hint(v)}")
     seen = set()
     for v in out:
         if v in seen:

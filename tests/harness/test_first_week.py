@@ -237,3 +237,37 @@ def test_a_run_whose_every_row_failed_is_an_error_not_a_table(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "every row failed, nothing was measured" in err
     assert "numerical rank 1" in err and f"{out}/summary.md" in err
+
+
+def test_a_noise_level_above_one_is_refused_with_the_percentage_hint(tmp_path, capsys):
+    from podbench.errors import ScenarioFileError
+    from podbench.study.scenarios import load_scenario
+
+    # the command line: before any scenario is read or simulated
+    assert cli.main(["sweep", "chapter4/beam_forced", "--noise", "0,1,5", "--out",
+                     str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and not (tmp_path / "s").exists()
+    assert err.endswith("--noise: expected levels in [0, 1] (std = level × each channel's "
+                        "RMS), got 5 in '0,1,5'; a percentage? 5 % is 0.05\n")
+    assert cli.main(["sweep", "chapter4/beam_forced", "--noise", "250", "--out",
+                     str(tmp_path / "s")]) == 2
+    assert capsys.readouterr().err.endswith("got 250 in '250'\n")  # no hint past 100
+    # the scenario file: [sweep] noise and scenario.training_noise
+    src = ROOT / "scenarios" / "calibration" / "beam_forced_noise1pct.toml"
+    text = src.read_text(encoding="utf-8")
+    assert "training_noise = 0.01" in text
+    f = tmp_path / src.name
+    f.write_text(text.replace("training_noise = 0.01", "training_noise = 2", 1)
+                 .replace('base = "', 'base = "' + str(src.parent) + "/", 1), encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match=r"beam_forced_noise1pct.toml: field "
+                       r"`scenario.training_noise`: .* got 2; a percentage\? 2 % is 0.02$"):
+        load_scenario(f)
+    sweep = (ROOT / "scenarios" / "sweeps" / "beam_forced_noise.toml").read_text(
+        encoding="utf-8").replace("noise = [0.0, 0.001, 0.01, 0.03, 0.05]",
+                                  "noise = [0, 0.1, 1, 3, 5]", 1)
+    g = tmp_path / "beam_forced_noise.toml"
+    g.write_text(sweep, encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match=r"field `sweep.noise\[3\]`: .* got 3; a "
+                                                r"percentage\? 3 % is 0.03$"):
+        load_scenario(g)
