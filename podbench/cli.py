@@ -71,7 +71,8 @@ def load_scenario(path):
 
 
 _EPILOG = """\
-Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
+Units are inch, lbf and second (the dissertation's) unless a structure file says SI (units =
+"m, N, second") or a record file states its units. Errors are relative (fractions of ‖W‖_F of the
 target) and the norm percent errors follow Eq. 4.2 of Allison (2007);
 docs/error-decomposition.md defines every column. Exit codes: 0 ok, 1 regression found
 (regress), 2 unusable input (one line naming the file and field, or the option), 3 internal
