@@ -40,3 +40,41 @@ def test_a_stated_count_is_the_committed_tables(page, study, what, n):
         rows = list(csv.DictReader(fh))
     got = len(rows) if what == "rows" else len({r["scenario"] for r in rows})
     assert got == n, f"{page}: {study}: {n} {what} stated, {table.relative_to(ROOT)} has {got}"
+
+
+def _wall(minutes: float) -> str:
+    """A MANIFEST time as the docs write it: seconds below 2 min, else minutes to 0.1."""
+    return f"{round(minutes * 60)} s" if minutes < 2 else f"{minutes:.1f} min"
+
+
+def _manifest() -> dict:
+    import tomllib
+
+    return tomllib.loads((ROOT / "results" / "MANIFEST.toml").read_text(encoding="utf-8"))
+
+
+def test_the_studies_table_gives_each_manifest_time():
+    manifest = _manifest()
+    table = {}
+    for line in (ROOT / "docs" / "studies" / "index.md").read_text(encoding="utf-8").splitlines():
+        m = re.match(r"\| `(podbench [^`]+)`[^|]*\|.*\| ([^|]+) \|$", line)
+        if m:
+            table[m.group(1)] = m.group(2).strip()
+    timed = {e["command"]: e for e in manifest.values() if "minutes" in e}
+    assert set(timed) <= set(table), set(timed) - set(table)
+    for command, e in timed.items():
+        assert table[command].startswith(_wall(e["minutes"])), (command, table[command])
+
+
+@pytest.mark.parametrize("page, study", [
+    ("docs/studies/chapter4.md", "chapter4"), ("docs/studies/calibration.md", "calibration"),
+    ("docs/studies/base_excited.md", "base_excited"),
+    ("docs/studies/substructuring.md", "substructuring"),
+    ("docs/studies/painter_street.md", "painter_street"), ("docs/chapter5.md", "chapter5"),
+    ("docs/studies/f16_gvt.md", "f16_gvt"), ("docs/studies/regression.md", "baseline"),
+])
+def test_a_study_page_gives_its_time_beside_its_command(page, study):
+    entry = _manifest()[study]
+    text = (ROOT / page).read_text(encoding="utf-8")
+    lines = [ln for ln in text.splitlines() if entry["command"] in ln]
+    assert any(_wall(entry["minutes"]) in ln for ln in lines[:3]), (page, lines[:3])
