@@ -877,7 +877,9 @@ def main(argv=None) -> int:
         print(f"{prog}: error: {_one_line(_as_flags(str(exc), parser))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)
+        out = getattr(args, "out", None)  # outputs are written whole or not at all
+        kept = f"{out}/ was left as it was" if out else "nothing was left half-written"
+        print(f"{prog}: interrupted; {kept}", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader of stdout stopped (podbench list | head): not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -271,3 +271,17 @@ def test_a_noise_level_above_one_is_refused_with_the_percentage_hint(tmp_path, c
     with pytest.raises(ScenarioFileError, match=r"field `sweep.noise\[3\]`: .* got 3; a "
                                                 r"percentage\? 3 % is 0.03$"):
         load_scenario(g)
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["run", "chapter4", "--out", "elsewhere"], "interrupted; elsewhere/ was left as it was"),
+    (["run", "chapter4"], "interrupted; nothing was left half-written"),
+])
+def test_an_interruption_names_only_the_folder_the_command_writes(argv, said, monkeypatch,
+                                                                  capsys):
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_run", interrupted)
+    assert cli.main(argv) == 130
+    assert capsys.readouterr().err == f"podbench run: {said}\n"
