@@ -285,3 +285,50 @@ def test_an_interruption_names_only_the_folder_the_command_writes(argv, said, mo
     monkeypatch.setattr(cli, "cmd_run", interrupted)
     assert cli.main(argv) == 130
     assert capsys.readouterr().err == f"podbench run: {said}\n"
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ('checks = ["MDS.norm_pe_p90 < 5"]', 'checks = ["MDS.norm_pe_p99 < 5"]',
+     "field `claims[0].checks[0]`: `MDS.norm_pe_p99`: \"norm_pe_p99\" is not a column of "
+     "summary.csv"),
+    ('checks = ["MDS.norm_pe_p90 < 5"]', 'checks = ["MSD.norm_pe_p90 < 5"]',
+     "field `claims[0].checks[0]`: `MSD.norm_pe_p90`: no method labelled \"MSD\" in scenario "
+     "beam_free_displacement (POVR, MDS); did you mean 'MDS'?"),
+    ('target = "w3"', 'target = "w33"', "field `claims[0].target`: \"w33\" is not a target of "
+     "scenario beam_free_displacement (w3, w3_x3); did you mean 'w3'?"),
+])
+def test_a_claim_naming_no_row_of_its_scenario_is_refused_before_any_work(old, new, words,
+                                                                         tmp_path):
+    from podbench import api
+    from podbench.errors import ScenarioFileError
+    from podbench.harness.bands import BAND_COLUMNS
+    from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS
+    from podbench.study.claims import check_claims, load_claims_file
+
+    paths, files = api.resolve_study(["chapter4"])
+    scenarios = api.load_scenarios(files)
+    metrics = ("n_modes", *ERROR_COLUMNS, *NORM_COLUMNS, *BAND_COLUMNS)
+    src = ROOT / "scenarios" / "chapter4" / "claims.toml"
+    check_claims(load_claims_file(src), scenarios, metrics)  # the committed file passes
+    text = src.read_text(encoding="utf-8").replace('sensitivity = "../sensitivity"\n', "")
+    assert old in text  # the first claim's
+    f = tmp_path / "claims.toml"
+    f.write_text(text.replace(old, new, 1), encoding="utf-8")
+    with pytest.raises(ScenarioFileError) as info:
+        check_claims(load_claims_file(f), scenarios, metrics)
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_podbench_run_checks_the_claims_before_any_simulation(tmp_path, capsys):
+    import shutil
+
+    study = tmp_path / "my4"
+    shutil.copytree(ROOT / "scenarios" / "chapter4", study)
+    claims = study / "claims.toml"
+    text = claims.read_text(encoding="utf-8").replace('sensitivity = "../sensitivity"\n', "")
+    claims.write_text(text.replace('target = "w3"', 'target = "w33"', 1), encoding="utf-8")
+    out = tmp_path / "out"
+    assert cli.main(["run", str(study), "--out", str(out), "--no-cache", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "field `claims[0].target`: \"w33\"" in err
+    assert not out.exists()
