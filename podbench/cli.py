@@ -844,6 +844,15 @@ def _as_flags(message: str, parser) -> str:
     return _PARAMETER.sub(flag, message)
 
 
+def _option_elsewhere(parser, option: str) -> str:
+    """``" (--coverage is an option of podbench predict)"`` for an option another command
+    takes, else ""."""
+    name = option.split("=", 1)[0]
+    where = [p.prog for p in _subparsers(parser)[1:]
+             if any(name in a.option_strings for a in p._actions)]
+    return f" ({name} is an option of {' and '.join(where)})" if where else ""
+
+
 def _subparsers(parser) -> list:
     out = [parser]
     for a in parser._actions:
@@ -856,7 +865,11 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit code (see the module docstring)."""
     parser = _parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # named by the subcommand, with the commands that take such an option
+            raise _ArgError(f"podbench {args.command}" if args.command else "podbench",
+                            f"unrecognized arguments: {' '.join(extra)}"
+                            f"{_option_elsewhere(parser, extra[0])}")
     except _ArgError as exc:
         print(f"{exc.prog}: error: {_one_line(exc)} (see {exc.prog} --help)", file=sys.stderr)
         return 2

@@ -332,3 +332,14 @@ def test_podbench_run_checks_the_claims_before_any_simulation(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "field `claims[0].target`: \"w33\"" in err
     assert not out.exists()
+
+
+def test_an_option_of_another_command_is_named_with_the_command_that_takes_it(capsys):
+    argv = ["fit", "--method", "ML", "--train", "a.npz", "--out", "m", "--coverage", "0.9"]
+    assert cli.main(argv) == 2
+    assert capsys.readouterr().err == (
+        "podbench fit: error: unrecognized arguments: --coverage 0.9 (--coverage is an option "
+        "of podbench predict) (see podbench fit --help)\n")
+    assert cli.main(["list", "--bogus"]) == 2
+    assert capsys.readouterr().err == ("podbench list: error: unrecognized arguments: --bogus "
+                                       "(see podbench list --help)\n")
