@@ -44,11 +44,13 @@ from podbench.core.resources import (
     resolve_bundled,
 )
 from podbench.errors import InputError, UnknownNameError
+from podbench.harness.bands import BAND_COLUMNS
 from podbench.harness.base_excited import run_study as run_base_excited
 from podbench.harness.executor import resolve_jobs
 from podbench.harness.f16_gvt import run_study as run_f16_gvt
 from podbench.harness.fit import fit_files
 from podbench.harness.linked import linked_scenarios, run_linked
+from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS
 from podbench.harness.nonlinearity import check_rows, check_task, check_tasks
 from podbench.harness.painter_street import run_study as run_painter_street
 from podbench.harness.predict import PredictResult, predict_files
@@ -68,7 +70,7 @@ from podbench.report.study import figure_tasks, write_study
 from podbench.report.substructuring import write_substructuring
 from podbench.report.sweep import write_sweep
 from podbench.study.base_excited import load_study as load_base_excited
-from podbench.study.claims import load_claims_file, seed_names
+from podbench.study.claims import check_claims, load_claims_file, seed_names
 from podbench.study.experiments import check_experiment, write_experiment
 from podbench.study.f16_gvt import load_f16_gvt
 from podbench.study.nonlinearity import NonlinearitySpec
@@ -368,6 +370,9 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
     _refuse_partial_over(out, scenarios, "out")
     claims = _claims_path(paths)
     claims_file = load_claims_file(claims) if claims is not None else None  # before any work
+    if claims_file is not None:
+        check_claims(claims_file, scenarios, ("n_modes", *ERROR_COLUMNS, *NORM_COLUMNS,
+                                              *BAND_COLUMNS))
     cache_dir = _check_run_options(jobs, cache)
     progress = _progress(progress, quiet)
     if isinstance(progress, Progress):
@@ -390,7 +395,9 @@ def run(study=None, *, out=None, jobs: int | str = "auto", cache=DEFAULT_CACHE,
                                 nonlinearity=nonlinearity, seeds=seeds, seconds=seconds)
     n_sim, n_cached = response_counts(results)
     drawn = sorted((out / "figures").glob(f"*.{figure_format}")) if figures else []
-    return StudyResult(out=out, summary=df, fits=pd.read_csv(out / "fits.csv"),
+    fits_csv = out / "fits.csv"  # empty when no fit succeeded (every row says why it failed)
+    fits = pd.read_csv(fits_csv) if fits_csv.stat().st_size > 1 else pd.DataFrame()
+    return StudyResult(out=out, summary=df, fits=fits,
                        claims=evaluated, figures=drawn, scenarios=scenarios, seconds=seconds,
                        simulated=n_sim, cached=n_cached, _units=results)
 

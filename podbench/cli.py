@@ -18,7 +18,7 @@ import textwrap
 import traceback
 from pathlib import Path
 
-from podbench.core.hints import did_you_mean
+from podbench.core.hints import did_you_mean, noise_level_hint
 from podbench.core.resources import (
     DEFAULT_BASELINE,
     DEFAULT_CACHE,
@@ -71,7 +71,8 @@ def load_scenario(path):
 
 
 _EPILOG = """\
-Units are inch, lbf and second throughout. Errors are relative (fractions of ‖W‖_F of the
+Units are inch, lbf and second (the dissertation's) unless a structure file says SI (units =
+"m, N, second") or a record file states its units. Errors are relative (fractions of ‖W‖_F of the
 target) and the norm percent errors follow Eq. 4.2 of Allison (2007);
 docs/error-decomposition.md defines every column. Exit codes: 0 ok, 1 regression found
 (regress), 2 unusable input (one line naming the file and field, or the option), 3 internal
@@ -288,7 +289,8 @@ first k cases ("first") or on all of them ("all"). See podbench.harness.sweep.
                         "tcp://host:8786 (workers need podbench and the same project folder "
                         "at the same path); replaces --jobs, which it refuses")
     w.add_argument("--noise", default=None, metavar="LIST",
-                   help="relative noise levels, comma-separated (e.g. 0,0.01,0.05)")
+                   help="noise levels in [0, 1], comma-separated: std = level × each "
+                        "channel's RMS (e.g. 0,0.01,0.05 for 0, 1 and 5 %%)")
     w.add_argument("--n-modes", default=None, metavar="LIST",
                    help="mode counts k, comma-separated (e.g. 3,4,5)")
     w.add_argument("--seeds", default=None, metavar="LIST",
@@ -566,6 +568,10 @@ def cmd_run(args) -> int:
         see = "summary.md" if (out / "summary.md").is_file() else "summary.csv"
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
               f"(see {see})")
+    if len(failed) == len(df) > 0:  # nothing measured: a mistake in the scenario, not a result
+        first = failed.iloc[0]
+        raise InputError(f"every row failed, nothing was measured; the first, {first.structure} "
+                         f"/ {first.method}: {first.status} (all: {out}/{see})")
     paths, _ = api.resolve_study(args.paths)
     parts = [p for p in paths if not Path(p).is_dir()]
     if parts and not args.out:
@@ -776,6 +782,9 @@ def _list_arg(text, name: str, kind):
             raise InputError(f"--{name}: expected finite numbers, got {v!r} in {text!r}")
         if minimum is not None and v < minimum:
             raise InputError(f"--{name}: expected values >= {minimum:g}, got {v!r} in {text!r}")
+        if name == "noise" and v > 1:  # std = level × the channel's RMS: 5 is 500 %
+            raise InputError(f"--noise: expected levels in [0, 1] (std = level × each "
+                             f"channel's RMS), got {v:g} in {text!r}{noise_level_hint(v)}")
     seen = set()
     for v in out:
         if v in seen:
@@ -835,6 +844,15 @@ def _as_flags(message: str, parser) -> str:
     return _PARAMETER.sub(flag, message)
 
 
+def _option_elsewhere(parser, option: str) -> str:
+    """``" (--coverage is an option of podbench predict)"`` for an option another command
+    takes, else ""."""
+    name = option.split("=", 1)[0]
+    where = [p.prog for p in _subparsers(parser)[1:]
+             if any(name in a.option_strings for a in p._actions)]
+    return f" ({name} is an option of {' and '.join(where)})" if where else ""
+
+
 def _subparsers(parser) -> list:
     out = [parser]
     for a in parser._actions:
@@ -847,7 +865,11 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit code (see the module docstring)."""
     parser = _parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # named by the subcommand, with the commands that take such an option
+            raise _ArgError(f"podbench {args.command}" if args.command else "podbench",
+                            f"unrecognized arguments: {' '.join(extra)}"
+                            f"{_option_elsewhere(parser, extra[0])}")
     except _ArgError as exc:
         print(f"{exc.prog}: error: {_one_line(exc)} (see {exc.prog} --help)", file=sys.stderr)
         return 2
@@ -868,7 +890,9 @@ def main(argv=None) -> int:
         print(f"{prog}: error: {_one_line(_as_flags(str(exc), parser))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted; results/ was left as it was", file=sys.stderr)
+        out = getattr(args, "out", None)  # outputs are written whole or not at all
+        kept = f"{out}/ was left as it was" if out else "nothing was left half-written"
+        print(f"{prog}: interrupted; {kept}", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader of stdout stopped (podbench list | head): not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -287,13 +287,13 @@ BLOCKS: dict[tuple[str, str], object] = {
     ("docs/getting-started.md", "python3 -m venv .venv && .venv/bin/pip install -e \".[test]\" "
      "&& .venv/bin/podbench run"): "shell",
     ("docs/studies/chapter4.md", "podbench run chapter4                 # = podbench run; "
-     "writes results/chapter4/"): "shell",
+     "writes results/chapter4/ (16 s)"): "shell",
     ("docs/studies/calibration.md", "podbench run calibration              # writes "
-     "results/calibration/"): "shell",
+     "results/calibration/ (41 s)"): "shell",
     ("docs/studies/base_excited.md", "podbench run base_excited             # writes "
-     "results/base_excited/ (SI units)"): "shell",
+     "results/base_excited/ (SI units; 12 s)"): "shell",
     ("docs/studies/substructuring.md", "podbench run substructuring           # writes "
-     "results/substructuring/"): "shell",
+     "results/substructuring/ (104 s)"): "shell",
     ("docs/studies/painter_street.md", ".venv/bin/pip install -e \".[mdof]\"    # the "
      "committed tables include the mdof peer's rows"): "shell",
     ("docs/studies/regression.md", "podbench regress                      # Chapter 4 and 5 "

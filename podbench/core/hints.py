@@ -28,3 +28,10 @@ def percent_hint(value: object) -> str:
     if not 5.0 <= v <= 100.0:
         return ""
     return f"; a percentage? {v:g} % is {v / 100:g}"
+
+
+def noise_level_hint(value: float) -> str:
+    """The hint for a noise level above 1 (std = level × each channel's RMS, so 5 is 500 %):
+    ``"; a percentage? 5 % is 0.05"`` up to 100, else ``""``. Above 1 a level is much more
+    likely a percentage than noise larger than the signal, so every value up to 100 gets it."""
+    return f"; a percentage? {value:g} % is {value / 100:g}" if 1 < value <= 100 else ""

@@ -248,7 +248,7 @@ def _build_io(path: Path, v: dict, *, input_units, output_units, require_outputs
     """The record of an input/output file's variables (units declared by the reader for a
     file without them; the file's own must agree)."""
     name = path.name
-    have = ", ".join(sorted(v)) or "nothing"
+    have = ", ".join(sorted(k for k, x in v.items() if x is not None)) or "nothing"
     for key in ("inputs", "dt") + (("outputs",) if require_outputs else ()):
         if key not in v:
             raise InputError(f"{name}: variable `{key}`: missing (the file has: {have})")
@@ -261,6 +261,11 @@ def _build_io(path: Path, v: dict, *, input_units, output_units, require_outputs
         units[side] = in_file or given
         if side == "output" and not units[side] and "outputs" not in v:
             units[side] = default_output_units
+        if not units[side] and format_of(path) == "csv":  # the unit is in the header
+            col = "u" if side == "input" else "y"
+            raise InputError(f"{name}: the {side} columns carry no unit; write it in the "
+                             f"header (`{col}:<channel> [m/s^2]`) or declare it (e.g. "
+                             f"--{side}-units m/s^2)")
         if not units[side]:
             raise InputError(f"{name}: variable `{side}_units`: missing (the file has: {have});"
                              " add it to the file or declare it (e.g. --" + side

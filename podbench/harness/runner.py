@@ -37,10 +37,17 @@ from podbench.harness.modal import modal_rows, pom_rows
 from podbench.harness.progress import as_stage
 from podbench.harness.series import prediction_series, truth_series
 from podbench.structures.files import structure_length_unit
-from podbench.study.estimators import all_cases, build_estimator, is_user_method, training_records
+from podbench.study.estimators import (
+    all_cases,
+    build_estimator,
+    is_user_method,
+    method_entry,
+    training_records,
+)
 from podbench.study.resolve import MEASURED, MeasuredStructure, resolve_structure
 from podbench.study.scenarios import Scenario, apply_overrides, load_scenario, method_solver
 from podbench.sysid.conditioning import Conditioning, WindowCorrected, condition
+from podbench.sysid.methods import MDS, POVR, MixedResponse, MultipleLoad, SingleLoad
 from podbench.sysid.noise import NoiseSpec, noise_generator, noisy
 
 __all__ = ["run_study", "run_unit", "UnitResult", "SideTasks", "COLUMNS", "response_counts",
@@ -147,6 +154,38 @@ def check_cases(scenario: Scenario, structure, loaded: dict | None = None) -> No
                 loaded[name] = resolve_structure(name, scenario, field=fld)
             refs[name] = loaded[name]
         _check_built(scenario, cname, _build_case(scenario, cname, refs), structure)
+
+
+_POM_METHODS = (POVR, MDS, SingleLoad, MultipleLoad, MixedResponse)
+"""The dissertation's methods (Ch. 3), whose ``n_modes`` is the number of POMs."""
+
+
+def check_modes(scenario: Scenario, structure) -> None:
+    """Check every POD method's ``n_modes`` against what its training data can hold, before
+    anything is simulated: the POMs are orthonormal vectors over the sensors and span the
+    columns of the training records (Eqs. 3.4-3.6), so their number is at most the sensor
+    count and at most ``n_samples`` times the training records.
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the scenario file, the field ``methods[i].n_modes`` and the structure.
+    """
+    for i, spec in enumerate(scenario.methods):
+        if spec.n_modes is None or spec.composite or is_user_method(spec.method):
+            continue
+        if method_entry(spec.method, scenario.folder).cls not in _POM_METHODS:
+            continue  # another meaning of n_modes (ERA: the order 2 n_modes)
+        k = len(spec.train)
+        limits = [(scenario.n_samples * k, f"{k} training record{'s' if k > 1 else ''} of "
+                   f"scenario.n_samples = {scenario.n_samples}")]
+        if structure.n_sensors is not None:
+            limits.append((structure.n_sensors, f"{structure.n_sensors} sensors"))
+        bound, why = min(limits)
+        if spec.n_modes > bound:
+            raise ScenarioFileError(
+                f"{_display(scenario.path)}: field `methods[{i}].n_modes` on {structure.name}: "
+                f"{spec.n_modes} modes, but {spec.method}'s POMs number at most {bound} ({why})")
 
 
 def read_case(scenario: Scenario, case_name: str, structure) -> Response:
@@ -620,6 +659,7 @@ def plan(paths) -> list[tuple[Path, str]]:
             # malformed structure files, excitations that do not fit the structure
             structure = resolve_structure(entry, sc, field=f"scenario.structures[{i}]")
             check_cases(sc, structure, loaded)
+            check_modes(sc, structure)
             units.append((Path(p), entry))
     return units
 

@@ -112,6 +112,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+from podbench.core.hints import did_you_mean
 from podbench.errors import ScenarioFileError, StructureFileError
 from podbench.structures.spec import Table
 from podbench.study.bounds import parse_bounds
@@ -539,6 +540,46 @@ def load_claims_file(path) -> ClaimsFile:
     except StructureFileError as exc:
         raise ScenarioFileError(str(exc)) from None
     return ClaimsFile(path, claims, remarks, bounds, sensitivity, nonlinearity, seeds, levels)
+
+
+def check_claims(claims_file: ClaimsFile, scenarios: dict, metrics: Iterable[str]) -> None:
+    """Check every claim on the scenarios of the run before any work: its structures and
+    targets are the scenario's, each ``METHOD.metric`` names a method label of its scenario
+    and a column of the summary (``metrics``). A claim on a scenario outside ``scenarios``
+    (another part of the study, the nonlinearity checks' rows) is not checked here.
+
+    Raises
+    ------
+    ScenarioFileError
+        One line naming the claims file, the field and the name, with the valid names.
+    """
+    metrics = tuple(metrics)
+    for i, c in enumerate(claims_file.claims):
+        head = f"{claims_file.path}: field `claims[{i}]"
+        for s in c.all_scenarios():
+            sc = scenarios.get(s)
+            for key, names, valid in (("structure", c.structures, sc and sc.structures),
+                                      ("target", c.targets, sc and sc.targets)):
+                for name in names if sc is not None else ():
+                    if name not in valid:
+                        raise ScenarioFileError(
+                            f'{head}.{key}`: "{name}" is not a {key} of scenario {s} '
+                            f"({', '.join(valid)}){did_you_mean(name, valid)}")
+            for j, chk in enumerate(c.checks):
+                for op in (chk.left, chk.right):
+                    other = scenarios.get(op.scenario or s)
+                    if op.is_number or op.error or other is None:
+                        continue
+                    labels = [m.label for m in other.methods]
+                    where = f"{head}.checks[{j}]`: `{op.text}`"
+                    if op.label not in labels:
+                        raise ScenarioFileError(
+                            f'{where}: no method labelled "{op.label}" in scenario '
+                            f"{other.name} ({', '.join(labels)}){did_you_mean(op.label, labels)}")
+                    if op.metric not in metrics:
+                        raise ScenarioFileError(
+                            f'{where}: "{op.metric}" is not a column of summary.csv '
+                            f"({', '.join(metrics)}){did_you_mean(op.metric, metrics)}")
 
 
 MIN_SEEDS = 5

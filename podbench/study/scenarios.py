@@ -88,6 +88,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from podbench.core.hints import noise_level_hint
 from podbench.core.resources import display_path as _display
 from podbench.core.resources import unique_paths
 from podbench.core.tomlfile import load_toml
@@ -409,6 +410,9 @@ def _parse_header(sc: Table, base: Scenario | None) -> dict[str, Any]:
         sc.fail("targets", "expected at least one target case")
     training_noise = sc.number("training_noise", 0.0 if base is None else base.training_noise,
                                nonnegative=True)
+    if training_noise > 1:  # std = level × the channel's RMS: 5 is 500 %
+        sc.fail("training_noise", f"expected a level in [0, 1] (std = level × each channel's "
+                f"RMS), got {training_noise:g}{noise_level_hint(training_noise)}")
     requires = read_requires(sc, () if base is None else base.requires)
     sc.close()
     return {"title": title, "source": source, "description": description.strip(),
@@ -624,7 +628,12 @@ def _parse_sweep(t: Table, folder: Path) -> Sweep:
 def _sweep_noise(t: Table) -> tuple[float, ...]:
     """The noise levels of a ``[sweep]`` table: ``noise``, or ``snr_db`` converted."""
     if "snr_db" not in t.data:
-        return tuple(t.numbers("noise", [0.0], nonnegative=True))
+        levels = tuple(t.numbers("noise", [0.0], nonnegative=True))
+        for i, x in enumerate(levels):
+            if x > 1:  # std = level × the channel's RMS: 5 is 500 %
+                t.fail(f"noise[{i}]", f"expected a level in [0, 1] (std = level × each "
+                       f"channel's RMS), got {x:g}{noise_level_hint(x)}")
+        return levels
     if "noise" in t.data:
         t.fail("snr_db", "give the noise levels either as `noise` or as `snr_db`, not both")
     snr = t.numbers("snr_db", None)

@@ -38,6 +38,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import importlib
+import inspect
 import io
 import json
 import zipfile
@@ -148,6 +149,9 @@ class _Decoder:
             return v
         tag = v.get(_TAG)
         if tag == "array":
+            if v.get("key") not in self.arrays:
+                raise InputError(f"{self.name}: array {v.get('key')!r}: missing (the header "
+                                 "refers to it: an incomplete or edited model file)")
             return np.array(self.arrays[v["key"]])
         if tag == "float":
             return float(v["value"])
@@ -162,7 +166,14 @@ class _Decoder:
         if tag in ("record", "iorecord"):  # "iorecord": files of before the one record type
             return Record.from_fields(**{k: self.value(x) for k, x in v["fields"].items()})
         if tag == "object":
-            obj = self.cls(v["class"])(**{k: self.value(x) for k, x in v["parameters"].items()})
+            cls = self.cls(v["class"])
+            params = {k: self.value(x) for k, x in v["parameters"].items()}
+            accepted = inspect.signature(cls).parameters
+            unknown = sorted(set(params) - set(accepted))  # an edited header: one line
+            if unknown and not any(p.kind is p.VAR_KEYWORD for p in accepted.values()):
+                raise InputError(f"{self.name}: field `parameters.{unknown[0]}`: not a "
+                                 f"parameter of {cls.__name__}")
+            obj = cls(**params)
             for k, x in v["state"].items():
                 setattr(obj, k, self.value(x))
             return obj

@@ -193,3 +193,153 @@ def test_more_modes_than_load_cases_is_refused_before_any_fit(tmp_path):
     with pytest.raises(InputError, match=r"beam_forced.toml.*n_modes.*6 modes from 4 training "
                                          r"cases: ML .* k ≤ 4"):
         load_scenario(f)
+
+
+def _beam_forced(tmp_path, *edits) -> Path:
+    """scenarios/chapter4/beam_forced.toml on lti_beam alone, with ``edits`` (old, new)."""
+    text = (ROOT / "scenarios" / "chapter4" / "beam_forced.toml").read_text(encoding="utf-8")
+    for old, new in (('"lti_beam", "ltv_beam", "nl_beam"', '"lti_beam"'), *edits):
+        assert old in text
+        text = text.replace(old, new, 1)
+    f = tmp_path / "beam_forced.toml"
+    f.write_text(text, encoding="utf-8")
+    return f
+
+
+@pytest.mark.parametrize("edits, words", [
+    ([("n_modes = 4", "n_modes = 40")], "40 modes, but SL's POMs number at most 25 (25 sensors)"),
+    ([("n_samples = 500", "n_samples = 3")],
+     "4 modes, but SL's POMs number at most 3 (1 training record of scenario.n_samples = 3)"),
+])
+def test_more_pod_modes_than_sensors_or_samples_is_refused_before_any_simulation(
+        edits, words, tmp_path):
+    from podbench.errors import ScenarioFileError
+    from podbench.harness.runner import plan
+
+    f = _beam_forced(tmp_path, *edits)
+    with pytest.raises(ScenarioFileError) as info:
+        plan([f])  # validates; simulates nothing
+    msg = str(info.value)
+    assert "beam_forced.toml: field `methods[0].n_modes` on lti_beam: " in msg
+    assert msg.endswith(words) and "\n" not in msg
+    # ERA's n_modes is an order (2 n_modes), not POMs: 40 on 25 sensors is not refused here
+    era = _beam_forced(tmp_path, ('method = "SL"\nn_modes = 4', 'method = "ERA"\nn_modes = 40'),
+                       ('options = { solver = "block" }\ntwin = "ML"', ""))
+    assert len(plan([era])) == 1
+
+
+def test_a_run_whose_every_row_failed_is_an_error_not_a_table(tmp_path, capsys):
+    # 2 samples from rest: each record has rank 1, so every fit of 2 modes fails
+    f = _beam_forced(tmp_path, ("n_samples = 500", "n_samples = 2"), ("n_modes = 4", "n_modes = 2"))
+    out = tmp_path / "out"
+    argv = ["run", str(f), "--out", str(out), "--no-figures", "--no-cache", "-q", "--jobs", "1"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "every row failed, nothing was measured" in err
+    assert "numerical rank 1" in err and f"{out}/summary.md" in err
+
+
+def test_a_noise_level_above_one_is_refused_with_the_percentage_hint(tmp_path, capsys):
+    from podbench.errors import ScenarioFileError
+    from podbench.study.scenarios import load_scenario
+
+    # the command line: before any scenario is read or simulated
+    assert cli.main(["sweep", "chapter4/beam_forced", "--noise", "0,1,5", "--out",
+                     str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and not (tmp_path / "s").exists()
+    assert err.endswith("--noise: expected levels in [0, 1] (std = level × each channel's "
+                        "RMS), got 5 in '0,1,5'; a percentage? 5 % is 0.05\n")
+    assert cli.main(["sweep", "chapter4/beam_forced", "--noise", "250", "--out",
+                     str(tmp_path / "s")]) == 2
+    assert capsys.readouterr().err.endswith("got 250 in '250'\n")  # no hint past 100
+    # the scenario file: [sweep] noise and scenario.training_noise
+    src = ROOT / "scenarios" / "calibration" / "beam_forced_noise1pct.toml"
+    text = src.read_text(encoding="utf-8")
+    assert "training_noise = 0.01" in text
+    f = tmp_path / src.name
+    f.write_text(text.replace("training_noise = 0.01", "training_noise = 2", 1)
+                 .replace('base = "', 'base = "' + str(src.parent) + "/", 1), encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match=r"beam_forced_noise1pct.toml: field "
+                       r"`scenario.training_noise`: .* got 2; a percentage\? 2 % is 0.02$"):
+        load_scenario(f)
+    sweep = (ROOT / "scenarios" / "sweeps" / "beam_forced_noise.toml").read_text(
+        encoding="utf-8").replace("noise = [0.0, 0.001, 0.01, 0.03, 0.05]",
+                                  "noise = [0, 0.1, 1, 3, 5]", 1)
+    g = tmp_path / "beam_forced_noise.toml"
+    g.write_text(sweep, encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match=r"field `sweep.noise\[3\]`: .* got 3; a "
+                                                r"percentage\? 3 % is 0.03$"):
+        load_scenario(g)
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["run", "chapter4", "--out", "elsewhere"], "interrupted; elsewhere/ was left as it was"),
+    (["run", "chapter4"], "interrupted; nothing was left half-written"),
+])
+def test_an_interruption_names_only_the_folder_the_command_writes(argv, said, monkeypatch,
+                                                                  capsys):
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_run", interrupted)
+    assert cli.main(argv) == 130
+    assert capsys.readouterr().err == f"podbench run: {said}\n"
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ('checks = ["MDS.norm_pe_p90 < 5"]', 'checks = ["MDS.norm_pe_p99 < 5"]',
+     "field `claims[0].checks[0]`: `MDS.norm_pe_p99`: \"norm_pe_p99\" is not a column of "
+     "summary.csv"),
+    ('checks = ["MDS.norm_pe_p90 < 5"]', 'checks = ["MSD.norm_pe_p90 < 5"]',
+     "field `claims[0].checks[0]`: `MSD.norm_pe_p90`: no method labelled \"MSD\" in scenario "
+     "beam_free_displacement (POVR, MDS); did you mean 'MDS'?"),
+    ('target = "w3"', 'target = "w33"', "field `claims[0].target`: \"w33\" is not a target of "
+     "scenario beam_free_displacement (w3, w3_x3); did you mean 'w3'?"),
+])
+def test_a_claim_naming_no_row_of_its_scenario_is_refused_before_any_work(old, new, words,
+                                                                         tmp_path):
+    from podbench import api
+    from podbench.errors import ScenarioFileError
+    from podbench.harness.bands import BAND_COLUMNS
+    from podbench.harness.metrics import ERROR_COLUMNS, NORM_COLUMNS
+    from podbench.study.claims import check_claims, load_claims_file
+
+    paths, files = api.resolve_study(["chapter4"])
+    scenarios = api.load_scenarios(files)
+    metrics = ("n_modes", *ERROR_COLUMNS, *NORM_COLUMNS, *BAND_COLUMNS)
+    src = ROOT / "scenarios" / "chapter4" / "claims.toml"
+    check_claims(load_claims_file(src), scenarios, metrics)  # the committed file passes
+    text = src.read_text(encoding="utf-8").replace('sensitivity = "../sensitivity"\n', "")
+    assert old in text  # the first claim's
+    f = tmp_path / "claims.toml"
+    f.write_text(text.replace(old, new, 1), encoding="utf-8")
+    with pytest.raises(ScenarioFileError) as info:
+        check_claims(load_claims_file(f), scenarios, metrics)
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_podbench_run_checks_the_claims_before_any_simulation(tmp_path, capsys):
+    import shutil
+
+    study = tmp_path / "my4"
+    shutil.copytree(ROOT / "scenarios" / "chapter4", study)
+    claims = study / "claims.toml"
+    text = claims.read_text(encoding="utf-8").replace('sensitivity = "../sensitivity"\n', "")
+    claims.write_text(text.replace('target = "w3"', 'target = "w33"', 1), encoding="utf-8")
+    out = tmp_path / "out"
+    assert cli.main(["run", str(study), "--out", str(out), "--no-cache", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "field `claims[0].target`: \"w33\"" in err
+    assert not out.exists()
+
+
+def test_an_option_of_another_command_is_named_with_the_command_that_takes_it(capsys):
+    argv = ["fit", "--method", "ML", "--train", "a.npz", "--out", "m", "--coverage", "0.9"]
+    assert cli.main(argv) == 2
+    assert capsys.readouterr().err == (
+        "podbench fit: error: unrecognized arguments: --coverage 0.9 (--coverage is an option "
+        "of podbench predict) (see podbench fit --help)\n")
+    assert cli.main(["list", "--bogus"]) == 2
+    assert capsys.readouterr().err == ("podbench list: error: unrecognized arguments: --bogus "
+                                       "(see podbench list --help)\n")

@@ -114,7 +114,9 @@ def test_ascii_uff_written_by_pyuff_itself_is_read(tmp_path):
     ("t,u:a [m/s^2],y:c [m]\n0,1,2\n0.1,2\n", "bad.csv: field `row 3`: 2 values"),
     ("t,u:a [m/s^2],y:c [furlong]\n0,1,2\n0.1,2,3\n",
      "bad.csv: field `output_units`: unknown unit 'furlong'"),
-    ("t,u:a,y:c [m]\n0,1,2\n0.1,2,3\n", "bad.csv: variable `input_units`: missing"),
+    ("t,u:a,y:c [m]\n0,1,2\n0.1,2,3\n", "bad.csv: the input columns carry no unit; write "
+     "it in the header (`u:<channel> [m/s^2]`) or declare it (e.g. --input-units m/s^2)"),
+    ("t,u:a [N],y:c\n0,1,2\n0.1,2,3\n", "bad.csv: the output columns carry no unit"),
     ("t,y:c [m]\n0,1\n0.1,2\n", "bad.csv: field `inputs`: no input column"),
 ])
 def test_a_bad_csv_is_one_line_naming_the_file_and_the_field(tmp_path, text, words):

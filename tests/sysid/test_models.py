@@ -128,9 +128,19 @@ def test_bad_model_files_are_refused_in_one_line(tmp_path):
     alien = tmp_path / "alien.npz"
     np.savez(alien, __header__=np.array(json.dumps({**header, "class": "os:system"})),
              **arrays)
+    edited = tmp_path / "edited.npz"  # a parameter added by hand to the header
+    params = {**header["parameters"], "n_mode": 3}
+    np.savez(edited, __header__=np.array(json.dumps({**header, "parameters": params})),
+             **arrays)
+    gap = tmp_path / "gap.npz"  # an array the header refers to, left out
+    key = next(iter(arrays))
+    np.savez(gap, __header__=np.array(json.dumps(header)),
+             **{k: a for k, a in arrays.items() if k != key})
     cases = [(text, "not a podbench model"), (plain, "no `__header__`"),
              (pickled, "pickled objects"), (raw, "a pickle"), (future, "format_version`: 99"),
-             (alien, "not podbench's"), (tmp_path / "absent.npz", "no such file")]
+             (alien, "not podbench's"), (tmp_path / "absent.npz", "no such file"),
+             (edited, "field `parameters.n_mode`: not a parameter of MultipleLoad"),
+             (gap, f"array '{key}': missing")]
     for path, words in cases:
         with pytest.raises(InputError, match=words) as info:
             load_model(path)
