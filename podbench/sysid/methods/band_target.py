@@ -48,11 +48,12 @@ RCOND = 1e-6
 frequencies) are treated as zero in ``c = X⁺ x̃``: a frequency at which no training record
 is excited contributes nothing that the records could express."""
 
-COEFFICIENT_ROUTE = "svd"
-"""How ``c = E⁺e`` is computed for bins of several excitation rows: ``"svd"`` (the batched
-SVD of every bin) or ``"qr"`` (:func:`_coefficients_qr`, a third of the cost, equal to the
-SVD's to round-off). The two differ in ``c`` at round-off only, and nothing downstream reads
-round-off: a blind spot at or below :func:`roundoff_floor` is 0."""
+COEFFICIENT_ROUTE = "qr"
+"""How ``c = E⁺e`` is computed for bins of several excitation rows: ``"qr"``
+(:func:`_coefficients_qr`, where its bounds prove the SVD's cut keeps every singular value
+of a bin or none, else the SVD) or ``"svd"`` (the batched SVD of every bin, three times the
+cost). The two differ in ``c`` at round-off only, and nothing downstream reads round-off: a
+blind spot at or below :func:`roundoff_floor` is 0."""
 
 
 @dataclass(frozen=True)
