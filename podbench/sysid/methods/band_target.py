@@ -51,9 +51,10 @@ is excited contributes nothing that the records could express."""
 COEFFICIENT_ROUTE = "qr"
 """How ``c = E⁺e`` is computed for bins of several excitation rows: ``"qr"``
 (:func:`_coefficients_qr`, where its bounds prove the SVD's cut keeps every singular value
-of a bin or none, else the SVD) or ``"svd"`` (the batched SVD of every bin, three times the
-cost). The two differ in ``c`` at round-off only, and nothing downstream reads round-off: a
-blind spot at or below :func:`roundoff_floor` is 0."""
+of a bin or none, else the SVD) or ``"svd"`` (the batched SVD of every bin: the same
+numbers at a higher cost, docs/bands.md *Cost*). The two differ in ``c`` at round-off
+only, and nothing downstream reads round-off: a blind spot at or below
+:func:`roundoff_floor` is 0."""
 
 
 @dataclass(frozen=True)
