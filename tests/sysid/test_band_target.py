@@ -15,6 +15,7 @@ from podbench import Record
 from podbench.sysid.methods import band_target
 
 from ._cases import forced_case, free_case
+from ._truth import coupled_chain, newmark
 
 
 def _free_records():
@@ -198,3 +199,90 @@ def test_the_terms_of_the_qr_route_are_the_svds(monkeypatch):
     for a, b in zip(fast, slow, strict=True):
         assert math.isclose(a.leverage2, b.leverage2, rel_tol=1e-12)
         assert math.isclose(a.blind2, b.blind2, rel_tol=1e-12, abs_tol=1e-15)
+
+
+def _measured_forces_case(seed: int = 4, n: int = 60, n_records: int = 5):
+    """A 3-DOF coupled chain (every DOF a sensor and loaded) with random forces measured at
+    all three DOFs: five training records with 5 % per-channel noise on the responses (more
+    records than inputs: every frequency bin's 3 × 4 excitation matrix of a fold has exactly
+    dependent columns) and a clean target."""
+    M, C, K = coupled_chain(3)
+    rng = np.random.default_rng(seed)
+
+    def record(sigma):
+        F = 100.0 * rng.standard_normal((3, n))
+        F[:, 0] = 0.0  # from rest: an exact discrete convolution (_truth)
+        W = newmark(M, C, K, 0.002, n, F=F)[0]
+        W = W + sigma * np.std(W, axis=1, keepdims=True) * rng.standard_normal(W.shape)
+        return Record(W=W, F=F, dt=0.002)
+
+    return [record(0.05) for _ in range(n_records)], record(0.0)
+
+
+def test_a_round_off_blind_spot_does_not_move_the_estimate(monkeypatch):
+    """ML in all three modes of a 3-DOF chain loaded at every DOF: the basis is the whole
+    sensor space and the combination that matches a target's modal force matches its force,
+    so the blind spot Δ² is 0 up to the round-off of the coefficient solve (about 1e-30).
+    The estimate must not depend on that round-off: the SVD and QR coefficient routes (equal
+    to 1e-12, tests above) give the same estimate to 1e-6 and a blind spot of exactly 0.
+    Without a floor the gains fitted κ_Δ² to the round-off and the two routes' estimates
+    differed by a factor of 1.9 on this case (2.19 and 1.13)."""
+    train, target = _measured_forces_case()
+    estimates, blind2 = {}, {}
+    for route in ("svd", "qr"):
+        monkeypatch.setattr(band_target, "COEFFICIENT_ROUTE", route)
+        model = MultipleLoad(n_modes=3, solver="ls").fit(train)
+        U = model.modes_
+        ex = band_target.excitations(model, train, U)
+        terms = band_target.fold_terms(model, train, U, ex=ex) + \
+            [band_target.target_terms(model, ex, target, U)]
+        blind2[route] = [t.blind2 for t in terms]
+        estimates[route] = model.predict(target, coverage=0.9).error_estimate
+    assert math.isfinite(estimates["svd"]) and estimates["svd"] > 0
+    assert math.isclose(estimates["qr"], estimates["svd"], rel_tol=1e-6)
+    assert blind2["svd"] == blind2["qr"] == [0.0] * 6
+
+
+def _unfloored(ex, j, N):
+    """Fold ``j``'s blind spot computed without the floor, and the floor."""
+    keep = [i for i in range(N) if i != j]
+    E, X, e, x = ex.E[..., keep], ex.X[..., keep], ex.E[..., j], ex.X[..., j]
+    c = band_target._coefficients(E, e)
+    inside = float(np.sum(np.abs(e) ** 2))
+    left = x - (X @ c[..., None])[..., 0]
+    return (float(np.sum(np.abs(left) ** 2)) / inside,
+            band_target.roundoff_floor(E.shape[1], X, c, x, inside, ex.nfft))
+
+
+@pytest.mark.parametrize("route", ["svd", "qr"])
+def test_the_round_off_floor_bounds_the_round_off_and_not_a_blind_spot(monkeypatch, route):
+    """The floor (τε)² Σ_b (‖X_b‖‖c_b‖ + ‖x_b‖)²/Σ_b ‖e_b‖² lies above the round-off of the
+    blind spot it floors (ML in all 3 modes of the 3-DOF chain: the exact Δ² is 0; the
+    computed one, measured 0.0005–0.05 × the floor over eight designs, at most a tenth of
+    it here) and far below a blind spot that exists (the same records in 2 modes: the third
+    mode's share of the load, measured 4e27 × the floor): it zeroes only what the solve
+    cannot resolve."""
+    monkeypatch.setattr(band_target, "COEFFICIENT_ROUTE", route)
+    train, _ = _measured_forces_case()
+    for k, lo, hi in ((3, 0.0, 0.1), (2, 1e20, math.inf)):
+        model = MultipleLoad(n_modes=k, solver="ls").fit(train)
+        ex = band_target.excitations(model, train, model.modes_)
+        for j in range(len(train)):
+            blind2, floor = _unfloored(ex, j, len(train))
+            assert floor > 0 and lo * floor <= blind2 <= hi * floor
+        terms = band_target.fold_terms(model, train, model.modes_, ex=ex)
+        assert all((t.blind2 == 0.0) == (k == 3) for t in terms)
+
+
+def test_gains_without_a_blind_spot_rest_on_the_leverage():
+    """Every fold's Δ² = 0 (the floor above): κ_Δ² = 0 and κ_Λ² is the geometric mean of
+    e_j²/(Λ_j² + 1) over the folds (the log-space fit with one gain), by hand."""
+    from podbench.sysid.methods import bands
+
+    errors = [0.1, 0.4, 0.2]
+    terms = [band_target.TargetTerms(lev, 0.0) for lev in (0.5, 3.0, 1.0)]
+    a, b = bands.fit_gains(errors, terms, [1.0, 1.0, 1.0])
+    expected = math.exp(np.mean(np.log([0.01 / 1.5, 0.16 / 4.0, 0.04 / 2.0])))
+    assert b == 0.0 and math.isclose(a, expected, rel_tol=1e-12)
+    assert math.isclose(bands.estimate((a, b), band_target.TargetTerms(8.0, 0.0)),
+                        math.sqrt(expected * 9.0), rel_tol=1e-12)

@@ -21,7 +21,9 @@ target and, leaving each training record out, for every fold. Three terms follow
   lies outside the basis (the modal parts match), the method cannot see it, and the
   structure responds to it, in the basis (coupling) and outside it; with point loads at
   new positions it grows with the leverage and with how little of the load the basis
-  holds (a load near a clamp);
+  holds (a load near a clamp). Where the basis spans the loads' space (every sensor a
+  mode, or loads the records span) it is exactly 0, and what is computed is the round-off
+  of the coefficient solve: a ``Δ²`` below :func:`roundoff_floor` is returned as 0;
 * **projection share** ``ρ = ‖(I − UUᵀ) w̃0‖/‖w̃0‖`` of an initial displacement: the
   prediction's exact relative error at ``t = 0`` (the prediction lies in the span of
   ``U``, the truth starts at ``w̃0``).
@@ -39,21 +41,20 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["TargetTerms", "Excitations", "excitations", "target_terms", "fold_terms",
-           "RCOND"]
+           "roundoff_floor", "RCOND"]
 
 RCOND = 1e-6
 """Singular values of the training excitations below ``RCOND`` × the largest (over all
 frequencies) are treated as zero in ``c = X⁺ x̃``: a frequency at which no training record
 is excited contributes nothing that the records could express."""
 
-COEFFICIENT_ROUTE = "svd"
-"""How ``c = E⁺e`` is computed for bins of several excitation rows: ``"svd"`` (the batched
-SVD of every bin) or ``"qr"`` (:func:`_coefficients_qr`, a third of the cost, equal to the
-SVD's to round-off; a named variant, not the default). The estimate is not yet robust to
-round-off in ``c``: with measured inputs and more records than inputs every bin's blind
-spot ``Δ²`` is round-off (about 1e-16), the gains' grid for ``κ_Δ²`` spans decades about
-the value that would explain the folds by ``Δ`` alone, and a 1e-14 change of ``c`` can then
-move an estimate by a factor of 2 (docs/bands.md, *Cost*)."""
+COEFFICIENT_ROUTE = "qr"
+"""How ``c = E⁺e`` is computed for bins of several excitation rows: ``"qr"``
+(:func:`_coefficients_qr`, where its bounds prove the SVD's cut keeps every singular value
+of a bin or none, else the SVD) or ``"svd"`` (the batched SVD of every bin: the same
+numbers at a higher cost, docs/bands.md *Cost*). The two differ in ``c`` at round-off
+only, and nothing downstream reads round-off: a blind spot at or below
+:func:`roundoff_floor` is 0."""
 
 
 @dataclass(frozen=True)
@@ -244,7 +245,37 @@ def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetT
             left = left - (left @ U_full) @ U_full.T
         inside = float(np.sum(np.abs(e) ** 2))
         blind2 = float(np.sum(np.abs(left) ** 2)) / inside if inside > 0 else math.inf
+        if blind2 <= roundoff_floor(E.shape[1], ex.X[..., keep], c, x, inside, ex.nfft):
+            blind2 = 0.0
     return TargetTerms(lev2, blind2, rho)
+
+
+def roundoff_floor(p: int, X: np.ndarray, c: np.ndarray, x: np.ndarray, inside: float,
+                   nfft: int) -> float:
+    """The largest blind spot ``Δ²`` that the round-off of its own computation can produce:
+    ``(τ ε)² Σ_b (‖X_b‖_F ‖c_b‖ + ‖x_b‖)² / Σ_b ‖e_b‖²`` (``inside`` the denominator), with
+    ``τ = p N + log₂ n_fft``: ``p`` modal excitation rows and ``N`` records per bin,
+    ``ε`` the double-precision machine epsilon, ``log₂ n_fft`` only for a spectrum (more
+    than one bin ``b``).
+
+    The residual ``x_b − X_b c_b`` of the coefficients ``c_b = E_b⁺ e_b`` is computed, not
+    exact: the minimum-norm solve is backward stable, so the computed ``c_b`` solves a
+    system perturbed by ``‖δE_b‖ ≤ γ_{pN} ‖E_b‖_F``, ``γ_{pN} ≈ pN u`` (Householder QR:
+    Higham 2002, *Accuracy and Stability of Numerical Algorithms*, Thm 21.4; the SVD's
+    bound is of the same order), which leaves up to ``γ_{pN}‖X_b‖_F‖c_b‖`` of the target's
+    excitation unmatched (``‖E_b‖_F ≤ ‖X_b‖_F``, ``E = UᵀX``); the product ``X_b c_b``
+    adds at most ``N u ‖X_b‖_F‖c_b‖``, and the FFTs that form ``E``, ``e``, ``X``, ``x``
+    separately ``O(u log₂ n_fft)`` of each (Higham, Thm 24.2). ``τ ε`` (``ε = 2u``) is the
+    sum of these first-order bounds. A blind spot at or below it is not resolved by the
+    solve — a basis spanning the whole sensor space, or loads at the sensors whose space the
+    records span, make Δ exactly 0 — and is returned as 0 by :func:`_terms`."""
+    B, _, N = X.shape
+    if not inside > 0:
+        return 0.0
+    tau = p * N + (math.log2(nfft) if B > 1 else 0.0)
+    scale = np.sqrt(np.sum(np.abs(X) ** 2, axis=(1, 2))) * np.linalg.norm(c, axis=1) \
+        + np.linalg.norm(x, axis=1)
+    return float((tau * np.finfo(float).eps) ** 2 * np.sum(scale ** 2) / inside)
 
 
 def _rho(model, record, U) -> float | None:

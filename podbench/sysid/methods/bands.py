@@ -1055,7 +1055,11 @@ def fit_gains(errors, terms, factors) -> tuple[float, float]:
     factor stated). For each κ_Δ² on a grid (0, and five decades about the value that
     explains the folds by the blind spot alone) κ_Λ² is the geometric mean that the
     logarithmic fit gives; the pair of least loss is kept (deterministic: a grid, no
-    optimizer)."""
+    optimizer). Where every fold's blind spot is 0 (the basis spans the loads' space, its
+    computed value round-off:
+    :func:`~podbench.sysid.methods.band_target.roundoff_floor`) the grid is {0}: κ_Δ² = 0
+    and the estimate rests on the leverage alone, κ_Λ² the geometric mean of
+    ``y_j/(Λ_j² + 1)`` over the folds."""
     return _fit(errors, terms, factors)[1:]
 
 
