@@ -181,7 +181,13 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", nargs="*", type=float, default=[0.0, 0.01],
                     help="training noise levels (fraction of each channel's RMS)")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--max-folds", type=int, default=None,
+                    help="the variant bands.MAX_FOLDS (default: leave-one-record-out)")
     args = ap.parse_args(argv)
+    if args.max_folds is not None:
+        from podbench.sysid.methods import bands
+
+        bands.MAX_FOLDS = args.max_folds
     labels = args.cases or list(_cases())
     print("| case | noise | plain (s) | band (s) | band / plain | floor | source | coverage | "
           "estimate | realized |")

@@ -301,21 +301,25 @@ def target_terms(model, ex: Excitations | None, record, U) -> TargetTerms | None
     return _terms(ex, list(range(N)), part[0], part[1], _rho(model, record, U))
 
 
-def fold_terms(model, records, U, U_full=None, ex=None) -> list[TargetTerms] | None:
+def fold_terms(model, records, U, U_full=None, ex=None, groups=None
+               ) -> list[TargetTerms] | None:
     """The terms of each training record against the others (its fold), in the fold's
     basis ``U``; the projection share and the blind spot outside ``U_full`` (default
     ``U``): a fold refitted in fewer modes than the model is charged the whole basis's
     projection error, not the mode it leaves out. ``ex``: the records'
-    :func:`excitations` in ``U`` when already computed."""
+    :func:`excitations` in ``U`` when already computed. ``groups``: the records each fold
+    leaves out (default one each); a record's terms are against the records its fold
+    was fitted on."""
     if ex is None:
         ex = excitations(model, records, U)
     if ex is None:
         return None
     U_full = np.asarray(U if U_full is None else U_full, dtype=float)
     N = len(records)
+    left = {j: g for g in (groups or [[i] for i in range(N)]) for j in g}
     out = []
     for j in range(N):
-        keep = [i for i in range(N) if i != j]
+        keep = [i for i in range(N) if i not in left[j]]
         x = None if ex.X is None else ex.X[..., j]
         out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U_full),
                           U_full if U_full.shape[1] > np.shape(U)[1] else None))
