@@ -598,14 +598,16 @@ def test_grouped_folds_are_refits_on_the_other_groups(monkeypatch):
     assert bands.fold_groups(5) == [[0, 2, 4], [1, 3]]
     assert bands.fold_groups(2) == [[0], [1]]  # no more records than folds
     assert bands.fold_groups(5, lo=3) == [[j] for j in range(5)]  # 2 left: too few to fit
+    # every fold fits on N − ⌈N/F⌉ records: the smaller fold leaves one more out
+    assert bands.fold_of([[0, 2, 4], [1, 3]]) == [[1, 3], [0, 2], [1, 3], [0, 2], [1, 3]]
     case = free_case("coupled", "displacement")
     recs = [Record(W=W, w0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
     model = MDS(excitation="displacement", n_modes=2).fit(recs)
     U = np.asarray(model.modes_)
     cal = model.calibrate_band()
     assert cal.source == "cross-validation" and cal.n_folds == 2 and cal.cv_modes is None
-    for group in ([0, 2, 4], [1, 3]):
-        rest = [r for i, r in enumerate(recs) if i not in group]
+    for group, fitted in (([0, 2, 4], [1, 3]), ([1, 3], [0, 2])):
+        rest = [recs[i] for i in fitted]
         fit = MDS(excitation="displacement", n_modes=2).fit(rest, basis=U)
         ex = band_target.excitations(fit, rest, U)
         for j in group:

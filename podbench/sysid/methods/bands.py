@@ -576,12 +576,14 @@ def _noise_refits(model, recs, sig, n_draws: int, seed: int, U, frozen=None) -> 
 MAX_FOLDS: int | None = None
 """At most this many folds (a variant; ``None``, the default: one fold per training
 record, leave-one-record-out). With ``N`` records and ``F = MAX_FOLDS < N`` the records
-are dealt into ``F`` folds in turn (record ``j`` into fold ``j mod F``: each fold leaves out
-``⌈N/F⌉`` or ``⌊N/F⌋`` records, every record is predicted once, by the refit on the other
-folds' records), which costs ``F`` refits on about ``N − N/F`` records instead of ``N`` on
-``N − 1``; each record's terms, level excursion and envelope floor are then taken against
-the records its fold was fitted on. Where the method cannot be fitted on ``N − ⌈N/F⌉``
-records (its ``n_records`` bounds) the folds stay leave-one-record-out."""
+are dealt into ``F`` folds in turn (record ``j`` into fold ``j mod F``), every record is
+predicted once, by the refit of its fold, and every fold is fitted on ``N − ⌈N/F⌉`` records
+(the other folds' records, the last of them left out too where the fold predicts fewer
+than ``⌈N/F⌉``: every fold's model then has as many records, hence modes, as the others).
+That costs ``F`` refits on ``N − ⌈N/F⌉`` records instead of ``N`` on ``N − 1``; each
+record's terms, level excursion and envelope floor are then taken against the records its
+fold was fitted on. Where the method cannot be fitted on ``N − ⌈N/F⌉`` records (its
+``n_records`` bounds) the folds stay leave-one-record-out."""
 
 
 def fold_groups(n: int, lo: int = 1) -> list[list[int]]:
@@ -595,11 +597,13 @@ def fold_groups(n: int, lo: int = 1) -> list[list[int]]:
 
 
 def fold_of(groups) -> list[list[int]]:
-    """For each record (by index), the records its fold was fitted on."""
+    """For each record (by index), the records its fold was fitted on: the other folds'
+    first ``N − max |g|`` (:data:`MAX_FOLDS`)."""
     n = sum(len(g) for g in groups)
+    size = n - max(len(g) for g in groups)
     out: list[list[int]] = [[] for _ in range(n)]
     for g in groups:
-        rest = [i for i in range(n) if i not in g]
+        rest = [i for i in range(n) if i not in g][:size]
         for j in g:
             out[j] = rest
     return out
@@ -614,8 +618,9 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen, groups=None) -> list[
     records."""
     if groups is not None and any(len(g) > 1 for g in groups):
         out: list = [None] * len(recs)
+        fitted = fold_of(groups)
         for g in groups:
-            fit = _refit(model, [r for i, r in enumerate(recs) if i not in g],
+            fit = _refit(model, [recs[i] for i in fitted[g[0]]],
                          n_modes=cv_modes, basis=U_cv, frozen=frozen)
             for j in g:
                 out[j] = np.asarray(fit.predict(recs[j]), dtype=float)
@@ -803,8 +808,8 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursi
     # the folds' excitations are the model's own when the folds keep every mode
     terms = band_target.fold_terms(model, recs, U_cv, U,
                                    cal.excitations if cal.cv_modes is None else None,
-                                   fold_groups(len(recs),
-                                               getattr(model, "n_records", (1, None))[0]))
+                                   fold_of(fold_groups(len(recs), getattr(
+                                       model, "n_records", (1, None))[0])))
     if terms is None:  # no excitation to compare: one number per model
         terms = [TargetTerms(0.0, 0.0, None)] * len(recs)
     errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
