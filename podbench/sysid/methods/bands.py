@@ -820,10 +820,9 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursi
         cal.level_power = fit_level_power(errors, terms, a)
     cal.fold_terms, cal.fold_errors = list(terms), errors
     _rule_constants(cal, errors, terms, a)
-    scores = []
-    for R, Wh, e, lr in zip(residuals, Whs, cal.fold_estimates, local, strict=True):
-        S = _difficulty(Wh, cal, e, lr)
-        scores.append((np.abs(R) / S).ravel())
+    scores = [(np.abs(R) / S).ravel() for R, S in
+              zip(residuals, _fold_difficulties(Whs, cal, cal.fold_estimates, local),
+                  strict=True)]
     cal.scores = np.concatenate(scores)
     cal.fold_sizes = tuple(int(x.size) for x in scores)
     cal.mean_square_score = float(np.mean(cal.scores ** 2))
@@ -1170,6 +1169,32 @@ def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float, local=None) ->
     scale = float(np.linalg.norm(Wh)) * err / math.sqrt(1.0 + err ** 2)
     tiny = 1e-12 * (float(np.sqrt(np.mean(Wh ** 2))) or 1.0)
     return np.maximum(E * (scale / norm_e), tiny)
+
+
+def _fold_difficulties(Whs, cal: BandCalibration, errs, local) -> list[np.ndarray]:
+    """:func:`_difficulty` of every fold's prediction, the elementwise work done once on
+    their stack where they share a shape (each fold's norms and floors its own, so the same
+    numbers as one by one)."""
+    if len({Wh.shape for Wh in Whs}) != 1 or not local:
+        local = local or [None] * len(Whs)
+        return [_difficulty(Wh, cal, e, lr) for Wh, e, lr in zip(Whs, errs, local,
+                                                                  strict=True)]
+    W = np.stack(Whs)
+    rms_i = np.sqrt(np.mean(W ** 2, axis=-1, keepdims=True))
+    if cal.reference_rms is not None and TRAINING_FLOOR:
+        rms_i = np.maximum(rms_i, np.asarray(cal.reference_rms, dtype=float)[..., None])
+    tiny = np.array([1e-12 * (float(np.sqrt(np.mean(Wh ** 2))) or 1.0) for Wh in Whs])
+    env = np.sqrt(np.stack(local) ** 2 + (FLOOR * rms_i) ** 2 + tiny[:, None, None] ** 2)
+    E = env * cal.time_profile[_bins(W.shape[-1])][None, None, :]
+    out = []
+    for j, err in enumerate(errs):
+        norm_e = float(np.linalg.norm(E[j]))
+        if not (math.isfinite(err) and norm_e > 0):
+            out.append(E[j])
+            continue
+        scale = float(np.linalg.norm(Whs[j])) * err / math.sqrt(1.0 + err ** 2)
+        out.append(np.maximum(E[j] * (scale / norm_e), tiny[j]))
+    return out
 
 
 def _geometric_mean(ms: np.ndarray) -> float:
