@@ -395,9 +395,15 @@ def main(argv=None) -> int:
     ap.add_argument("--rows", default=None, help="write every prediction's row to this CSV")
     ap.add_argument("--features", action="store_true",
                     help="the rows also carry the estimate's terms and fold data")
+    ap.add_argument("--max-folds", type=int, default=None,
+                    help="the variant bands.MAX_FOLDS (default: leave-one-record-out)")
     args = ap.parse_args(argv)
     global FEATURES
     FEATURES = args.features
+    if args.max_folds is not None:
+        from podbench.sysid.methods import bands
+
+        bands.MAX_FOLDS = args.max_folds
     df = evaluate(args.set, classes=tuple(args.classes), methods=tuple(args.methods),
                   per_cell=args.per_cell, progress=True)
     if args.rows:

@@ -205,6 +205,9 @@ COMMANDS: dict[str, object] = {
         "times a band against the plain fit for nine method cases at two noise levels "
         "(minutes; speed is measured, never asserted); the bands themselves are tested in "
         "tests/sysid/test_bands.py"),
+    "python benchmarks/bands.py --cpu --repeat 10": NOT_RUN(
+        "the same timings on the process's CPU clock (minutes); speed is measured, never "
+        "asserted"),
     "podbench predict --coverage 0.9": SYNOPSIS,
     "python benchmarks/bands_heldout.py": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "

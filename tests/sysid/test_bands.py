@@ -586,3 +586,34 @@ def test_peers_folds_refit_in_one_mode_fewer_with_as_many_records_as_modes():
     assert bands.folds_per_mode(era)
     era.predict(Record(W=case.W_new, F=case.F_new, dt=case.dt), coverage=0.9)
     assert era.band_calibration_.cv_modes == len(recs) - 1
+
+
+def test_grouped_folds_are_refits_on_the_other_groups(monkeypatch):
+    """The variant ``MAX_FOLDS = F``: record j is left out in fold j mod F, predicted by a
+    fit on the other folds' records, and its terms are taken against those records (an
+    independent computation: a fit on those records and the target terms against them)."""
+    from podbench.sysid.methods import band_target, bands
+
+    monkeypatch.setattr(bands, "MAX_FOLDS", 2)
+    assert bands.fold_groups(5) == [[0, 2, 4], [1, 3]]
+    assert bands.fold_groups(2) == [[0], [1]]  # no more records than folds
+    assert bands.fold_groups(5, lo=3) == [[j] for j in range(5)]  # 2 left: too few to fit
+    # every fold fits on N − ⌈N/F⌉ records: the smaller fold leaves one more out
+    assert bands.fold_of([[0, 2, 4], [1, 3]]) == [[1, 3], [0, 2], [1, 3], [0, 2], [1, 3]]
+    case = free_case("coupled", "displacement")
+    recs = [Record(W=W, w0=x, dt=case.dt) for W, x in zip(case.W, case.x0, strict=True)]
+    model = MDS(excitation="displacement", n_modes=2).fit(recs)
+    U = np.asarray(model.modes_)
+    cal = model.calibrate_band()
+    assert cal.source == "cross-validation" and cal.n_folds == 2 and cal.cv_modes is None
+    for group, fitted in (([0, 2, 4], [1, 3]), ([1, 3], [0, 2])):
+        rest = [recs[i] for i in fitted]
+        fit = MDS(excitation="displacement", n_modes=2).fit(rest, basis=U)
+        ex = band_target.excitations(fit, rest, U)
+        for j in group:
+            W = recs[j].W
+            err = np.linalg.norm(W - fit.predict(recs[j])) / np.linalg.norm(W)
+            assert cal.fold_errors[j] == pytest.approx(err, rel=1e-9)
+            t = band_target.target_terms(fit, ex, recs[j], U)
+            assert cal.fold_terms[j].leverage2 == pytest.approx(t.leverage2, rel=1e-9)
+            assert cal.fold_terms[j].rho == pytest.approx(t.rho, rel=1e-12)

@@ -240,12 +240,13 @@ def _terms(ex: Excitations, keep, e: np.ndarray, x, rho, U_full=None) -> TargetT
     lev2 = num / den if den > 0 else math.inf
     blind2 = 0.0
     if ex.X is not None and x is not None:
-        left = x - (ex.X[..., keep] @ c[..., None])[..., 0]
+        X = ex.X[..., keep]
+        left = x - (X @ c[..., None])[..., 0]
         if U_full is not None:  # a fold in fewer modes: only what the whole basis misses
             left = left - (left @ U_full) @ U_full.T
         inside = float(np.sum(np.abs(e) ** 2))
         blind2 = float(np.sum(np.abs(left) ** 2)) / inside if inside > 0 else math.inf
-        if blind2 <= roundoff_floor(E.shape[1], ex.X[..., keep], c, x, inside, ex.nfft):
+        if blind2 <= roundoff_floor(E.shape[1], X, c, x, inside, ex.nfft):
             blind2 = 0.0
     return TargetTerms(lev2, blind2, rho)
 
@@ -302,22 +303,85 @@ def target_terms(model, ex: Excitations | None, record, U) -> TargetTerms | None
     return _terms(ex, list(range(N)), part[0], part[1], _rho(model, record, U))
 
 
-def fold_terms(model, records, U, U_full=None, ex=None) -> list[TargetTerms] | None:
+def fold_terms(model, records, U, U_full=None, ex=None, fitted=None
+               ) -> list[TargetTerms] | None:
     """The terms of each training record against the others (its fold), in the fold's
     basis ``U``; the projection share and the blind spot outside ``U_full`` (default
     ``U``): a fold refitted in fewer modes than the model is charged the whole basis's
     projection error, not the mode it leaves out. ``ex``: the records'
-    :func:`excitations` in ``U`` when already computed."""
+    :func:`excitations` in ``U`` when already computed. ``fitted``: for each record, the
+    records its fold was fitted on (default: all the others)."""
     if ex is None:
         ex = excitations(model, records, U)
     if ex is None:
         return None
     U_full = np.asarray(U if U_full is None else U_full, dtype=float)
     N = len(records)
+    keeps = fitted or [[i for i in range(N) if i != j] for j in range(N)]
+    extra = U_full if U_full.shape[1] > np.shape(U)[1] else None
+    stacked = _stacked_terms(ex, keeps, extra)
     out = []
     for j in range(N):
-        keep = [i for i in range(N) if i != j]
+        rho = _rho(model, records[j], U_full)
+        if stacked[j] is not None:
+            out.append(TargetTerms(*stacked[j], rho))
+            continue
         x = None if ex.X is None else ex.X[..., j]
-        out.append(_terms(ex, keep, ex.E[..., j], x, _rho(model, records[j], U_full),
-                          U_full if U_full.shape[1] > np.shape(U)[1] else None))
+        out.append(_terms(ex, keeps[j], ex.E[..., j], x, rho, extra))
     return out
+
+
+def _stacked_terms(ex: Excitations, keeps, U_full=None) -> list:
+    """``(Λ², Δ²)`` of every fold at once (record ``j`` against the records ``keeps[j]``),
+    or None for a fold that :func:`_terms` must compute alone. The same arithmetic as
+    :func:`_terms` with :func:`_coefficients_qr`, each fold's arrays a slab of one stack
+    (the batched QR, inverse and products act on each matrix as on its own, and every
+    threshold is the fold's own), so the same numbers; a fold whose bins the QR route
+    does not take as a whole (a cut inside a bin, a bin below the cut in one fold only,
+    one excitation row or more rows than records) is left to :func:`_terms`. Only a free
+    response's single bin is stacked: there the folds' arrays are a few numbers and the
+    calls cost more than the arithmetic; a spectrum's folds are batched over their bins
+    already, and a stack of them only moves more memory."""
+    J, N = len(keeps), ex.E.shape[2]
+    B, p = ex.E.shape[:2]
+    if COEFFICIENT_ROUTE != "qr" or B > 1 or p == 1 or len({len(k) for k in keeps}) != 1 \
+            or p > len(keeps[0]):
+        return [None] * J
+    K = len(keeps[0])
+    E = np.stack([ex.E[..., k] for k in keeps])  # (J, B, p, K): each fold's E
+    fro = np.sqrt(np.sum(np.abs(E) ** 2, axis=(2, 3)))  # (J, B)
+    F = np.max(fro, axis=1)
+    live = fro > (RCOND * F / math.sqrt(min(p, K)))[:, None]
+    common = np.all(live, axis=0)
+    ok = np.isfinite(F) & (F > 0) & np.all(live == common, axis=1)
+    if not np.any(common) or not np.any(ok):
+        return [None] * J
+    q, r = np.linalg.qr(np.conj(np.swapaxes(E[:, common], 2, 3)))
+    try:
+        r_inv = np.linalg.inv(r)
+    except np.linalg.LinAlgError:
+        return [None] * J
+    bound = 1.0 / np.sqrt(np.sum(np.abs(r_inv) ** 2, axis=(2, 3)))
+    ok &= np.all(np.isfinite(bound) & (bound > (RCOND * F)[:, None]), axis=1)
+    e = np.stack([ex.E[..., j] for j in range(N)])  # (J, B, p): each record's own
+    c = np.zeros((J, B, K), dtype=np.result_type(E, e))
+    c[:, common] = (q @ (np.conj(np.swapaxes(r_inv, 2, 3)) @ e[:, common][..., None]))[..., 0]
+    R = np.stack([ex.R[..., k] for k in keeps])
+    power = np.sum(np.abs(R) ** 2, axis=2)  # (J, B, K)
+    num = np.sum(np.abs(c) ** 2 * power, axis=(1, 2))
+    den = np.sum(np.abs((R @ c[..., None])[..., 0]) ** 2, axis=(1, 2))
+    blind = [0.0] * J
+    if ex.X is not None:
+        X = np.stack([ex.X[..., k] for k in keeps])  # (J, B, m, K)
+        x = np.stack([ex.X[..., j] for j in range(N)])
+        left = x - (X @ c[..., None])[..., 0]
+        if U_full is not None:
+            left = left - (left @ U_full) @ U_full.T
+        inside = np.sum(np.abs(e) ** 2, axis=(1, 2))
+        blind2 = np.sum(np.abs(left) ** 2, axis=(1, 2))
+        for j in range(J):
+            b = float(blind2[j]) / float(inside[j]) if inside[j] > 0 else math.inf
+            blind[j] = 0.0 if b <= roundoff_floor(p, X[j], c[j], x[j], float(inside[j]),
+                                                  ex.nfft) else b
+    return [(float(num[j]) / float(den[j]) if den[j] > 0 else math.inf, blind[j])
+            if ok[j] else None for j in range(J)]

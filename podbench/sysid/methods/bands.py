@@ -573,11 +573,58 @@ def _noise_refits(model, recs, sig, n_draws: int, seed: int, U, frozen=None) -> 
     return noise_models
 
 
-def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
+MAX_FOLDS: int | None = None
+"""At most this many folds (a variant; ``None``, the default: one fold per training
+record, leave-one-record-out). With ``N`` records and ``F = MAX_FOLDS < N`` the records
+are dealt into ``F`` folds in turn (record ``j`` into fold ``j mod F``), every record is
+predicted once, by the refit of its fold, and every fold is fitted on ``N − ⌈N/F⌉`` records
+(the other folds' records, the last of them left out too where the fold predicts fewer
+than ``⌈N/F⌉``: every fold's model then has as many records, hence modes, as the others).
+That costs ``F`` refits on ``N − ⌈N/F⌉`` records instead of ``N`` on ``N − 1``; each
+record's terms, level excursion and envelope floor are then taken against the records its
+fold was fitted on. Where the method cannot be fitted on ``N − ⌈N/F⌉`` records (its
+``n_records`` bounds) the folds stay leave-one-record-out."""
+
+
+def fold_groups(n: int, lo: int = 1) -> list[list[int]]:
+    """The records each fold leaves out (:data:`MAX_FOLDS`): ``[[0], [1], …]`` by default,
+    or record ``j`` in fold ``j mod F``; leave-one-record-out where the larger folds would
+    leave fewer than ``lo`` records to fit on."""
+    F = MAX_FOLDS
+    if F is None or n <= F or n - math.ceil(n / F) < max(lo, 1):
+        return [[j] for j in range(n)]
+    return [list(range(g, n, F)) for g in range(F)]
+
+
+def fold_of(groups) -> list[list[int]]:
+    """For each record (by index), the records its fold was fitted on: the other folds'
+    first ``N − max |g|`` (:data:`MAX_FOLDS`)."""
+    n = sum(len(g) for g in groups)
+    size = n - max(len(g) for g in groups)
+    out: list[list[int]] = [[] for _ in range(n)]
+    for g in groups:
+        rest = [i for i in range(n) if i not in g][:size]
+        for j in g:
+            out[j] = rest
+    return out
+
+
+def _fold_predictions(model, recs, U_cv, cv_modes, frozen, groups=None) -> list[np.ndarray]:
     """Each training record predicted by the model refitted in ``U_cv`` to the others:
     the method's own ``fold_predictions`` where it has one (the same predictions without
     the refits: MDS's folds are linear in the other records' projections, ML's
-    deconvolutions are solved together), else one refit per fold."""
+    deconvolutions are solved together), else one refit per fold; ``groups``
+    (:func:`fold_groups`) of several records: one refit per group, on the other groups'
+    records."""
+    if groups is not None and any(len(g) > 1 for g in groups):
+        out: list = [None] * len(recs)
+        fitted = fold_of(groups)
+        for g in groups:
+            fit = _refit(model, [recs[i] for i in fitted[g[0]]],
+                         n_modes=cv_modes, basis=U_cv, frozen=frozen)
+            for j in g:
+                out[j] = np.asarray(fit.predict(recs[j]), dtype=float)
+        return out
     hook = getattr(model, "fold_predictions", None)
     if callable(hook):
         out = hook(recs, U_cv, frozen)
@@ -588,26 +635,28 @@ def _fold_predictions(model, recs, U_cv, cv_modes, frozen) -> list[np.ndarray]:
             for j in range(len(recs))]
 
 
-def _fold_envelopes(Whs, recs, reference: str | None = None
+def _fold_envelopes(Whs, recs, reference: str | None = None, groups=None
                     ) -> tuple[list[np.ndarray], list[float], list[np.ndarray]]:
     """``(envelopes, excursions, local)``: each fold's envelope of its prediction, floored by the
     per-sensor RMS of the records it was fitted on (computed for all folds at once where
     the predictions share a shape), and how far its level lies outside the others'
     (:func:`extrapolation` of :func:`levels`: the left-out record's input RMS against the
     others', both ways, or its prediction's RMS against the others' responses), and each
-    prediction's moving RMS before the floor (:func:`_local_rms`, reused by the scores)."""
+    prediction's moving RMS before the floor (:func:`_local_rms`, reused by the scores);
+    ``groups`` (:func:`fold_groups`): "the others" are the records the fold was fitted on."""
     N = len(recs)
+    fitted = fold_of(groups if groups is not None else [[j] for j in range(N)])
     ms = [np.mean(np.asarray(r.W, float) ** 2, axis=1) for r in recs]
     rule, amps = levels(recs)
     energy = [input_energy(r) for r in recs] if rule == "input" else [1.0] * N
     refs, excursions = [], []
     for j, Wh in enumerate(Whs):
-        rest = [ms[l] for l in range(N) if l != j]
-        rest_lv = [amps[l] for l in range(N) if l != j]
+        rest = [ms[l] for l in fitted[j]]
+        rest_lv = [amps[l] for l in fitted[j]]
         refs.append(np.sqrt(np.mean(rest, axis=0)))
         if rule == "input":
             excursions.append(input_excursion(
-                amps[j], rest_lv, [energy[l] for l in range(N) if l != j], reference))
+                amps[j], rest_lv, [energy[l] for l in fitted[j]], reference))
         else:
             excursions.append(extrapolation(_rms(Wh), min(rest_lv), max(rest_lv)))
     if len({Wh.shape for Wh in Whs}) == 1:
@@ -643,11 +692,13 @@ def _residuals(model, recs, U, can_split: bool, frozen=None):
     if can_split:
         source = "cross-validation"
         k = int(U.shape[1])
-        if folds_per_mode(model) and k > len(recs) - 1:
-            cv_modes = len(recs) - 1
+        groups = fold_groups(len(recs), getattr(model, "n_records", (1, None))[0])
+        fitted = len(recs) - max(len(g) for g in groups)  # the fewest records a fold fits
+        if folds_per_mode(model) and k > fitted:
+            cv_modes = fitted
         U_cv = U if cv_modes is None else U[:, :cv_modes]
-        Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen)
-        envs, excursions, local = _fold_envelopes(Whs, recs, level_reference(model))
+        Whs = _fold_predictions(model, recs, U_cv, cv_modes, frozen, groups)
+        envs, excursions, local = _fold_envelopes(Whs, recs, level_reference(model), groups)
         for j, Wh in enumerate(Whs):
             W = np.asarray(recs[j].W, dtype=float)[:, :Wh.shape[1]]
             if cv_modes is None:
@@ -727,7 +778,8 @@ def calibrate(model, records, *, noise_std=None, n_draws: int | None = None, see
     g = _time_profile(residuals, envs)
     rule, amps = levels(recs)
     cal = BandCalibration(source, np.zeros(0), 0.0, g, sig,
-                          len(residuals) if source == "cross-validation" else 0,
+                          len(fold_groups(len(recs), lo)) if source == "cross-validation"
+                          else 0,
                           len(noise_models), cv_modes, noise_models,
                           (min(amps), max(amps)), _sensor_rms(recs), level_rule=rule)
     if rule == "input":
@@ -755,7 +807,9 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursi
     cal.excitations = band_target.excitations(model, recs, U)
     # the folds' excitations are the model's own when the folds keep every mode
     terms = band_target.fold_terms(model, recs, U_cv, U,
-                                   cal.excitations if cal.cv_modes is None else None)
+                                   cal.excitations if cal.cv_modes is None else None,
+                                   fold_of(fold_groups(len(recs), getattr(
+                                       model, "n_records", (1, None))[0])))
     if terms is None:  # no excitation to compare: one number per model
         terms = [TargetTerms(0.0, 0.0, None)] * len(recs)
     errors = np.array([float(np.linalg.norm(R)) / max(float(np.linalg.norm(
@@ -766,10 +820,9 @@ def _fold_estimate(cal: BandCalibration, model, recs, U, residuals, Whs, excursi
         cal.level_power = fit_level_power(errors, terms, a)
     cal.fold_terms, cal.fold_errors = list(terms), errors
     _rule_constants(cal, errors, terms, a)
-    scores = []
-    for R, Wh, e, lr in zip(residuals, Whs, cal.fold_estimates, local, strict=True):
-        S = _difficulty(Wh, cal, e, lr)
-        scores.append((np.abs(R) / S).ravel())
+    scores = [(np.abs(R) / S).ravel() for R, S in
+              zip(residuals, _fold_difficulties(Whs, cal, cal.fold_estimates, local),
+                  strict=True)]
     cal.scores = np.concatenate(scores)
     cal.fold_sizes = tuple(int(x.size) for x in scores)
     cal.mean_square_score = float(np.mean(cal.scores ** 2))
@@ -1116,6 +1169,32 @@ def _difficulty(Wh: np.ndarray, cal: BandCalibration, err: float, local=None) ->
     scale = float(np.linalg.norm(Wh)) * err / math.sqrt(1.0 + err ** 2)
     tiny = 1e-12 * (float(np.sqrt(np.mean(Wh ** 2))) or 1.0)
     return np.maximum(E * (scale / norm_e), tiny)
+
+
+def _fold_difficulties(Whs, cal: BandCalibration, errs, local) -> list[np.ndarray]:
+    """:func:`_difficulty` of every fold's prediction, the elementwise work done once on
+    their stack where they share a shape (each fold's norms and floors its own, so the same
+    numbers as one by one)."""
+    if len({Wh.shape for Wh in Whs}) != 1 or not local:
+        local = local or [None] * len(Whs)
+        return [_difficulty(Wh, cal, e, lr) for Wh, e, lr in zip(Whs, errs, local,
+                                                                  strict=True)]
+    W = np.stack(Whs)
+    rms_i = np.sqrt(np.mean(W ** 2, axis=-1, keepdims=True))
+    if cal.reference_rms is not None and TRAINING_FLOOR:
+        rms_i = np.maximum(rms_i, np.asarray(cal.reference_rms, dtype=float)[..., None])
+    tiny = np.array([1e-12 * (float(np.sqrt(np.mean(Wh ** 2))) or 1.0) for Wh in Whs])
+    env = np.sqrt(np.stack(local) ** 2 + (FLOOR * rms_i) ** 2 + tiny[:, None, None] ** 2)
+    E = env * cal.time_profile[_bins(W.shape[-1])][None, None, :]
+    out = []
+    for j, err in enumerate(errs):
+        norm_e = float(np.linalg.norm(E[j]))
+        if not (math.isfinite(err) and norm_e > 0):
+            out.append(E[j])
+            continue
+        scale = float(np.linalg.norm(Whs[j])) * err / math.sqrt(1.0 + err ** 2)
+        out.append(np.maximum(E[j] * (scale / norm_e), tiny[j]))
+    return out
 
 
 def _geometric_mean(ms: np.ndarray) -> float:
