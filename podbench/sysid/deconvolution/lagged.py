@@ -26,8 +26,8 @@ podbench's ``"kernel"`` solver does it), each output's noise variance profiled o
 from __future__ import annotations
 
 import numpy as np
+import scipy  # scipy.signal: loaded on first use (SciPy's lazy submodules)
 import scipy.linalg
-import scipy.signal
 
 from podbench.errors import InputError
 

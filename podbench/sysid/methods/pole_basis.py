@@ -30,7 +30,7 @@ kernel (units: ``C`` in (output unit)/(input unit), ``D`` likewise, per sample).
 from __future__ import annotations
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal: loaded on first use (SciPy's lazy submodules)
 
 from podbench.errors import InputError
 from podbench.sysid.deconvolution.lagged import solve_ls
