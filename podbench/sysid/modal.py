@@ -10,6 +10,18 @@ hold of its inputs); records simulated by podbench's Newmark hold the trapezoida
 the structure's poles instead, which :func:`podbench.dynamics.modes.fe_modes` with ``dt``
 gives for the comparison.
 
+**One pole, one mode.** A realization may hold one pole several times: a pole model fitted
+per input (``"subspace"``, ``"realization"``: every input's response shares the poles) has a
+residue of rank up to the number of inputs at each pole, and ERA realizes that pole once per
+rank. Its copies agree to round-off (about 1e-12 of ``|λ|`` measured) and eig's vectors of
+a repeated eigenvalue are any basis of its eigenspace, so each copy's ``C ψ`` is an
+arbitrary mixture. Given the input map ``B`` (or a free model's initial-state map),
+eigenvalues within :data:`SAME_POLE_RTOL` of the spectral radius of each other are one mode
+whose shape is the first left singular vector of the pole's residue ``C P B`` (``P`` the
+spectral projector of the copies: invariant to the basis eig chose), the shape that
+explains most of the pole's response at the outputs (the polyreference practice). A pole
+held once keeps its ``C ψ``.
+
 **Physical modes** (:func:`physical_modes`), the hard criteria: ``0 < f < f_Nyquist = 1/(2Δt)``
 and ``0 ≤ ζ < 1`` (real poles are not modes); and the soft criterion of a stabilization
 diagram, as SSI practice states it (pyOMA2's ``SC_apply``, after Reynders, Houbrechts & De
@@ -54,7 +66,8 @@ from podbench.sysid.periodic import rational_poles
 
 __all__ = ["discrete_modes", "physical_mask", "stability_mask", "physical_modes",
            "match_modes", "response_fit", "response_modes", "STABILITY", "STABILITY_ORDERS",
-           "MAC_FLOOR", "MAC_TIE", "MATCH_RULES", "ZETA_ROUNDOFF", "RESPONSE_POLES"]
+           "MAC_FLOOR", "MAC_TIE", "MATCH_RULES", "ZETA_ROUNDOFF", "RESPONSE_POLES",
+           "SAME_POLE_RTOL"]
 
 STABILITY = {"frequency": 0.01, "damping": 0.05, "mac": 0.97}
 """The stabilization criterion (module docstring): largest relative frequency difference,
@@ -72,12 +85,18 @@ MAC_TIE = 1e-3
 """MAC step of the matching (``rule="mac-frequency"``): MACs within one step are a tie (the
 MAC's own digits as the tables write them, 4 decimals, with a margin)."""
 
+SAME_POLE_RTOL = 1e-8
+"""Eigenvalues of ``A`` closer than this times its spectral radius are one pole held several
+times (module docstring, *One pole, one mode*): copies of a shared pole differ by round-off
+(about 1e-12), while two physical modes that close (at ``Δt`` = 1 ms, 1.6e-6 Hz apart) are
+far below any record's frequency resolution ``1/T``."""
+
 MATCH_RULES = ("mac", "mac-frequency")
 """The matching rules of :func:`match_modes` (module docstring)."""
 
 
 def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
-                   source: str = "") -> ModeSet:
+                   B=None, source: str = "") -> ModeSet:
     """All oscillatory modes of ``x_{j+1} = A x_j``, ``y_j = C x_j`` sampled at ``dt`` (s):
     the eigenvalues with ``Im λ > 0`` as ``s = ln λ / Δt`` and their shapes ``C ψ``.
 
@@ -89,6 +108,10 @@ def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
         Sampling interval (s).
     channels : sequence of str, optional
         Names of the ``m`` outputs (default ``"0"``, ``"1"``, …).
+    B : (N, n_in) array_like, optional
+        The input map (a free model's initial-state map): a pole held several times is then
+        one mode, its shape from the residue (module docstring, *One pole, one mode*).
+        Without it every eigenvalue is a mode.
     """
     A = np.asarray(A, dtype=float)
     C = np.asarray(C, dtype=float)
@@ -108,9 +131,45 @@ def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
     scale = max(float(np.max(np.abs(lam))), 1e-300)
     up = lam.imag > 1e-12 * scale
     n_real = int(np.sum(~up & (np.abs(lam.imag) <= 1e-12 * scale)))
-    s = np.log(lam[up]) / dt
     notes = (f"{n_real} real poles (no oscillation) are not modes",) if n_real else ()
-    return ModeSet(s, C @ V[:, up], names, source, notes)
+    lam_up, shapes = lam[up], C @ V[:, up]
+    if B is not None:
+        lam_up, shapes, merged = _one_mode_per_pole(lam_up, shapes, V, up, B, scale)
+        if merged:
+            notes += (f"{merged} repeated copies of poles held more than once (one per rank "
+                      "of the residue) merged: one mode each, its shape from the residue",)
+    return ModeSet(np.log(lam_up) / dt, shapes, names, source, notes)
+
+
+def _one_mode_per_pole(lam_up, shapes, V, up, B, scale):
+    """``(λ, shapes, n_merged)``: the eigenvalues ``lam_up`` within
+    :data:`SAME_POLE_RTOL` ``× scale`` of each other as one pole (their mean), its shape the
+    first left singular vector of the residue ``C V_c (V⁻¹B)_c`` scaled by its singular value
+    (module docstring, *One pole, one mode*); single poles unchanged."""
+    n = lam_up.size
+    groups: list[list[int]] = []
+    for i in range(n):
+        for g in groups:
+            if abs(lam_up[g[0]] - lam_up[i]) <= SAME_POLE_RTOL * scale:
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    if all(len(g) == 1 for g in groups):
+        return lam_up, shapes, 0
+    WB = np.linalg.solve(V, np.asarray(B, dtype=float).astype(complex))[up]
+    lam_out, cols = [], []
+    for g in sorted(groups, key=min):
+        if len(g) == 1:
+            lam_out.append(lam_up[g[0]])
+            cols.append(shapes[:, g[0]])
+            continue
+        R = shapes[:, g] @ WB[g]
+        u, sv, _ = np.linalg.svd(R, full_matrices=False)
+        lam_out.append(np.mean(lam_up[g]))
+        cols.append(u[:, 0] * sv[0])
+    merged = n - len(groups)
+    return np.asarray(lam_out), np.column_stack(cols), merged
 
 
 ZETA_ROUNDOFF = 1e-6
@@ -195,12 +254,14 @@ def stability_mask(modes: ModeSet, others: Sequence[ModeSet],
 
 def physical_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
                    realize_at: Callable[[int], tuple] | None = None,
-                   criteria: dict | None = None, source: str = "") -> ModeSet:
+                   criteria: dict | None = None, source: str = "", B=None) -> ModeSet:
     """The physical modes of a discrete model (module docstring): the hard criteria, then
     stability at the orders ``N + 2`` and ``N + 4`` realized by ``realize_at(order) -> (A,
-    C)`` (None: the hard criteria only). The mode set's ``stable`` flags are all True; its
+    C)`` or ``(A, C, B)`` (None: the hard criteria only). With the input map ``B`` a pole
+    held several times is one mode (*One pole, one mode*; the other orders' likewise when
+    ``realize_at`` gives their ``B``). The mode set's ``stable`` flags are all True; its
     notes state the rule and what was left out."""
-    every = discrete_modes(A, C, dt, channels, source=source)
+    every = discrete_modes(A, C, dt, channels, B=B, source=source)
     hard = physical_mask(every, dt)
     notes = list(every.notes)
     if np.any(~hard):
@@ -212,12 +273,13 @@ def physical_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
     if realize_at is not None:
         for step in STABILITY_ORDERS:
             try:
-                Ah, Ch = realize_at(N + step)
+                Ah, Ch, *Bh = realize_at(N + step)
             except InputError:
                 break
             if np.asarray(Ah).shape[0] != N + step:
                 break
-            others.append(discrete_modes(Ah, Ch, dt, modes.channels))
+            others.append(discrete_modes(Ah, Ch, dt, modes.channels,
+                                         B=Bh[0] if Bh and B is not None else None))
     crit = {**STABILITY, **(criteria or {})}
     if others:
         stable = stability_mask(modes, others, crit)

@@ -163,7 +163,8 @@ class StateSpaceModel:
         and stability at higher orders of the same realization)."""
         out = physical_modes(self.A, self.C, self.dt, self.output_channels,
                              realize_at=self.realize_at, criteria=criteria,
-                             source=f"{self.method}: {self.realization}")
+                             source=f"{self.method}: {self.realization}",
+                             B=self.B if self.B is not None else self.x0_map)
         return out.with_notes(*self.notes)
 
     def to_dlti(self) -> scipy.signal.dlti:
@@ -199,14 +200,16 @@ def _era_factors(h: np.ndarray):
 
 
 def _realizer(factors, out_map: np.ndarray):
-    """``order → (A, U C)`` from ERA's factors (the stabilization check's other orders)."""
+    """``order → (A, U C, B)`` from ERA's factors (the stabilization check's other orders;
+    ``B`` in the method's coordinates: a residue's left singular vectors do not depend on
+    the inputs' orthonormal map)."""
     P, sv, Qt, H1, D = factors
 
     def at(order: int):
         if order > sv.size:
             raise InputError(f"order {order} exceeds the Hankel matrix's {sv.size} rows")
-        A, _, C, _ = realize(P, sv, Qt, H1, D, order)
-        return A, out_map @ C
+        A, B, C, _ = realize(P, sv, Qt, H1, D, order)
+        return A, out_map @ C, B
 
     return at
 

@@ -252,3 +252,38 @@ def test_forms_without_a_state_space_are_refused_with_the_reason():
                             abbreviation="OpInf")
     with pytest.raises(InputError, match="delay coordinates"):
         to_statespace(delay)
+
+
+def test_a_pole_held_once_per_input_is_one_mode_shaped_by_its_residue():
+    """A pole model fitted per input holds each pole once per input, with another output
+    shape per input (a residue of rank 2). Without the input map eig's copies are two modes
+    of arbitrary shapes; with it one mode per pole whose shape is the first left singular
+    vector of the residue, here computed independently as lim (z − z_k) C (zI − A)⁻¹ B."""
+    dt, rng = 0.01, np.random.default_rng(3)
+    s = np.array([-0.3 + 2j * np.pi * 4.0, -2.0 + 2j * np.pi * 11.0])
+    blocks, cols, feeds = [], [], []
+    for i in range(2):  # per input, one 2 × 2 block per pole, its own output shape
+        for sk in s:
+            z = np.exp(sk * dt)
+            blocks.append(np.array([[z.real, -z.imag], [z.imag, z.real]]))
+            cols.append(np.column_stack([rng.standard_normal(3), np.zeros(3)]))
+            feeds.append((i, np.array([1.0, 0.0])))
+    A = scipy.linalg.block_diag(*blocks)
+    C = np.hstack(cols)
+    B = np.zeros((A.shape[0], 2))
+    for j, (i, b) in enumerate(feeds):
+        B[2 * j:2 * j + 2, i] = b
+    T = rng.standard_normal(A.shape)  # any basis: the answer must not depend on it
+    A, B, C = np.linalg.solve(T, A @ T), np.linalg.solve(T, B), C @ T
+    plain = discrete_modes(A, C, dt)
+    assert len(plain) == 4  # each pole twice
+    one = discrete_modes(A, C, dt, B=B)
+    assert len(one) == 2 and any("merged" in n for n in one.notes)
+    np.testing.assert_allclose(np.sort_complex(one.poles), np.sort_complex(s), rtol=1e-10)
+    eta = 1e-7
+    for sk in s:
+        zk = np.exp(sk * dt)
+        R = eta * C @ np.linalg.solve((zk + eta) * np.eye(A.shape[0]) - A, B)
+        expected = np.linalg.svd(R)[0][:, :1]
+        j = int(np.argmin(np.abs(one.poles - sk)))
+        assert mac(one.shapes[:, j:j + 1], expected)[0, 0] > 1 - 1e-5
