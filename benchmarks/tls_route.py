@@ -69,18 +69,11 @@ def _reference() -> float:
 
 def _dense_eigh(G):
     """The former route: ``A`` assembled as ``gram_eigh`` does, then ``syevd``, ``Q`` formed."""
-    import numpy as np
     import scipy.linalg
 
-    from podbench.sysid.deconvolution.bordered import toeplitz_gram
+    from podbench.sysid.deconvolution.bordered import gram_matrix
 
-    n, n_cases, k = G.shape
-    A = np.zeros((k * n, k * n))
-    for i in range(k):
-        for i2 in range(i, k):
-            blk = sum(toeplitz_gram(G[:, j, i], G[:, j, i2]) for j in range(n_cases))
-            A[i * n:(i + 1) * n, i2 * n:(i2 + 1) * n] = blk
-            A[i2 * n:(i2 + 1) * n, i * n:(i + 1) * n] = blk.T
+    A = gram_matrix(G)
     return scipy.linalg.eigh(A, driver="evd")
 
 

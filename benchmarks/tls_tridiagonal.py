@@ -33,20 +33,9 @@ from podbench.sysid.deconvolution.bordered import (
     _MAX_STEPS,
     FactoredQ,
     _split,
-    toeplitz_gram,
+    gram_matrix,
+    tridiagonalize,
 )
-
-
-def _dense_gram(G: np.ndarray) -> np.ndarray:
-    """``XᵀX`` (Fortran order) as ``bordered.gram_eigh`` forms it."""
-    n, n_cases, k = G.shape
-    A = np.zeros((k * n, k * n), order="F")
-    for i in range(k):
-        for i2 in range(i, k):
-            blk = sum(toeplitz_gram(G[:, j, i], G[:, j, i2]) for j in range(n_cases))
-            A[i * n:(i + 1) * n, i2 * n:(i2 + 1) * n] = blk
-            A[i2 * n:(i2 + 1) * n, i * n:(i + 1) * n] = blk.T
-    return A
 
 
 class GramTridiagonal:
@@ -70,14 +59,8 @@ class GramTridiagonal:
 def gram_tridiagonal(G: np.ndarray) -> GramTridiagonal:
     """``sytrd`` of ``A = XᵀX`` (formed as ``bordered.gram_eigh`` forms it) and ``T``'s
     eigenvalues by LAPACK ``sterf`` (``O(M²)``, no eigenvectors)."""
-    A = _dense_gram(G)
-    M = A.shape[0]
-    lapack = scipy.linalg.lapack
-    lwork = int(lapack.dsytrd_lwork(M, lower=1)[0])
-    refl, d, e, tau, info = lapack.dsytrd(A, lower=1, lwork=max(lwork, 1), overwrite_a=1)
-    if info != 0:
-        raise RuntimeError(f"LAPACK dsytrd failed (info={info})")
-    mu, info = lapack.dsterf(d, e)
+    refl, d, e, tau = tridiagonalize(gram_matrix(G))
+    mu, info = scipy.linalg.lapack.dsterf(d, e)
     if info != 0:
         raise scipy.linalg.LinAlgError(f"LAPACK dsterf did not converge (info={info})")
     return GramTridiagonal(refl, tau, d, e, mu)

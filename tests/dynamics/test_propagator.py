@@ -56,11 +56,16 @@ def _full_newton_reference(s, q0, v0, f, h):
     return q
 
 
-@pytest.mark.parametrize("element", [
+_ELEMENTS = [
     OneSidedSpring(dof=3, k=3.0e4, slack=0.002),
     OneSidedSpring(dof=3, k=3.0e4, prestretch=0.002, side=-1),
     CubicSpring(3, 5.0e6),
-])
+]
+"""The nonlinear end elements of the 4-DOF chain: a slack and a prestretched one-sided
+spring (each switches during the run) and a stiffening cubic spring."""
+
+
+@pytest.mark.parametrize("element", _ELEMENTS)
 def test_propagator_equals_a_full_newton_newmark(element):
     # a damped 4-DOF chain (non-proportional damping), one nonlinear element at its end,
     # loaded by a short pulse and started from a displacement: 600 steps
@@ -108,11 +113,7 @@ def test_propagator_is_ignored_where_it_does_not_apply():
         np.testing.assert_array_equal(a.newton_iterations, b.newton_iterations)
 
 
-@pytest.mark.parametrize("element", [
-    OneSidedSpring(dof=3, k=3.0e4, slack=0.002),
-    OneSidedSpring(dof=3, k=3.0e4, prestretch=0.002, side=-1),
-    CubicSpring(3, 5.0e6),
-])
+@pytest.mark.parametrize("element", _ELEMENTS)
 def test_batch_equals_single_runs_and_the_full_newton_reference(element):
     # three loads of different sizes and places stepped together (the runs switch the
     # element at different steps): each run equals its own propagator run to round-off

@@ -38,9 +38,9 @@ from collections import OrderedDict
 import numpy as np
 import scipy.linalg
 
-__all__ = ["toeplitz_gram", "toeplitz_rmatvec", "gram_eigh", "FactoredQ", "border", "secular",
-           "bordered_tls", "convolution_svd", "EIGH_CACHE_SIZE", "SVD_CACHE_SIZE",
-           "SECULAR_CACHE_SIZE"]
+__all__ = ["toeplitz_gram", "toeplitz_rmatvec", "gram_matrix", "tridiagonalize", "gram_eigh",
+           "FactoredQ", "border", "secular", "bordered_tls", "convolution_svd",
+           "EIGH_CACHE_SIZE", "SVD_CACHE_SIZE", "SECULAR_CACHE_SIZE"]
 
 _EPS = np.finfo(float).eps
 _DEFLATE = 8.0
@@ -135,33 +135,32 @@ class FactoredQ:
         return Q.T if self._t else Q
 
 
-def _tridiagonal_eigh(A: np.ndarray) -> tuple:
-    """``(μ, Q)`` of the symmetric ``A`` (ascending ``μ``, ``Q`` a :class:`FactoredQ`):
-    ``sytrd`` then ``stevd`` (the steps of ``syevd`` but its back-transformation)."""
-    M = A.shape[0]
+def tridiagonalize(A: np.ndarray) -> tuple:
+    """``(reflectors, d, e, tau)`` of LAPACK ``sytrd`` on the symmetric ``A`` (lower
+    triangle, overwritten): ``A = H T Hᵀ``, ``T`` of diagonal ``d`` and subdiagonal ``e``."""
     lapack = scipy.linalg.lapack
-    lwork = int(lapack.dsytrd_lwork(M, lower=1)[0])
+    lwork = int(lapack.dsytrd_lwork(A.shape[0], lower=1)[0])
     refl, d, e, tau, info = lapack.dsytrd(A, lower=1, lwork=max(lwork, 1), overwrite_a=1)
     if info != 0:
         raise RuntimeError(f"LAPACK dsytrd failed (info={info})")
-    mu, Z, info = lapack.dstevd(d, e, compute_v=1)
+    return refl, d, e, tau
+
+
+def _tridiagonal_eigh(A: np.ndarray) -> tuple:
+    """``(μ, Q)`` of the symmetric ``A`` (ascending ``μ``, ``Q`` a :class:`FactoredQ`):
+    ``sytrd`` then ``stevd`` (the steps of ``syevd`` but its back-transformation)."""
+    refl, d, e, tau = tridiagonalize(A)
+    mu, Z, info = scipy.linalg.lapack.dstevd(d, e, compute_v=1)
     if info != 0:
         raise scipy.linalg.LinAlgError(f"LAPACK dstevd did not converge (info={info})")
     return mu, FactoredQ(refl, tau, Z)
 
 
-def gram_eigh(G: np.ndarray, weights: np.ndarray | None = None) -> tuple:
-    """``(μ, Q)`` of ``A = XᵀX`` (ascending ``μ``) for the block convolution matrix ``X``
-    of the raw force samples ``G`` (``(n, n_cases, k)``, block ``(j, i)`` = ``T(G[:, j, i])``)
-    with its column block ``i`` multiplied by ``weights[i]`` (default 1): LAPACK's
-    tridiagonal reduction and divide and conquer, ``Q`` kept factored (:class:`FactoredQ`:
-    ``Q @ z``, ``Q.T @ b``); kept per process (:data:`EIGH_CACHE_SIZE`)."""
+def gram_matrix(G: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """``A = XᵀX`` (Fortran order) for the block convolution matrix ``X`` of the raw force
+    samples ``G`` (``(n, n_cases, k)``, block ``(j, i)`` = ``T(G[:, j, i])``), column block
+    ``i`` multiplied by ``weights[i]`` (default 1), from correlations (:func:`toeplitz_gram`)."""
     n, n_cases, k = G.shape
-    key = _key(G, weights)
-    hit = _CACHE.get(key)
-    if hit is not None:
-        _CACHE.move_to_end(key)
-        return hit
     A = np.zeros((k * n, k * n), order="F")
     for i in range(k):
         for i2 in range(i, k):
@@ -171,7 +170,21 @@ def gram_eigh(G: np.ndarray, weights: np.ndarray | None = None) -> tuple:
             A[i * n:(i + 1) * n, i2 * n:(i2 + 1) * n] = blk
             if i2 != i:
                 A[i2 * n:(i2 + 1) * n, i * n:(i + 1) * n] = blk.T
-    out = _tridiagonal_eigh(A)
+    return A
+
+
+def gram_eigh(G: np.ndarray, weights: np.ndarray | None = None) -> tuple:
+    """``(μ, Q)`` of ``A = XᵀX`` (ascending ``μ``) for the block convolution matrix ``X``
+    of the raw force samples ``G`` (``(n, n_cases, k)``, block ``(j, i)`` = ``T(G[:, j, i])``)
+    with its column block ``i`` multiplied by ``weights[i]`` (default 1): LAPACK's
+    tridiagonal reduction and divide and conquer, ``Q`` kept factored (:class:`FactoredQ`:
+    ``Q @ z``, ``Q.T @ b``); kept per process (:data:`EIGH_CACHE_SIZE`)."""
+    key = _key(G, weights)
+    hit = _CACHE.get(key)
+    if hit is not None:
+        _CACHE.move_to_end(key)
+        return hit
+    out = _tridiagonal_eigh(gram_matrix(G, weights))
     _CACHE[key] = out
     while len(_CACHE) > EIGH_CACHE_SIZE:
         _CACHE.popitem(last=False)
