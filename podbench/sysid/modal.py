@@ -10,17 +10,27 @@ hold of its inputs); records simulated by podbench's Newmark hold the trapezoida
 the structure's poles instead, which :func:`podbench.dynamics.modes.fe_modes` with ``dt``
 gives for the comparison.
 
-**One pole, one mode.** A realization may hold one pole several times: a pole model fitted
-per input (``"subspace"``, ``"realization"``: every input's response shares the poles) has a
-residue of rank up to the number of inputs at each pole, and ERA realizes that pole once per
-rank. Its copies agree to round-off (about 1e-12 of ``|λ|`` measured) and eig's vectors of
-a repeated eigenvalue are any basis of its eigenspace, so each copy's ``C ψ`` is an
-arbitrary mixture. Given the input map ``B`` (or a free model's initial-state map),
-eigenvalues within :data:`SAME_POLE_RTOL` of the spectral radius of each other are one mode
-whose shape is the first left singular vector of the pole's residue ``C P B`` (``P`` the
-spectral projector of the copies: invariant to the basis eig chose), the shape that
-explains most of the pole's response at the outputs (the polyreference practice). A pole
-held once keeps its ``C ψ``.
+**One pole, one mode.** A realization may hold one pole several times, in two ways: a pole
+model fitted per input (``"subspace"``, ``"realization"``: every input's response shares
+the poles) has a residue of rank up to the number of inputs at each pole, and ERA realizes
+that pole once per rank; and a diagonal kernel or free decay (SL, MR, POVR: one SISO
+sequence per POC) holds a pole once per POC whose sequence carries it, which every POC's
+does where the POMs are not the normal modes (the diagonalization error of the
+dissertation's §3.6). Either way the model, a linear system, has one pole there whose
+residue has rank above one: one mode of the identified model, since a structure has one
+pole at that frequency. Its copies agree to round-off (1e-12 to 1e-9 of ``|λ|``
+measured, Chapter 4's beams) and eig's vectors of a repeated eigenvalue are any basis of
+its eigenspace (or, for a diagonal realization, one POM per copy), so each copy's ``C ψ``
+is an arbitrary mixture or one POC's share. Given the input map ``B`` (or a free model's
+initial-state map), eigenvalues within :data:`SAME_POLE_RTOL` of the spectral radius of
+each other are one mode whose shape is the first left singular vector of the pole's residue
+``C P B`` (``P`` the spectral projector of the copies: invariant to the basis eig chose),
+the shape that explains most of the pole's response at the outputs (the polyreference
+practice: a rank-one residue per mode). A pole held once keeps its ``C ψ``; distinct poles
+stay distinct however close. The dissertation derives no modes from the identified models
+(its comparisons are of responses), so this is podbench's reading; the former reading,
+every copy a mode of its own shape, is :func:`discrete_modes` without ``B``
+(:meth:`podbench.sysid.realize.StateSpaceModel.all_modes`).
 
 **Physical modes** (:func:`physical_modes`), the hard criteria: ``0 < f < f_Nyquist = 1/(2Δt)``
 and ``0 ≤ ζ < 1`` (real poles are not modes); and the soft criterion of a stabilization
@@ -137,7 +147,8 @@ def discrete_modes(A, C, dt: float, channels: Sequence[str] | None = None, *,
         lam_up, shapes, merged = _one_mode_per_pole(lam_up, shapes, V, up, B, scale)
         if merged:
             notes += (f"{merged} repeated copies of poles held more than once (one per rank "
-                      "of the residue) merged: one mode each, its shape from the residue",)
+                      "of the residue, or one per POC of a diagonal kernel) merged: one mode "
+                      "each, its shape from the residue",)
     return ModeSet(np.log(lam_up) / dt, shapes, names, source, notes)
 
 

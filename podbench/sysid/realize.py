@@ -63,13 +63,18 @@ from podbench.sysid.modal import discrete_modes, physical_modes
 from podbench.sysid.statespace import era_realization, realize
 
 __all__ = ["StateSpaceModel", "to_statespace", "kernel_markov", "markov_parameters",
-           "POLE_SOLVERS", "MAX_ORDER"]
+           "POLE_SOLVERS", "MAX_ORDER", "COPIES_RULES"]
 
 POLE_SOLVERS = ("realization", "subspace")
 """Deconvolution solvers whose kernel is a low-order pole model."""
 
 MAX_ORDER = 200
 """Largest realization order the lag rule tries (100 complex pole pairs)."""
+
+COPIES_RULES = ("merge", "each")
+"""How :meth:`StateSpaceModel.modes` reads a pole the realization holds several times:
+one mode shaped by its residue (``"merge"``, the rule), or every copy a mode (``"each"``,
+the named variant)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,13 +163,23 @@ class StateSpaceModel:
         return discrete_modes(self.A, self.C, self.dt, self.output_channels,
                               source=f"{self.method}: {self.realization}")
 
-    def modes(self, criteria: dict | None = None) -> ModeSet:
+    def modes(self, criteria: dict | None = None, *, copies: str = "merge") -> ModeSet:
         """The physical modes (:func:`podbench.sysid.modal.physical_modes`: hard criteria
-        and stability at higher orders of the same realization)."""
+        and stability at higher orders of the same realization).
+
+        ``copies``: ``"merge"`` (the rule), a pole the realization holds several times is
+        one mode shaped by its residue (:mod:`podbench.sysid.modal`, *One pole, one mode*;
+        the input map ``B``, or ``x0_map`` of a free model, gives the residue); the named
+        variant ``"each"``, every copy a mode of its own shape ``C ψ`` (the former reading:
+        for a diagonal kernel one mode per POC holding the pole, shaped by that POM)."""
+        if copies not in COPIES_RULES:
+            raise InputError(f"Parameter `copies`: expected one of {list(COPIES_RULES)}, "
+                             f"got {copies!r}")
+        B = self.B if self.B is not None else self.x0_map
         out = physical_modes(self.A, self.C, self.dt, self.output_channels,
                              realize_at=self.realize_at, criteria=criteria,
                              source=f"{self.method}: {self.realization}",
-                             B=self.B if self.B is not None else self.x0_map)
+                             B=B if copies == "merge" else None)
         return out.with_notes(*self.notes)
 
     def to_dlti(self) -> scipy.signal.dlti:

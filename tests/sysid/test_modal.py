@@ -287,3 +287,90 @@ def test_a_pole_held_once_per_input_is_one_mode_shaped_by_its_residue():
         expected = np.linalg.svd(R)[0][:, :1]
         j = int(np.argmin(np.abs(one.poles - sk)))
         assert mac(one.shapes[:, j:j + 1], expected)[0, 0] > 1 - 1e-5
+
+
+def _diagonal_fit(kind: str, U, poles, residues, dt: float, n: int = 200):
+    """A fitted diagonal method as the realization reads it (SL's and MR's ``kernel_``,
+    POVR's ``Phi_``): POC ``i``'s kernel (free decay) is ``Σ_j 2 Re(a_ij λ_j^(p−1))`` at lag
+    ``p ≥ 1`` (free: ``Σ_j 2 Re(a_ij λ_j^t)``), the transfer function ``Σ_j a_ij / (z − λ_j)``;
+    a zero residue leaves the pole out of that POC."""
+    from types import SimpleNamespace
+
+    lam = np.exp(np.asarray(poles) * dt)
+    k = U.shape[1]
+    t = np.arange(n)
+    seq = np.zeros((n, k, k))
+    for i in range(k):
+        seq[:, i, i] = 2.0 * np.real((residues[i][None, :] * lam[None, :] ** t[:, None]).sum(1))
+    if kind == "free":  # Phi_[t] = Φ(t_t) = C A^t B
+        return SimpleNamespace(Phi_=seq, modes_=U, dt_=dt, excitation="displacement",
+                               abbreviation="POVR")
+    kernel = np.zeros((k, k, n + 1))  # h[p] = Δt kernel[:, :, p], h[0] = D = 0
+    kernel[:, :, 1:] = seq.transpose(1, 2, 0) / dt
+    return SimpleNamespace(kernel_=kernel, modes_=U, dt_=dt, coupled=False, abbreviation="SL")
+
+
+@pytest.mark.parametrize("kind", ["forced", "free"])
+def test_a_pole_in_two_diagonal_blocks_is_one_mode_shaped_by_the_dominant_residue(kind):
+    """SL's, MR's and POVR's diagonal realizations: a pole that two POCs' kernels both hold
+    (their assumption broken: the POMs are not the normal modes) is one mode of the model,
+    its shape the first left singular vector of the model's residue at that pole, computed
+    here independently as lim (z − λ) C (zI − A)⁻¹ B (forced) or the same with ``x0_map``
+    (free); without the input map the realization shows it twice, once per POM. Poles only
+    one POC holds keep that POM's shape."""
+    dt, rng = 0.01, np.random.default_rng(5)
+    U = np.linalg.qr(rng.normal(size=(4, 2)))[0]
+    s = 2j * np.pi * np.array([4.0, 11.0, 7.0]) * np.sqrt(1 - 0.01**2) - 0.01 * 2 * np.pi \
+        * np.array([4.0, 11.0, 7.0])
+    # POC 1 holds 4 and 11 Hz, POC 2 holds 4 and 7 Hz; the 4-Hz residues differ in size
+    # and phase (0.8 against 0.3: POM 1 dominates the shared pole)
+    res = [np.array([0.8 * np.exp(0.4j), 0.5, 0.0]), np.array([0.3 * np.exp(-1.1j), 0.0, 0.6])]
+    ss = to_statespace(_diagonal_fit(kind, U, s, res, dt))
+    assert ss.order == 8, ss.realization
+    every = ss.all_modes()  # eig alone: the 4-Hz pole twice, shaped by POM 1 and POM 2
+    assert np.sum(np.abs(every.frequency_hz - 4.0) < 0.01) == 2
+    modes = ss.modes()
+    assert len(modes) == 3 and any("merged" in n for n in modes.notes)
+    np.testing.assert_allclose(np.sort(modes.frequency_hz),
+                               np.sort(np.abs(s) / (2 * np.pi)), rtol=1e-9)
+    B = ss.B if kind == "forced" else ss.x0_map
+    eta = 1e-7
+    for sk, expected in zip(s, (None, U[:, :1], U[:, 1:]), strict=True):
+        zk = np.exp(sk * dt)
+        R = eta * ss.C @ np.linalg.solve((zk + eta) * np.eye(ss.order) - ss.A, B)
+        j = int(np.argmin(np.abs(modes.poles - sk)))
+        got = modes.shapes[:, j:j + 1]
+        assert mac(got, np.linalg.svd(R)[0][:, :1])[0, 0] > 1 - 1e-6
+        if expected is not None:  # a pole one POC holds: that POM's shape
+            assert mac(got, expected)[0, 0] > 1 - 1e-8
+    # the shared pole's residue is U diag(a_1, a_2) Uᵀ: its dominant direction is POM 1
+    j = int(np.argmin(np.abs(modes.poles - s[0])))
+    assert mac(modes.shapes[:, j:j + 1], U[:, :1])[0, 0] > 1 - 1e-8
+    # the named variant, every copy a mode: no merge, the copies' shapes eig's basis of the
+    # repeated eigenvalue's eigenspace (here mixtures of the two POMs)
+    each = ss.modes(copies="each")
+    assert not any("merged" in n for n in each.notes)
+    assert np.sum(np.abs(each.frequency_hz - 4.0) < 0.01) >= 1
+    with pytest.raises(InputError, match="`copies`"):
+        ss.modes(copies="first")
+
+
+def test_distinct_poles_one_millionth_apart_stay_two_modes():
+    """Two poles 1e-6 of the spectral radius apart (100 × SAME_POLE_RTOL) are two modes with
+    their own shapes ``C ψ``, whatever the input map; copies of one pole are not."""
+    dt, rng = 0.01, np.random.default_rng(6)
+    z1 = np.exp((-0.2 + 2j * np.pi * 5.0) * dt)
+    z2 = z1 + 1e-6 * np.abs(z1) * np.exp(0.3j)
+    rot = [np.array([[z.real, -z.imag], [z.imag, z.real]]) for z in (z1, z2)]
+    A = scipy.linalg.block_diag(*rot)
+    shapes = rng.standard_normal((3, 2))
+    C = np.column_stack([shapes[:, 0], np.zeros(3), shapes[:, 1], np.zeros(3)])
+    B = rng.standard_normal((4, 2))
+    T = rng.standard_normal((4, 4))
+    A, B, C = np.linalg.solve(T, A @ T), np.linalg.solve(T, B), C @ T
+    two = discrete_modes(A, C, dt, B=B)
+    assert len(two) == 2 and not any("merged" in n for n in two.notes)
+    np.testing.assert_allclose(np.sort_complex(np.exp(two.poles * dt)),
+                               np.sort_complex([z1, z2]), atol=1e-12)
+    j = np.argsort(np.abs(np.exp(two.poles * dt) - z1))
+    np.testing.assert_allclose(np.diag(mac(two.shapes[:, j], shapes)), 1.0, atol=1e-8)
