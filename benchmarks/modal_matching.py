@@ -7,10 +7,13 @@ every pole of a POC that POM's shape, so MAC alone ties between poles of differe
 frequencies. This runs the study with another rule (``--rule``, default the variant
 ``"mac"``, MAC alone) into a temporary folder (the checkout's results are not touched) and
 prints every ``modal.csv`` row that differs from the committed one, and a count per
-method::
+method. ``--copies each`` reads a pole the realization holds several times as one mode per
+copy (the named variant of ``StateSpaceModel.modes``; the rule merges the copies into one
+mode shaped by the residue)::
 
     python benchmarks/modal_matching.py                 # chapter4, MAC alone
     python benchmarks/modal_matching.py --study peers --cache .podbench_cache
+    python benchmarks/modal_matching.py --rule mac-frequency --copies each
 """
 
 from __future__ import annotations
@@ -35,13 +38,18 @@ def main(argv=None) -> int:
     import podbench.harness.modal as hm
     from podbench.cli import main as cli
     from podbench.sysid.modal import match_modes
+    from podbench.sysid.realize import COPIES_RULES, StateSpaceModel
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--study", default="chapter4")
     ap.add_argument("--cache", default=".podbench_cache")
     ap.add_argument("--rule", default="mac", help="the matching rule to compare")
+    ap.add_argument("--copies", default="merge", choices=COPIES_RULES,
+                    help="how a pole held several times is read (default the rule, merge)")
     args = ap.parse_args(argv)
     hm.match_modes = functools.partial(match_modes, rule=args.rule)
+    StateSpaceModel.modes = functools.partialmethod(StateSpaceModel.modes,
+                                                    copies=args.copies)
     with tempfile.TemporaryDirectory() as tmp:
         rc = cli(["run", args.study, "-q", "--jobs", "1", "--no-figures", "--cache",
                   args.cache, "-o", str(Path(tmp) / args.study)])
@@ -58,7 +66,7 @@ def main(argv=None) -> int:
         same &= ((a == b) | (a.isna() & b.isna())).to_numpy()
     changed = both[~same]
     print(f"{args.study}: {len(changed)} of {len(both)} modal.csv rows change with "
-          f"rule={args.rule!r}")
+          f"rule={args.rule!r}, copies={args.copies!r}")
     if len(changed):
         show = key + ["frequency_hz"] + [c for c in cols for c in (c, c + "_rule")]
         print(changed[show].to_string(index=False))

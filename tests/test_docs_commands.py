@@ -266,6 +266,9 @@ COMMANDS: dict[str, object] = {
     "python benchmarks/modal_matching.py": NOT_RUN(
         "runs chapter4 with the frequency tie-break of the modal matching (minutes); the "
         "rule is tested in tests/sysid/test_modal.py"),
+    "python benchmarks/modal_matching.py --rule mac-frequency --copies each": NOT_RUN(
+        "runs chapter4 reading every copy of a pole as a mode (minutes); the merge and the "
+        "variant are tested in tests/sysid/test_modal.py"),
     "podbench fit": SYNOPSIS,
     "python benchmarks/model_file.py --repeat 3": NOT_RUN(
         "times fit + save + load + predict against fit + predict (a minute; the ratio is "
