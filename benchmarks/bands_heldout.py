@@ -486,6 +486,68 @@ def report(df) -> str:
     return "\n".join(lines)
 
 
+def _loo_jack(model, rec) -> float:
+    """The target's ``J`` as a band would compute it: the ``N`` leave-one-record-out fold
+    models refitted (``bands._refit``, in the folds' modes) and each predicting ``rec``."""
+    from podbench.sysid.methods import bands
+
+    cal = model.band_calibration_
+    recs = list(model.training_records_)
+    U = np.asarray(model.modes_, float)
+    U1 = U if cal.cv_modes is None else U[:, :cal.cv_modes]
+    frozen = bands._frozen(model)
+    P = [np.asarray(bands._refit(model, recs[:j] + recs[j + 1:], n_modes=cal.cv_modes,
+                                 basis=U1, frozen=frozen).predict(rec), float)
+         for j in range(len(recs))]
+    return math.sqrt(_jack2(P, np.mean(P, axis=0)))
+
+
+def _best_cpu(fn, repeat: int) -> float:
+    import time
+
+    ts = []
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        ts.append(time.process_time() - t0)
+    return min(ts)
+
+
+def _time_design(d: Design, repeat: int) -> dict:
+    """:func:`jack_cost`'s timings of one design (clean records, its first target)."""
+    train, targets = simulate_design(d)
+    recs = [noisy_record(r, 0.0, d, f"train{j}") for j, r in enumerate(train)]
+    rec = noisy_record(targets[0], 0.0, d, "target0")
+
+    def plain(band=False):
+        m = make_method(d).fit(recs)
+        return m, (m.predict(rec, coverage=0.9) if band else m.predict(rec))
+
+    model, _ = plain(True)
+    _loo_jack(model, rec)  # warm-up
+    best = {"plain": _best_cpu(plain, repeat),
+            "band": _best_cpu(lambda: plain(True), repeat),
+            "jack": _best_cpu(lambda: _loo_jack(model, rec), repeat)}
+    return dict(cls=d.cls, method=d.method, seed=d.seed, n_train=len(recs), **best,
+                band_over_plain=best["band"] / best["plain"],
+                band_jack_over_plain=(best["band"] + best["jack"]) / best["plain"])
+
+
+def jack_cost(set_name: str, repeat: int = 3) -> list[dict]:
+    """CPU seconds (best of ``repeat``, one process, clean records, the first design of
+    each class × method) of the plain fit + predict of one target, of the fit + band
+    (``predict(target, coverage=0.9)``, the calibration included) and of the target's
+    ``J`` on top of it (:func:`_loo_jack`: the band's folds are not kept as models, so
+    ``J`` refits them)."""
+    out = []
+    for d in designs(set_name, per_cell=1):
+        try:
+            out.append(_time_design(d, repeat))
+        except Exception as exc:  # a design the method refuses: no timing
+            print(f"  {d.cls} {d.method} {d.seed}: {exc}", file=sys.stderr)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--set", choices=tuple(SETS), default="dev")
@@ -497,7 +559,15 @@ def main(argv=None) -> int:
                     help="the rows also carry the estimate's terms and fold data")
     ap.add_argument("--max-folds", type=int, default=None,
                     help="the variant bands.MAX_FOLDS (default: leave-one-record-out)")
+    ap.add_argument("--jack-cost", action="store_true",
+                    help="only time the target's jackknife J against the plain fit + predict "
+                         "and the band (jack_cost)")
     args = ap.parse_args(argv)
+    if args.jack_cost:
+        import pandas as pd
+
+        print(pd.DataFrame(jack_cost(args.set)).to_string(float_format="%.4g"))
+        return 0
     global FEATURES
     FEATURES = args.features
     if args.max_folds is not None:

@@ -17,6 +17,7 @@ rule's fold estimates; ``bands_heldout._grid_features``).
     python benchmarks/bands_rules.py dev.csv --rules gains --recenter
     python benchmarks/bands_rules.py dev.csv --rules gains --leverage-exponents 1 0.75 0.5
     python benchmarks/bands_rules.py dev.csv --rules gains J hypot geomean gain [--jack-full]
+    python benchmarks/bands_rules.py dev.csv --jack-diagnostics
 
 The jackknife rules (:data:`JACK_RULES`, measured in docs/bands.md, *A jackknife term on
 the target*) need rows with the ``jack`` columns (``bands_heldout.py --features``).
@@ -256,6 +257,53 @@ def jack_estimates(rows, rule: str):
     return est, own, not have
 
 
+def jack_diagnostics(df) -> str:
+    """What ``J`` shows, per method: its log₂ ratio to the realized error over the
+    predictions; per model, the Spearman between today's level miss (median
+    log₂(e/realized)) and ``J``'s share (median log₂(J/e)), the within-model Spearman, the
+    folds' Spearman of ``J_j`` with ``e_j``; and within ×2 of ``J``, ``J_full`` and ``e``
+    times one constant per method fitted leave-one-model-out on the other models' truth
+    (the issue's prototype protocol, a meta-model no user has: a diagnostic, not a rule)."""
+    from scipy.stats import spearmanr
+
+    ok = df[df["status"] == "ok"].copy()
+    ok["model"] = [f"{c}|{m}|{s}|{n}" for c, m, s, n in
+                   zip(ok.cls, ok.method, ok.seed, ok.noise, strict=True)]
+    lines = []
+    for col in ("jack", "jack_full", "error_estimate"):
+        for m, g in ok.groupby("method"):
+            lr = np.log2(g[col] / g.total_error)
+            lines.append(f"{col} {m}: log2(x/realized) median {lr.median():+.2f}, quartiles "
+                         f"{lr.quantile(0.25):+.2f} … {lr.quantile(0.75):+.2f}; Spearman "
+                         f"{spearmanr(g[col], g.total_error).statistic:.3f}")
+    for m, gm in ok.groupby("method"):
+        rows = []
+        for _, g in gm.groupby("model"):
+            r0 = g.iloc[0]
+            rows.append((np.median(np.log2(g.error_estimate / g.total_error)),
+                         np.median(np.log2(g.jack / g.error_estimate)),
+                         np.median(np.log2(g.jack / g.total_error)),
+                         spearmanr(g.jack, g.total_error).statistic,
+                         spearmanr(_floats(r0.fold_jack), _floats(r0.fold_errors)).statistic))
+        a = np.array(rows)
+        lines.append(f"{m}: Spearman(model's miss of e, log2 J/e) "
+                     f"{spearmanr(a[:, 0], a[:, 1]).statistic:+.2f}; models off by more than "
+                     f"x2: e {np.sum(np.abs(a[:, 0]) > 1)}, J {np.sum(np.abs(a[:, 2]) > 1)} of "
+                     f"{len(a)}; within-model Spearman of J (median) {np.nanmedian(a[:, 3]):.2f}; "
+                     f"folds' Spearman(J_j, e_j) (median) {np.nanmedian(a[:, 4]):.2f}")
+    for col in ("jack", "jack_full", "error_estimate"):
+        hit = []
+        for _, r in ok.iterrows():
+            o = ok[(ok.method == r.method) & (ok.model != r.model)]
+            k = float(np.exp(np.median(np.log(o.total_error / o[col]))))
+            hit.append(abs(math.log2(k * r[col] / r.total_error)) <= 1.0)
+        hit = np.array(hit)
+        lines.append(f"{col} x one constant per method, leave-one-model-out: within x2 "
+                     f"{hit.mean():.3f} (MDS {hit[ok.method.to_numpy() == 'MDS'].mean():.3f}, "
+                     f"ML {hit[ok.method.to_numpy() == 'ML'].mean():.3f})")
+    return "\n".join(lines)
+
+
 def score_rule(df, rule: str, mondrian: str = "none") -> dict:
     """The held-out scores (``bands_heldout.scores``) of ``rule`` on the stored rows
     (``mondrian``: the band's quantile per category, :data:`MONDRIAN`); a
@@ -328,7 +376,12 @@ def main(argv=None) -> int:
     ap.add_argument("--leverage-exponents", nargs="*", type=float, default=None,
                     help="the \"gains\" rule's leverage exponents γ the folds choose from "
                          "(bands.GAINS_LEVERAGE_EXPONENTS; default: the band code's)")
+    ap.add_argument("--jack-diagnostics", action="store_true",
+                    help="print what the jackknife J shows (jack_diagnostics) and stop")
     args = ap.parse_args(argv)
+    if args.jack_diagnostics:
+        print(jack_diagnostics(pd.read_csv(args.rows)))
+        return 0
     bands.FOLDS_GAINS_GROWTH = args.growth
     if args.leverage_exponents:
         bands.GAINS_LEVERAGE_EXPONENTS = tuple(args.leverage_exponents)
