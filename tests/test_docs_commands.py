@@ -240,6 +240,16 @@ COMMANDS: dict[str, object] = {
         "rebuilds the held-out designs' records (minutes) and reads the rows of a "
         "bands_heldout.py --features run; the note it scores is tested in "
         "tests/sysid/test_band_note.py"),
+    "python benchmarks/bands_rules.py dev.csv --rules gains J hypot geomean gain": NOT_RUN(
+        "reads the rows of a bands_heldout.py --features run (20 min on 2 cores); its offline "
+        "band is checked against the live one in tests/test_benchmarks.py"),
+    "python benchmarks/bands_rules.py dev.csv --rules J hypot geomean gain --jack-full":
+        NOT_RUN("reads the rows of a bands_heldout.py --features run (20 min on 2 cores)"),
+    "python benchmarks/bands_rules.py dev.csv --jack-diagnostics": NOT_RUN(
+        "reads the rows of a bands_heldout.py --features run (20 min on 2 cores)"),
+    "python benchmarks/bands_heldout.py --set dev --jack-cost": NOT_RUN(
+        "times eight designs' fits, bands and fold refits (minutes; speed is measured, never "
+        "asserted)"),
     "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),
@@ -291,6 +301,8 @@ BLOCKS: dict[tuple[str, str], object] = {
      "&& .venv/bin/podbench run"): "shell",
     ("docs/studies/chapter4.md", "podbench run chapter4                 # = podbench run; "
      "writes results/chapter4/ (16 s)"): "shell",
+    ("docs/bands.md", "python benchmarks/bands_heldout.py --set dev --features --rows "
+     "dev.csv     # 20 min"): "shell",
     ("docs/studies/calibration.md", "podbench run calibration              # writes "
      "results/calibration/ (41 s)"): "shell",
     ("docs/studies/base_excited.md", "podbench run base_excited             # writes "
