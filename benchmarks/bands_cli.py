@@ -13,9 +13,12 @@ s; ``w0`` in in) and every case is timed three ways, best of ``--repeat``:
   (:func:`~podbench.harness.predict.command_line_estimator` on the files' records: ML with
   the ``auto`` solver, MDS in the design's modes), ``fit`` + ``predict`` of every target,
   against the same with ``coverage=0.9`` — CPU time of this process
-  (``time.process_time``), one BLAS thread; ``floor`` = (plain + the calibration's refits)
-  / plain (:func:`benchmarks.bands.refit_time`): what a band built on leave-one-record-out
-  refits cannot go below;
+  (``time.process_time``), one BLAS thread, every call from empty solver caches
+  (:func:`clear_caches`: a repeat would otherwise reuse the least-squares SVD of the last
+  call, which a ``podbench predict`` process never has; ``--warm`` keeps them); ``floor`` =
+  (plain + the calibration's refits) / plain (the time in ``bands._residuals`` and
+  ``bands._noise_refits``, as :func:`benchmarks.bands.refit_time`): what a band built on
+  leave-one-record-out refits cannot go below;
 * ``CLI``: the command itself in a child process, ``podbench predict … --out D`` with and
   without ``--coverage 0.9``, its wall time and its CPU time (user + system of the child,
   ``os.wait4``); the child's start (imports, reading and checking the files, writing
@@ -49,7 +52,6 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-from benchmarks import bands as bench  # noqa: E402
 from benchmarks import bands_heldout as held  # noqa: E402
 
 PODBENCH = Path(sys.executable).with_name("podbench")
@@ -87,26 +89,58 @@ def _estimator(d, train_files):
                                            period=None)), tr
 
 
+WARM = False
+"""``--warm``: keep the per-process decomposition caches between the timed calls (by
+default each call starts from empty caches, as each ``podbench predict`` process does)."""
+
+
+def clear_caches() -> None:
+    """Empty the per-process caches of the deconvolution solvers (the least-squares SVD of
+    a convolution matrix, the bordered eigendecompositions, the dense memo, the kernel's
+    decompositions), so that an in-process repeat costs what a fresh process pays."""
+    from podbench.sysid.deconvolution import bordered, dense, kernel
+
+    for cache in (bordered._CACHE, bordered._SVD_CACHE, dense._MEMO, kernel._DECOMPOSED):
+        cache.clear()
+
+
 def in_process(d, train_files, target_files, repeat: int) -> dict:
-    """Plain and band CPU times (s) of fit + predict of every target, and the floor."""
+    """Plain and band CPU times (s) of fit + predict of every target, and the floor (the
+    band's refits, :func:`benchmarks.bands.refit_time`'s, timed in the same calls)."""
     from podbench.harness.predict import read_any
+    from podbench.sysid.methods import bands
 
     make, tr = _estimator(d, train_files)
     tg = [read_any(p, default_output_units=tr[0].output_units) for p in target_files]
+    clock = time.process_time
+    spent = [0.0]
 
-    def plain():
+    def timed(f):
+        def wrapper(*a, **k):
+            t0 = clock()
+            try:
+                return f(*a, **k)
+            finally:
+                spent[0] += clock() - t0
+        return wrapper
+
+    def run(coverage):
+        if not WARM:
+            clear_caches()
+        spent[0] = 0.0
+        t0 = clock()
         est = make().fit(tr)
-        return [est.predict(t) for t in tg]
+        preds = [est.predict(t, coverage=coverage) for t in tg]
+        return clock() - t0, spent[0], preds
 
-    def band():
-        est = make().fit(tr)
-        return [est.predict(t, coverage=0.9) for t in tg]
-
-    bench.CLOCK = time.process_time
-    t_plain, t_band = bench.best_of(plain, repeat), bench.best_of(band, repeat)
-    t_refits = bench.refit_time(band, repeat)
-    est = make().fit(tr)
-    preds = [est.predict(t, coverage=0.9) for t in tg]
+    t_plain = min(run(None)[0] for _ in range(repeat))
+    old = bands._residuals, bands._noise_refits
+    bands._residuals, bands._noise_refits = timed(old[0]), timed(old[1])
+    try:
+        runs = [run(0.9) for _ in range(repeat)]
+    finally:
+        bands._residuals, bands._noise_refits = old
+    t_band, t_refits, preds = min(runs, key=lambda r: r[0])
     return dict(plain=t_plain, band=t_band, floor=1.0 + t_refits / t_plain,
                 estimates=[p.error_estimate for p in preds])
 
@@ -194,7 +228,11 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--no-cli", action="store_true", help="in-process times only")
     ap.add_argument("--rows", default=None, help="also write every row to this CSV")
+    ap.add_argument("--warm", action="store_true",
+                    help="keep the solvers' per-process caches between in-process repeats")
     args = ap.parse_args(argv)
+    global WARM
+    WARM = args.warm
     ds = held.designs(args.set, tuple(args.classes), tuple(args.methods), args.per_cell)
     print("| class | method | noise | records / samples | in-process CPU, plain → band | "
           "band / plain | floor | CLI wall | CLI CPU |")
