@@ -209,6 +209,12 @@ COMMANDS: dict[str, object] = {
         "the same timings on the process's CPU clock (minutes); speed is measured, never "
         "asserted"),
     "podbench predict --coverage 0.9": SYNOPSIS,
+    "podbench predict --method ML|MDS --train … --target … --coverage 0.9": SYNOPSIS,
+    "python benchmarks/bands_cli.py": NOT_RUN(
+        "times the band through podbench predict on held-out-like files, eight designs at "
+        "one or more noise levels (about 40 minutes); speed is measured, never asserted"),
+    "python benchmarks/bands_cli.py --noise 0.01": NOT_RUN(
+        "the same at 1 % noise (about 40 minutes at load 5)"),
     "python benchmarks/bands_heldout.py": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),
