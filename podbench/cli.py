@@ -264,7 +264,10 @@ def _add_sweep(sub) -> None:
         "docs/noise.md). The --noise/--n-modes/--seeds/"
         "--solvers options replace the file's axes. The table is identical "
         "whether the points run serially, in --jobs local processes or on a Dask "
-        "cluster (--scheduler).",
+        "cluster (--scheduler). A mode count a POD method cannot use (more than the "
+        "sensors, or than ML's and MDS's training cases) is refused before any work; "
+        "a fit that fails at run time is a row (status failed: ...), but a point none "
+        "of whose rows was measured makes the command exit 2, after writing the tables.",
         _EPILOG + """
 Examples:
   podbench sweep                                   # the bundled sweeps, --jobs auto
@@ -818,7 +821,25 @@ def cmd_sweep(args) -> int:
     if len(failed):
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
               "(see sweep.md)")
+    _refuse_dead_points(df, res.written)
     return 0
+
+
+def _refuse_dead_points(df, written) -> None:
+    """A sweep point none of whose rows was measured is a configuration mistake (the
+    scientific failures, an ill-conditioned fit, leave the point's other rows): an error
+    counting them, after the tables are written for inspection."""
+    point = ["scenario", "structure", "noise", "modes", "seed"]
+    dead = df.groupby(point, sort=False)["status"].agg(lambda s: bool((s != "ok").all()))
+    if not dead.any():
+        return
+    sc, structure, noise, k, seed = dead[dead].index[0]
+    first = df[(df.scenario == sc) & (df.structure == structure) & (df.noise == noise)
+               & (df.modes == k) & (df.seed == seed)].iloc[0]
+    raise InputError(
+        f"{int(dead.sum())} of {len(dead)} sweep points measured nothing (every row failed); "
+        f"the first, {sc} × {structure}, noise {noise:g}, k {'own' if k < 0 else k}, seed "
+        f"{seed}: {first.method}: {first.status} (all: {written.get(sc, 'sweep.csv')})")
 
 
 def _one_line(text: object, limit: int = 1000) -> str:
