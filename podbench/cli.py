@@ -341,7 +341,9 @@ def _add_predict(sub) -> None:
             "Fit METHOD (any name podbench methods lists, e.g. ML, MDS, POVR, SL, FIR-LS, "
             "ERA, ML-TC) on the --train record files and predict every --target file: "
             "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
-            "holds outputs, units, error:<channel> per output channel), OUT/<target "
+            "holds outputs, units, error:<channel> per output channel: ‖ŷ_c − y_c‖/‖y_c‖, "
+            "left empty for a channel whose measured output is zero throughout, where a "
+            "relative error is undefined, with a note on stdout), OUT/<target "
             "stem>.npz with the prediction y_hat (n_out × n; W_hat too for displacements), "
             "dt, units, quantity, output_channels, and OUT/config.json (the fitted "
             "configuration). Records: input/output files (.npz/.mat with inputs, outputs, "
@@ -536,6 +538,12 @@ def cmd_predict(args) -> int:
             band += f" (note: {r['note']})"
         print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
               f"{band}")
+        zero = [k.removeprefix("error:") for k, v in r.items()
+                if k.startswith("error:") and v == "" and r["total_error"] != ""]
+        if zero:  # ‖y_c‖ = 0: no relative error to write
+            print(f"  note: {r['target']}: {_plural(len(zero), 'output channel')} measured "
+                  f"zero throughout ({', '.join(zero)}): error:<channel> left empty, a "
+                  "relative error is undefined there")
     print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")
     return 0
 

@@ -58,6 +58,38 @@ def test_predict_writes_errors_and_predictions(tmp_path, capsys):
     assert config["parameters"]["prior"] is None and config["fitted"]["n_lags"] >= 25
 
 
+def test_a_channel_measured_zero_throughout_gets_an_empty_error_said_in_help_and_stdout(
+        tmp_path, capsys):
+    train = _sys_records(tmp_path, [300, 400, 350])
+    target = _sys_records(tmp_path, [500], seed=1)[0]
+    with np.load(target, allow_pickle=False) as z:
+        fields = {k: z[k] for k in z.files}
+    fields["outputs"] = fields["outputs"].copy()
+    fields["outputs"][1] = 0.0  # channel d2 measured 0 throughout
+    quiet = tmp_path / "quiet.npz"
+    np.savez(quiet, **fields)
+    out = tmp_path / "out"
+    assert main(["predict", "--method", "ML", "--train", *train, "--target", str(quiet),
+                 "--out", str(out), "--solver", "ls"]) == 0
+    row = next(csv.DictReader(open(out / "errors.csv")))
+    with np.load(out / "quiet.npz", allow_pickle=False) as z:
+        y_hat = z["y_hat"]
+    y = fields["outputs"]
+    # d1: the relative error of its own channel; d2: undefined (‖y‖ = 0), left empty
+    assert float(row["error:d1"]) == pytest.approx(
+        np.linalg.norm(y_hat[0] - y[0]) / np.linalg.norm(y[0]), rel=1e-5)
+    assert row["error:d2"] == ""
+    assert float(row["total_error"]) == pytest.approx(
+        np.linalg.norm(y_hat - y) / np.linalg.norm(y), rel=1e-5)
+    printed = capsys.readouterr().out
+    assert "note: quiet: 1 output channel measured zero throughout (d2): error:<channel> " \
+           "left empty" in printed
+    with pytest.raises(SystemExit):
+        main(["predict", "--help"])
+    helptext = " ".join(capsys.readouterr().out.split())
+    assert "left empty for a channel whose measured output is zero throughout" in helptext
+
+
 def test_predict_refuses_bad_records_before_writing(tmp_path, capsys):
     train = _sys_records(tmp_path, [300, 400])
     bad = tmp_path / "bad.npz"
