@@ -29,6 +29,9 @@ def beam_forced():
     ("", "", '[sweep]\nsolvers = ["lss"]', "sweep", "did you mean 'ls'?"),
     ("", "", '[sweep]\nsolvers = [{solver = "tls-dt", options = {rcnd = 1e-2}}]', "sweep",
      "did you mean 'rcond'?"),
+    ('shape = "half_sine"', 'shape = "halfsine"', "", "run",
+     "field `cases.load5_half_sine.force`: Parameter `shape`: 'halfsine' is not one of "
+     "'rectangular', 'half_sine', 'triangle'; did you mean 'half_sine'?"),
     ('"lti_beam", "ltv_beam"', '"stiff", "ltv_beam"',
      '[variants.stiff]\nstructure = "lti_bem"\nset = { "E" = 1.0 }', "run",
      "did you mean 'lti_beam'?"),
