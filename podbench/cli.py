@@ -445,7 +445,11 @@ def cmd_fit(args) -> int:
     summary = json.loads((Path(args.out) / "model.json").read_text())
     print(f"{summary['method']}: model -> {args.out}/model.npz (summary model.json)")
     if summary.get("modes_table"):
-        print(f"{_plural(summary['modes_count'], 'physical mode')} -> {args.out}/modes.csv")
+        why = ""
+        if not summary["modes_count"]:  # an empty table: say what the rule left out
+            why = f" (none kept: {'; '.join(summary.get('modes_rule') or ['see model.json'])})"
+        print(f"{_plural(summary['modes_count'], 'physical mode')} -> {args.out}/modes.csv"
+              f"{why}")
     else:
         print(f"no modes.csv: {summary.get('modes_reason', '')}")
     return 0

@@ -355,6 +355,11 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
 
 def _open(path: Path) -> dict:
     name = str(path)
+    if path.is_dir():
+        inside = path / "model.npz"
+        hint = (f"; the model podbench fit wrote there is {inside}" if inside.is_file()
+                else "; give the model.npz that podbench fit wrote")
+        raise InputError(f"{path}: a folder, not a model file{hint}")
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     with open(path, "rb") as fh:

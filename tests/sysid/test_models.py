@@ -175,6 +175,11 @@ def test_an_edited_header_or_a_truncated_array_is_refused_naming_file_and_field(
          f"array '{modes_key}': <f8 [7], but the header recorded <f8 "
          f"{list(arrays[modes_key].shape)} for `model.modes_`"),
     ]
+    folder = good.parent / "fitted"
+    folder.mkdir()
+    good.rename(folder / "model.npz")
+    cases.append((folder, f"a folder, not a model file; the model podbench fit wrote there "
+                          f"is {folder / 'model.npz'}"))
     for path, words in cases:
         with pytest.raises(InputError) as info:
             load_model(path)
