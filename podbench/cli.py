@@ -540,7 +540,8 @@ def cmd_predict(args) -> int:
                 f"coverage {r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
         if band and r["error_estimate"] and r["note"]:  # an estimate that may be low
             band += f" (note: {r['note']})"
-        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
+        none = "(none: the target holds no outputs, or they are zero throughout)"
+        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or none}"
               f"{band}")
         zero = [k.removeprefix("error:") for k, v in r.items()
                 if k.startswith("error:") and v == "" and r["total_error"] != ""]

@@ -252,6 +252,20 @@ def fit_records(est, train, files=None) -> None:
         raise type(exc)(said) from None
 
 
+def _predict_targets(est, records, files, coverage) -> list:
+    """``est.predict`` of every target record; a prediction the model refuses (a target
+    longer than its kernel, say) is one line naming the target file."""
+    preds = []
+    for rec, path in zip(records, files, strict=True):
+        try:
+            preds.append(est.predict(rec, coverage=coverage))
+        except InputError as exc:
+            if str(exc).startswith(str(path)):
+                raise
+            raise type(exc)(f"{path}: {exc}") from None
+    return preds
+
+
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
@@ -341,7 +355,7 @@ def predict_files(method: str | None, train, targets, out, *, solver: str = "aut
         warnings.warn(text, PodbenchWarning, stacklevel=2)
     with single_blas_thread():
         fit_records(est, tr, train)
-        preds = [est.predict(r, coverage=coverage) for r in tg]
+        preds = _predict_targets(est, tg, targets, coverage)
     channels = tr[0].output_channels or ()
     rows = [_row(stem, entry.name, rec, channels, p, coverage)
             for stem, rec, p in zip(stems, tg, preds, strict=True)]
@@ -382,7 +396,7 @@ def _predict_saved(model, method, train, targets, out, *, solver, n_modes, cover
     for rec in tg:
         check_compatible(ref, rec, min_samples=1)
     with single_blas_thread():
-        preds = [est.predict(r, coverage=coverage) for r in tg]
+        preds = _predict_targets(est, tg, targets, coverage)
     name = getattr(est, "abbreviation", "") or type(est).__name__
     channels = ref.output_channels or ()
     rows = [_row(stem, name, rec, channels, p, coverage)

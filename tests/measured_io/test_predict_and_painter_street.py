@@ -90,6 +90,39 @@ def test_a_channel_measured_zero_throughout_gets_an_empty_error_said_in_help_and
     assert "left empty for a channel whose measured output is zero throughout" in helptext
 
 
+def test_records_the_model_cannot_use_name_their_file(tmp_path, capsys):
+    """A training record at rest is refused before any fit; a target longer than the kernel
+    a 3-sample record gave is refused naming the target; a target at rest has no relative
+    error, and the line says why."""
+    chain = pb.load_structure("chain_coupled")
+    F = np.zeros((5, 400))
+    F[0, 1:40] = 10.0 * np.sin(np.pi * np.arange(1, 40) / 40)
+    push = pb.simulate(chain, 400, 0.002, force=F)
+    files = {}
+    for name, W, Fn in (("push", push.W, push.F), ("rest", 0 * push.W, push.F),
+                        ("short", push.W[:, :3], push.F[:, :3])):
+        files[name] = str(tmp_path / f"{name}.npz")
+        write_record(files[name], Record(W=W, F=Fn, dt=0.002))
+
+    def err(*argv):
+        assert main(list(argv)) == 2
+        text = capsys.readouterr().err.strip()
+        assert "\n" not in text
+        return text
+
+    assert err("fit", "--method", "SL", "--train", files["rest"], "--out", str(tmp_path / "a")) \
+        == "podbench fit: error: rest.npz: field `outputs`: zero throughout (a " \
+           "training record needs a measured response to identify from)"
+    assert err("predict", "--method", "SL", "--train", files["short"], "--target", files["push"],
+               "--out", str(tmp_path / "b")).startswith(
+        f"podbench predict: error: {files['push']}: Parameter `F_new`: 400 samples, "
+        "expected n' <= 3")
+    assert main(["predict", "--method", "SL", "--train", files["push"], "--target",
+                 files["rest"], "--out", str(tmp_path / "c")]) == 0
+    assert "rest: SL total_error (none: the target holds no outputs, or they are zero " \
+           "throughout)" in capsys.readouterr().out
+
+
 def test_predict_refuses_bad_records_before_writing(tmp_path, capsys):
     train = _sys_records(tmp_path, [300, 400])
     bad = tmp_path / "bad.npz"
