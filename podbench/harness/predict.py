@@ -53,6 +53,7 @@ from podbench.core.hints import percent_hint
 from podbench.core.recordfiles import read_record
 from podbench.core.records import Record, check_compatible, check_records
 from podbench.core.threads import single_blas_thread
+from podbench.core.units import normalize_unit
 from podbench.core.version import __version__
 from podbench.errors import InputError, PodbenchWarning, RecordTooShortError
 from podbench.sysid import registry
@@ -81,7 +82,11 @@ class PredictResult:
 def read_any(path, *, input_units=None, output_units=None, system=None,
              default_output_units=None, require_outputs: bool = False) -> Record:
     """A record from a file of either layout (:func:`podbench.core.recordfiles.read_record`);
-    ``default_output_units``: the unit of a target without outputs."""
+    ``default_output_units``: the unit of a target without outputs. A unit given for files
+    that carry none must be a known one even when this file carries its own."""
+    for name, unit in (("input_units", input_units), ("output_units", output_units)):
+        if unit is not None:
+            normalize_unit(unit, f"Parameter `{name}`")
     return read_record(path, input_units=input_units, output_units=output_units,
                        require_outputs=require_outputs, system=system,
                        default_output_units=default_output_units)

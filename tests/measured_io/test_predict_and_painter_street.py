@@ -123,6 +123,19 @@ def test_records_the_model_cannot_use_name_their_file(tmp_path, capsys):
            "throughout)" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("command", ["fit", "predict"])
+def test_an_unknown_unit_option_is_refused_even_for_files_that_carry_theirs(tmp_path, capsys,
+                                                                           command):
+    train = _sys_records(tmp_path, [300, 400])  # they state m/s^2
+    extra = ["--target", train[0]] if command == "predict" else []
+    assert main([command, "--method", "ML", "--train", *train, *extra, "--out",
+                 str(tmp_path / "out"), "--output-units", "furlong"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"podbench {command}: error: --output-units: unknown unit 'furlong' (known: N, lbf, m, "
+        "in, m/s, in/s, m/s^2, in/s^2, strain, V)")
+    assert not (tmp_path / "out").exists()
+
+
 def test_predict_refuses_bad_records_before_writing(tmp_path, capsys):
     train = _sys_records(tmp_path, [300, 400])
     bad = tmp_path / "bad.npz"
