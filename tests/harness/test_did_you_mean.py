@@ -59,3 +59,16 @@ def test_a_misspelt_study_or_solver_option_gets_the_closest_name(capsys, argv, n
     assert cli.main([*argv, "-q", "--no-cache"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and needle in err, err
+
+
+def test_python_api_names_get_the_closest_one():
+    import podbench as pb
+    from podbench.errors import UnknownNameError
+
+    with pytest.raises(UnknownNameError, match=r"Unknown structure 'chain_coupld'; did you "
+                                               r"mean 'chain_coupled'\? \(searched "):
+        pb.load_structure("chain_coupld")
+    chain = pb.load_structure("chain_coupled")
+    with pytest.raises(UnknownNameError, match=r"unknown engine 'Exudyn'; did you mean "
+                                               r"'exudyn'\? \(known engines: newmark, exudyn\)"):
+        pb.simulate(chain, 10, 0.01, engine="Exudyn")
