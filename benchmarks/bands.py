@@ -25,6 +25,10 @@ noise refits), the least a band built on refits can cost::
 the process's CPU time is the work done, which other processes on a loaded machine move far
 less than the wall time (still by cache sharing: take more repeats).
 
+The cases here are a few milliseconds of one beam; the cost on the path the acceptance check
+runs (``podbench predict … --coverage 0.9`` on files of held-out-like designs) is
+``benchmarks/bands_cli.py``'s.
+
 Speed is measured here only, never asserted in the tests.
 """
 

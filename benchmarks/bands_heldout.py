@@ -270,6 +270,102 @@ def _grid_features(model, p, truth) -> dict:
             "target_cdf": join(cov), "target_is": join(isc), "constant_is": join(const)}
 
 
+def _pair_sets(n: int):
+    """Every pair ``(i, l)``, ``i < l``, of ``n`` records (a leave-two-out refit each)."""
+    return [(i, l) for i in range(n) for l in range(i + 1, n)]
+
+
+def _jack2(preds, centre) -> float:
+    """``J² = (N − 1)/N · Σ_j ‖ŷ_(j) − centre‖²`` over the ``N`` fold predictions ``preds``
+    (the jackknife variance of a prediction, Efron's; unnormalized)."""
+    n = len(preds)
+    return (n - 1) / n * float(sum(np.sum((P - centre) ** 2) for P in preds))
+
+
+@dataclass
+class Jackknife:
+    """The band's fold models of one fitted model (leave one record out, in the folds'
+    modes, at the full fit's frozen choices: ``bands._refit`` as ``bands._residuals``
+    would) and each fold's own jackknife on the record it leaves out (leave two out, in
+    the first ``N − 2`` modes where the model has more: ``bands.folds_per_mode`` one step
+    further), for ``--features`` (``jack``, ``fold_jack``)."""
+
+    folds: list
+    fold_jack: np.ndarray
+    fold_jack_full: np.ndarray
+    refit_seconds: float
+
+
+def jackknife(model) -> Jackknife | None:
+    """:class:`Jackknife` of a fitted, band-calibrated ``model``; None where its band is
+    not cross-validated (or folds are grouped, ``bands.MAX_FOLDS``) or a fold refit fails.
+    ``fold_jack[j]²`` is fold ``j``'s ``J²`` on record ``j`` over ``‖ŷ_(j)‖²`` (its own
+    prediction of that record); NaN where ``N − 2`` records are too few to refit."""
+    import time
+
+    from podbench.sysid.methods import bands
+
+    cal = model.band_calibration_
+    if cal.source != "cross-validation" or bands.MAX_FOLDS is not None:
+        return None
+    t0 = time.process_time()
+    recs = list(model.training_records_)
+    U = np.asarray(model.modes_, float)
+    N, k = len(recs), int(U.shape[1])
+    frozen = bands._frozen(model)
+    k1 = cal.cv_modes
+    U1 = U if k1 is None else U[:, :k1]
+    try:
+        folds = [bands._refit(model, recs[:j] + recs[j + 1:], n_modes=k1, basis=U1,
+                              frozen=frozen) for j in range(N)]
+    except Exception:  # noqa: BLE001 — a fold the method refuses: no jackknife
+        return None
+    own = [np.asarray(f.predict(recs[j]), float) for j, f in enumerate(folds)]
+    fj, fjf = np.full(N, np.nan), np.full(N, np.nan)
+    lo = getattr(model, "n_records", (1, None))[0]
+    if N - 2 >= max(lo, 1):
+        k2 = N - 2 if bands.folds_per_mode(model) and k > N - 2 else None
+        U2 = U if k2 is None else U[:, :k2]
+        pred2: dict = {}  # (j, i): record j predicted without j and i
+        try:
+            for i, l in _pair_sets(N):
+                sub = bands._refit(model, [recs[m] for m in range(N) if m not in (i, l)],
+                                   n_modes=k2, basis=U2, frozen=frozen)
+                pred2[(i, l)] = np.asarray(sub.predict(recs[i]), float)
+                pred2[(l, i)] = np.asarray(sub.predict(recs[l]), float)
+        except Exception:  # noqa: BLE001 — a leave-two-out refit refused: no fold jackknife
+            pred2 = {}
+        if pred2:
+            for j in range(N):
+                P = [pred2[(j, i)] for i in range(N) if i != j]
+                y2 = max(float(np.sum(own[j] ** 2)), 1e-300)
+                fj[j] = math.sqrt(_jack2(P, np.mean(P, axis=0)) / y2)
+                fjf[j] = math.sqrt(_jack2(P, own[j]) / y2)
+    return Jackknife(folds, fj, fjf, time.process_time() - t0)
+
+
+def _jack_features(jk: Jackknife | None, rec, mean) -> dict:
+    """``jack``: the target's jackknife spread over the fold models, ``J`` with
+    ``J² = (N − 1)/N · Σ_j ‖ŷ_(j) − ȳ_(·)‖²/‖ŷ‖²`` (``ŷ`` the full model's prediction);
+    ``jack_full`` the same about ``ŷ`` instead of the folds' mean ``ȳ_(·)``; the folds'
+    own (leave two out) and the seconds of CPU of the fold refits and of the fold
+    predictions of this target."""
+    import time
+
+    if jk is None:
+        return {"jack": math.nan, "jack_full": math.nan}
+    t0 = time.process_time()
+    P = [np.asarray(f.predict(rec), float) for f in jk.folds]
+    n = min(min(p.shape[1] for p in P), mean.shape[1])
+    P = [p[:, :n] for p in P]
+    y2 = max(float(np.sum(mean[:, :n] ** 2)), 1e-300)
+    join = lambda xs: ";".join(f"{float(x):.6g}" for x in xs)  # noqa: E731
+    return {"jack": math.sqrt(_jack2(P, np.mean(P, axis=0)) / y2),
+            "jack_full": math.sqrt(_jack2(P, mean[:, :n]) / y2),
+            "fold_jack": join(jk.fold_jack), "fold_jack_full": join(jk.fold_jack_full),
+            "jack_refit_s": jk.refit_seconds, "jack_predict_s": time.process_time() - t0}
+
+
 def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
     """One row per target: realized error, estimate, coverage, interval scores."""
     from podbench.harness.bands import band_stats
@@ -284,6 +380,7 @@ def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
         return [dict(cls=d.cls, method=d.method, seed=d.seed, noise=level, target=j,
                      status=f"fit: {type(exc).__name__}: {exc}"[:120])
                 for j in range(len(targets))]
+    jk = False  # --features: the fold models, built after the band's calibration
     for j, t in enumerate(targets):
         rec = noisy_record(t, level, d, f"target{j}")
         truth = np.asarray(t.W, float)
@@ -310,6 +407,9 @@ def run_design(d: Design, level: float, sims=None, coverage: float = 0.9):
         if FEATURES:
             row.update(_features(model, p))
             row.update(_grid_features(model, p, truth))
+            if jk is False:
+                jk = jackknife(model)
+            row.update(_jack_features(jk, rec, mean))
         rows.append(row)
     return rows
 
@@ -386,6 +486,68 @@ def report(df) -> str:
     return "\n".join(lines)
 
 
+def _loo_jack(model, rec) -> float:
+    """The target's ``J`` as a band would compute it: the ``N`` leave-one-record-out fold
+    models refitted (``bands._refit``, in the folds' modes) and each predicting ``rec``."""
+    from podbench.sysid.methods import bands
+
+    cal = model.band_calibration_
+    recs = list(model.training_records_)
+    U = np.asarray(model.modes_, float)
+    U1 = U if cal.cv_modes is None else U[:, :cal.cv_modes]
+    frozen = bands._frozen(model)
+    P = [np.asarray(bands._refit(model, recs[:j] + recs[j + 1:], n_modes=cal.cv_modes,
+                                 basis=U1, frozen=frozen).predict(rec), float)
+         for j in range(len(recs))]
+    return math.sqrt(_jack2(P, np.mean(P, axis=0)))
+
+
+def _best_cpu(fn, repeat: int) -> float:
+    import time
+
+    ts = []
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        ts.append(time.process_time() - t0)
+    return min(ts)
+
+
+def _time_design(d: Design, repeat: int) -> dict:
+    """:func:`jack_cost`'s timings of one design (clean records, its first target)."""
+    train, targets = simulate_design(d)
+    recs = [noisy_record(r, 0.0, d, f"train{j}") for j, r in enumerate(train)]
+    rec = noisy_record(targets[0], 0.0, d, "target0")
+
+    def plain(band=False):
+        m = make_method(d).fit(recs)
+        return m, (m.predict(rec, coverage=0.9) if band else m.predict(rec))
+
+    model, _ = plain(True)
+    _loo_jack(model, rec)  # warm-up
+    best = {"plain": _best_cpu(plain, repeat),
+            "band": _best_cpu(lambda: plain(True), repeat),
+            "jack": _best_cpu(lambda: _loo_jack(model, rec), repeat)}
+    return dict(cls=d.cls, method=d.method, seed=d.seed, n_train=len(recs), **best,
+                band_over_plain=best["band"] / best["plain"],
+                band_jack_over_plain=(best["band"] + best["jack"]) / best["plain"])
+
+
+def jack_cost(set_name: str, repeat: int = 3) -> list[dict]:
+    """CPU seconds (best of ``repeat``, one process, clean records, the first design of
+    each class × method) of the plain fit + predict of one target, of the fit + band
+    (``predict(target, coverage=0.9)``, the calibration included) and of the target's
+    ``J`` on top of it (:func:`_loo_jack`: the band's folds are not kept as models, so
+    ``J`` refits them)."""
+    out = []
+    for d in designs(set_name, per_cell=1):
+        try:
+            out.append(_time_design(d, repeat))
+        except Exception as exc:  # a design the method refuses: no timing
+            print(f"  {d.cls} {d.method} {d.seed}: {exc}", file=sys.stderr)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--set", choices=tuple(SETS), default="dev")
@@ -397,7 +559,15 @@ def main(argv=None) -> int:
                     help="the rows also carry the estimate's terms and fold data")
     ap.add_argument("--max-folds", type=int, default=None,
                     help="the variant bands.MAX_FOLDS (default: leave-one-record-out)")
+    ap.add_argument("--jack-cost", action="store_true",
+                    help="only time the target's jackknife J against the plain fit + predict "
+                         "and the band (jack_cost)")
     args = ap.parse_args(argv)
+    if args.jack_cost:
+        import pandas as pd
+
+        print(pd.DataFrame(jack_cost(args.set)).to_string(float_format="%.4g"))
+        return 0
     global FEATURES
     FEATURES = args.features
     if args.max_folds is not None:

@@ -16,6 +16,11 @@ rule's fold estimates; ``bands_heldout._grid_features``).
     python benchmarks/bands_rules.py dev.csv --rules gains --mondrian none leverage level
     python benchmarks/bands_rules.py dev.csv --rules gains --recenter
     python benchmarks/bands_rules.py dev.csv --rules gains --leverage-exponents 1 0.75 0.5
+    python benchmarks/bands_rules.py dev.csv --rules gains J hypot geomean gain [--jack-full]
+    python benchmarks/bands_rules.py dev.csv --jack-diagnostics
+
+The jackknife rules (:data:`JACK_RULES`, measured in docs/bands.md, *A jackknife term on
+the target*) need rows with the ``jack`` columns (``bands_heldout.py --features``).
 
 ``--leverage-exponents`` (a variant, measured in docs/bands.md): the gains' leverage term
 ``κ_Λ²(Λ² + 1)^γ`` with γ chosen per model from the values given by the fit's log loss on
@@ -175,22 +180,149 @@ def fit_l1(errors, terms, factors):
     return best
 
 
+def _oracle_and_bias(ok) -> dict:
+    """Within ×2 of the per-model-constant oracle (each model's estimates times the
+    constant, chosen on the truth, that puts most of them within ×2) and the median
+    log₂(estimate/realized) per method."""
+    out = {}
+    hits = 0
+    for _, g in ok.groupby(["cls", "method", "seed", "noise"]):
+        lr = np.log2(g["error_estimate"].to_numpy(float) / g["total_error"].to_numpy(float))
+        lr = lr[np.isfinite(lr)]
+        # the best window [c, c + 2] in log₂ starts at one of the ratios
+        hits += max((int(np.sum((lr >= c) & (lr <= c + 2.0 + 1e-12))) for c in lr), default=0)
+    out["oracle_per_model_constant"] = hits / max(len(ok), 1)
+    for m in ("MDS", "ML"):
+        g = ok[ok["method"] == m]
+        out[f"median_log2_ratio_{m}"] = float(np.nanmedian(np.log2(
+            g["error_estimate"].to_numpy(float) / g["total_error"].to_numpy(float))))
+    return out
+
+
 RECENTER = False
 """``--recenter``: divide a model's estimates (and its folds') by the folds' median ratio
 of estimate to realized error."""
 
 
+JACK_RULES = ("J", "hypot", "geomean", "gain")
+"""Rules on the target's jackknife spread ``J`` over the band's fold models (the rows'
+``jack``; ``bands_heldout._jack_features``), each with its folds' own estimates (for the
+band's pooled quantile) from each fold's leave-two-out ``J_j`` (``fold_jack``), ``e``
+being today's estimate (the rows' ``error_estimate``, the folds' ``fold_estimates``):
+
+* ``"J"``: ``J`` alone;
+* ``"hypot"``: ``sqrt(e² + J²)``;
+* ``"geomean"``: ``sqrt(e·J)``;
+* ``"gain"``: ``sqrt(κ²J² + ρ²)``, one gain per model fitted on its folds as the gains are
+  (``bands.fit_data``: ``κ²`` the geometric mean of ``max(e_j² − ρ_j², 0.01 e_j²)/J_j²``,
+  ρ the projection share).
+
+No constant is chosen on any set. A model whose folds have no ``J_j`` (fewer than
+``N − 2`` records to refit, or a refit refused) keeps today's estimate for ``"gain"`` and
+today's fold estimates for the band's quantile of every rule (counted in
+``jack_fallback``)."""
+JACK_FULL = False
+"""``--jack-full``: ``J`` about the full model's prediction (``jack_full``, ``fold_jack_full``)
+instead of about the folds' mean."""
+
+
+def jack_estimates(rows, rule: str):
+    """``(estimates of the rows, the folds' own, fell back)`` of one model under a
+    :data:`JACK_RULES` rule."""
+    r0 = rows.iloc[0]
+    col, fcol = ("jack_full", "fold_jack_full") if JACK_FULL else ("jack", "fold_jack")
+    e = rows["error_estimate"].to_numpy(float)
+    J = rows[col].to_numpy(float)
+    e_f = _floats(r0.fold_estimates)
+    J_f = _floats(r0[fcol]) if isinstance(r0.get(fcol), str) else np.full(e_f.size, np.nan)
+    have = bool(np.all(np.isfinite(J_f) & (J_f > 0)))
+    if rule == "J":
+        est, own = J, J_f
+    elif rule == "hypot":
+        est, own = np.hypot(e, J), np.hypot(e_f, J_f)
+    elif rule == "geomean":
+        est, own = np.sqrt(e * J), np.sqrt(e_f * J_f)
+    else:
+        if not have:
+            return e, e_f, True
+        err = _floats(r0.fold_errors)
+        rho_f = _floats(r0.fold_rho)
+        y = np.maximum(err ** 2 - rho_f ** 2, 0.01 * err ** 2)
+        k2 = float(np.exp(np.mean(np.log(y / J_f ** 2))))
+        rho = rows["projection_share"].to_numpy(float)
+        rho = np.where(np.isfinite(rho), rho, 0.0)
+        est, own = np.sqrt(k2 * J ** 2 + rho ** 2), np.sqrt(k2 * J_f ** 2 + rho_f ** 2)
+    if not have:
+        own = e_f
+    return est, own, not have
+
+
+def jack_diagnostics(df) -> str:
+    """What ``J`` shows, per method: its log₂ ratio to the realized error over the
+    predictions; per model, the Spearman between today's level miss (median
+    log₂(e/realized)) and ``J``'s share (median log₂(J/e)), the within-model Spearman, the
+    folds' Spearman of ``J_j`` with ``e_j``; and within ×2 of ``J``, ``J_full`` and ``e``
+    times one constant per method fitted leave-one-model-out on the other models' truth
+    (the issue's prototype protocol, a meta-model no user has: a diagnostic, not a rule)."""
+    from scipy.stats import spearmanr
+
+    ok = df[df["status"] == "ok"].copy()
+    ok["model"] = [f"{c}|{m}|{s}|{n}" for c, m, s, n in
+                   zip(ok.cls, ok.method, ok.seed, ok.noise, strict=True)]
+    lines = []
+    for col in ("jack", "jack_full", "error_estimate"):
+        for m, g in ok.groupby("method"):
+            lr = np.log2(g[col] / g.total_error)
+            lines.append(f"{col} {m}: log2(x/realized) median {lr.median():+.2f}, quartiles "
+                         f"{lr.quantile(0.25):+.2f} … {lr.quantile(0.75):+.2f}; Spearman "
+                         f"{spearmanr(g[col], g.total_error).statistic:.3f}")
+    for m, gm in ok.groupby("method"):
+        rows = []
+        for _, g in gm.groupby("model"):
+            r0 = g.iloc[0]
+            rows.append((np.median(np.log2(g.error_estimate / g.total_error)),
+                         np.median(np.log2(g.jack / g.error_estimate)),
+                         np.median(np.log2(g.jack / g.total_error)),
+                         spearmanr(g.jack, g.total_error).statistic,
+                         spearmanr(_floats(r0.fold_jack), _floats(r0.fold_errors)).statistic))
+        a = np.array(rows)
+        lines.append(f"{m}: Spearman(model's miss of e, log2 J/e) "
+                     f"{spearmanr(a[:, 0], a[:, 1]).statistic:+.2f}; models off by more than "
+                     f"x2: e {np.sum(np.abs(a[:, 0]) > 1)}, J {np.sum(np.abs(a[:, 2]) > 1)} of "
+                     f"{len(a)}; within-model Spearman of J (median) {np.nanmedian(a[:, 3]):.2f}; "
+                     f"folds' Spearman(J_j, e_j) (median) {np.nanmedian(a[:, 4]):.2f}")
+    for col in ("jack", "jack_full", "error_estimate"):
+        hit = []
+        for _, r in ok.iterrows():
+            o = ok[(ok.method == r.method) & (ok.model != r.model)]
+            k = float(np.exp(np.median(np.log(o.total_error / o[col]))))
+            hit.append(abs(math.log2(k * r[col] / r.total_error)) <= 1.0)
+        hit = np.array(hit)
+        lines.append(f"{col} x one constant per method, leave-one-model-out: within x2 "
+                     f"{hit.mean():.3f} (MDS {hit[ok.method.to_numpy() == 'MDS'].mean():.3f}, "
+                     f"ML {hit[ok.method.to_numpy() == 'ML'].mean():.3f})")
+    return "\n".join(lines)
+
+
 def score_rule(df, rule: str, mondrian: str = "none") -> dict:
     """The held-out scores (``bands_heldout.scores``) of ``rule`` on the stored rows
-    (``mondrian``: the band's quantile per category, :data:`MONDRIAN`)."""
+    (``mondrian``: the band's quantile per category, :data:`MONDRIAN`); a
+    :data:`JACK_RULES` rule through :func:`jack_estimates`."""
     import pandas as pd
 
     from benchmarks.bands_heldout import scores
 
     out = df.copy()
     chosen = []
+    fallback = 0
     for _, rows in df.groupby(["cls", "method", "seed", "noise"], sort=False):
-        est, own, applied = _model_estimates(rows, rule)
+        if rule in JACK_RULES:
+            est, own, fell = jack_estimates(rows, rule)
+            fallback += int(fell)
+            applied = rule
+            EXPONENTS_CHOSEN.append(1.0)
+        else:
+            est, own, applied = _model_estimates(rows, rule)
         if RECENTER:
             c = float(np.exp(-np.median(np.log(own / _floats(rows.iloc[0].fold_errors)))))
             est, own = est * c, own * c
@@ -207,6 +339,9 @@ def score_rule(df, rule: str, mondrian: str = "none") -> dict:
         r = g["error_estimate"] / g["total_error"]
         s[f"within_factor_2_{m}"] = float(np.mean((r >= 0.5) & (r <= 2)))
     s["models_on_folds"] = f"{sum(c != 'gains' for c in chosen)}/{len(chosen)}"
+    if rule in JACK_RULES:
+        s["jack_fallback"] = f"{fallback}/{len(chosen)}"
+    s.update(_oracle_and_bias(ok))
     g = np.array(EXPONENTS_CHOSEN[-len(chosen):])
     s["leverage_exponents"] = " ".join(f"{x:g}:{np.count_nonzero(g == x)}"
                                        for x in sorted(set(g.tolist()), reverse=True))
@@ -223,7 +358,9 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rows", help="a CSV of bands_heldout.py --features")
-    ap.add_argument("--rules", nargs="*", default=list(RULES), choices=RULES)
+    ap.add_argument("--rules", nargs="*", default=list(RULES), choices=RULES + JACK_RULES)
+    ap.add_argument("--jack-full", action="store_true",
+                    help="the jackknife rules' J about the full prediction (jack_full)")
     ap.add_argument("--leverage-powers", nargs="*", type=float,
                     default=[bands.LEVERAGE_POWER])
     ap.add_argument("--mondrian", nargs="*", default=["none"], choices=MONDRIAN,
@@ -239,12 +376,18 @@ def main(argv=None) -> int:
     ap.add_argument("--leverage-exponents", nargs="*", type=float, default=None,
                     help="the \"gains\" rule's leverage exponents γ the folds choose from "
                          "(bands.GAINS_LEVERAGE_EXPONENTS; default: the band code's)")
+    ap.add_argument("--jack-diagnostics", action="store_true",
+                    help="print what the jackknife J shows (jack_diagnostics) and stop")
     args = ap.parse_args(argv)
+    if args.jack_diagnostics:
+        print(jack_diagnostics(pd.read_csv(args.rows)))
+        return 0
     bands.FOLDS_GAINS_GROWTH = args.growth
     if args.leverage_exponents:
         bands.GAINS_LEVERAGE_EXPONENTS = tuple(args.leverage_exponents)
-    global RECENTER
+    global RECENTER, JACK_FULL
     RECENTER = args.recenter
+    JACK_FULL = args.jack_full
     if args.l1:
         bands._fit = fit_l1
     df = pd.read_csv(args.rows)

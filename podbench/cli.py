@@ -264,7 +264,10 @@ def _add_sweep(sub) -> None:
         "docs/noise.md). The --noise/--n-modes/--seeds/"
         "--solvers options replace the file's axes. The table is identical "
         "whether the points run serially, in --jobs local processes or on a Dask "
-        "cluster (--scheduler).",
+        "cluster (--scheduler). A mode count a POD method cannot use (more than the "
+        "sensors, or than ML's and MDS's training cases) is refused before any work; "
+        "a fit that fails at run time is a row (status failed: ...), but a point none "
+        "of whose rows was measured makes the command exit 2, after writing the tables.",
         _EPILOG + """
 Examples:
   podbench sweep                                   # the bundled sweeps, --jobs auto
@@ -338,7 +341,9 @@ def _add_predict(sub) -> None:
             "Fit METHOD (any name podbench methods lists, e.g. ML, MDS, POVR, SL, FIR-LS, "
             "ERA, ML-TC) on the --train record files and predict every --target file: "
             "OUT/errors.csv (target, method, total_error = ‖ŷ − y‖_F/‖y‖_F where the target "
-            "holds outputs, units, error:<channel> per output channel), OUT/<target "
+            "holds outputs, units, error:<channel> per output channel: ‖ŷ_c − y_c‖/‖y_c‖, "
+            "left empty for a channel whose measured output is zero throughout, where a "
+            "relative error is undefined, with a note on stdout), OUT/<target "
             "stem>.npz with the prediction y_hat (n_out × n; W_hat too for displacements), "
             "dt, units, quantity, output_channels, and OUT/config.json (the fitted "
             "configuration). Records: input/output files (.npz/.mat with inputs, outputs, "
@@ -440,7 +445,11 @@ def cmd_fit(args) -> int:
     summary = json.loads((Path(args.out) / "model.json").read_text())
     print(f"{summary['method']}: model -> {args.out}/model.npz (summary model.json)")
     if summary.get("modes_table"):
-        print(f"{_plural(summary['modes_count'], 'physical mode')} -> {args.out}/modes.csv")
+        why = ""
+        if not summary["modes_count"]:  # an empty table: say what the rule left out
+            why = f" (none kept: {'; '.join(summary.get('modes_rule') or ['see model.json'])})"
+        print(f"{_plural(summary['modes_count'], 'physical mode')} -> {args.out}/modes.csv"
+              f"{why}")
     else:
         print(f"no modes.csv: {summary.get('modes_reason', '')}")
     return 0
@@ -531,8 +540,15 @@ def cmd_predict(args) -> int:
                 f"coverage {r['coverage'] or '(no outputs)'}" if "error_estimate" in r else "")
         if band and r["error_estimate"] and r["note"]:  # an estimate that may be low
             band += f" (note: {r['note']})"
-        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or '(no outputs)'}"
+        none = "(none: the target holds no outputs, or they are zero throughout)"
+        print(f"{r['target']}: {r['method']} total_error {r['total_error'] or none}"
               f"{band}")
+        zero = [k.removeprefix("error:") for k, v in r.items()
+                if k.startswith("error:") and v == "" and r["total_error"] != ""]
+        if zero:  # ‖y_c‖ = 0: no relative error to write
+            print(f"  note: {r['target']}: {_plural(len(zero), 'output channel')} measured "
+                  f"zero throughout ({', '.join(zero)}): error:<channel> left empty, a "
+                  "relative error is undefined there")
     print(f"{_plural(len(rows), 'prediction')} -> {args.out}/")
     return 0
 
@@ -818,7 +834,25 @@ def cmd_sweep(args) -> int:
     if len(failed):
         print(f"note: {_plural(len(failed), 'row has', 'rows have')} a failed method or twin "
               "(see sweep.md)")
+    _refuse_dead_points(df, res.written)
     return 0
+
+
+def _refuse_dead_points(df, written) -> None:
+    """A sweep point none of whose rows was measured is a configuration mistake (the
+    scientific failures, an ill-conditioned fit, leave the point's other rows): an error
+    counting them, after the tables are written for inspection."""
+    point = ["scenario", "structure", "noise", "modes", "seed"]
+    dead = df.groupby(point, sort=False)["status"].agg(lambda s: bool((s != "ok").all()))
+    if not dead.any():
+        return
+    sc, structure, noise, k, seed = dead[dead].index[0]
+    first = df[(df.scenario == sc) & (df.structure == structure) & (df.noise == noise)
+               & (df.modes == k) & (df.seed == seed)].iloc[0]
+    raise InputError(
+        f"{int(dead.sum())} of {len(dead)} sweep points measured nothing (every row failed); "
+        f"the first, {sc} × {structure}, noise {noise:g}, k {'own' if k < 0 else k}, seed "
+        f"{seed}: {first.method}: {first.status} (all: {written.get(sc, 'sweep.csv')})")
 
 
 def _one_line(text: object, limit: int = 1000) -> str:

@@ -123,6 +123,53 @@ def test_bands_rules_reproduces_the_live_band_offline(monkeypatch):
     np.testing.assert_allclose(isc, rows["interval_score"], rtol=0.01)
 
 
+def test_bands_heldout_jackknife_is_the_fold_refits_spread_on_the_target(monkeypatch):
+    """The ``--features`` jackknife of one held-out MDS design (LTI, 1 % noise, k = N):
+    the fold models refitted here (MDS on the other N − 1 records in N − 1 modes) give the
+    band's own fold errors, the target's ``J²`` is ``(N − 1)/N Σ_j ‖Ŵ_(j) − W̄‖²/‖Ŵ‖²`` of
+    their predictions, and fold 0's ``J_0`` comes from its N − 2-record refits; the
+    rules' ``sqrt(e² + J²)`` is computed from those columns."""
+    import pandas as pd
+
+    from benchmarks import bands_heldout as H
+    from benchmarks import bands_rules as R
+    from podbench.sysid.methods import MDS
+
+    monkeypatch.setattr(H, "FEATURES", True)
+    d = H.designs("dev", ("LTI",), ("MDS",), 1)[0]
+    sims = H.simulate_design(d)
+    rows = pd.DataFrame(H.run_design(d, 0.01, sims))
+    recs = [H.noisy_record(r, 0.01, d, f"train{j}") for j, r in enumerate(sims[0])]
+    model = H.make_method(d).fit(recs)
+    rec = H.noisy_record(sims[1][0], 0.01, d, "target0")
+    Wh = np.asarray(model.predict(rec))
+    U, N = np.asarray(model.modes_), len(recs)
+    assert U.shape[1] == N
+    folds = [MDS(n_modes=N - 1).fit(recs[:j] + recs[j + 1:], basis=U[:, :N - 1])
+             for j in range(N)]
+    errs = []
+    for j, f in enumerate(folds):
+        W = np.asarray(recs[j].W)
+        U1 = U[:, :N - 1]
+        R_ = U1 @ (U1.T @ W) - np.asarray(f.predict(recs[j])) + (W - U @ (U.T @ W))
+        errs.append(np.linalg.norm(R_) / np.linalg.norm(W))
+    np.testing.assert_allclose(errs, R._floats(rows["fold_errors"].iloc[0]), rtol=1e-5)
+    P = np.stack([np.asarray(f.predict(rec)) for f in folds])
+    J = np.sqrt((N - 1) / N * np.sum((P - P.mean(axis=0)) ** 2) / np.sum(Wh ** 2))
+    assert rows["jack"].iloc[0] == pytest.approx(J, rel=1e-9)
+    J_full = np.sqrt((N - 1) / N * np.sum((P - Wh) ** 2) / np.sum(Wh ** 2))
+    assert rows["jack_full"].iloc[0] == pytest.approx(J_full, rel=1e-9)
+    own = np.asarray(folds[0].predict(recs[0]))
+    P0 = np.stack([np.asarray(MDS(n_modes=N - 2).fit(
+        [recs[m] for m in range(N) if m not in (0, i)], basis=U[:, :N - 2]).predict(recs[0]))
+        for i in range(1, N)])
+    J0 = np.sqrt((N - 2) / (N - 1) * np.sum((P0 - P0.mean(axis=0)) ** 2) / np.sum(own ** 2))
+    assert R._floats(rows["fold_jack"].iloc[0])[0] == pytest.approx(J0, rel=1e-5)
+    est, _, fell = R.jack_estimates(rows, "hypot")
+    assert not fell
+    np.testing.assert_allclose(est, np.hypot(rows["error_estimate"], rows["jack"]))
+
+
 def test_bands_learning_step_matches_the_band_folds_and_explicit_refits():
     """``bands_learning.learning_step`` on one held-out MDS design (LTI, 1 % noise, k = N):
     its leave-one-out errors are the band's own fold errors, and each leave-two-out error

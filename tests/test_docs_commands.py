@@ -209,6 +209,12 @@ COMMANDS: dict[str, object] = {
         "the same timings on the process's CPU clock (minutes); speed is measured, never "
         "asserted"),
     "podbench predict --coverage 0.9": SYNOPSIS,
+    "podbench predict --method ML|MDS --train … --target … --coverage 0.9": SYNOPSIS,
+    "python benchmarks/bands_cli.py": NOT_RUN(
+        "times the band through podbench predict on held-out-like files, eight designs at "
+        "one or more noise levels (about 40 minutes); speed is measured, never asserted"),
+    "python benchmarks/bands_cli.py --noise 0.01": NOT_RUN(
+        "the same at 1 % noise (about 40 minutes at load 5)"),
     "python benchmarks/bands_heldout.py": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),
@@ -240,6 +246,16 @@ COMMANDS: dict[str, object] = {
         "rebuilds the held-out designs' records (minutes) and reads the rows of a "
         "bands_heldout.py --features run; the note it scores is tested in "
         "tests/sysid/test_band_note.py"),
+    "python benchmarks/bands_rules.py dev.csv --rules gains J hypot geomean gain": NOT_RUN(
+        "reads the rows of a bands_heldout.py --features run (20 min on 2 cores); its offline "
+        "band is checked against the live one in tests/test_benchmarks.py"),
+    "python benchmarks/bands_rules.py dev.csv --rules J hypot geomean gain --jack-full":
+        NOT_RUN("reads the rows of a bands_heldout.py --features run (20 min on 2 cores)"),
+    "python benchmarks/bands_rules.py dev.csv --jack-diagnostics": NOT_RUN(
+        "reads the rows of a bands_heldout.py --features run (20 min on 2 cores)"),
+    "python benchmarks/bands_heldout.py --set dev --jack-cost": NOT_RUN(
+        "times eight designs' fits, bands and fold refits (minutes; speed is measured, never "
+        "asserted)"),
     "python benchmarks/bands_heldout.py --set test --rows test.csv": NOT_RUN(
         "simulates and fits 46 models at three noise levels (half an hour on 2 cores); a "
         "design of it is run in tests/test_benchmarks.py"),
@@ -294,6 +310,8 @@ BLOCKS: dict[tuple[str, str], object] = {
      "&& .venv/bin/podbench run"): "shell",
     ("docs/studies/chapter4.md", "podbench run chapter4                 # = podbench run; "
      "writes results/chapter4/ (16 s)"): "shell",
+    ("docs/bands.md", "python benchmarks/bands_heldout.py --set dev --features --rows "
+     "dev.csv     # 20 min"): "shell",
     ("docs/studies/calibration.md", "podbench run calibration              # writes "
      "results/calibration/ (41 s)"): "shell",
     ("docs/studies/base_excited.md", "podbench run base_excited             # writes "

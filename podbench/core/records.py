@@ -478,8 +478,12 @@ def check_records(train, targets=(), *, min_samples: int = 2,
     if ref.y is None:
         raise InputError(f"{ref.name}: field `outputs`: missing (training records need "
                          "measured outputs)")
-    for rec in train:
+    for j, rec in enumerate(train):
         check_compatible(ref, rec, role="training", need_outputs=True, min_samples=min_samples)
+        if not np.any(rec.y):  # no response: every POD and kernel fit has nothing to work on
+            raise InputError(f"{rec.name or f'training record {j}'}: field `outputs`: zero "
+                             "throughout (a training record needs a measured response to "
+                             "identify from)")
     for rec in targets:
         check_compatible(ref, rec, need_outputs=targets_need_outputs, min_samples=min_samples)
 

@@ -8,6 +8,7 @@ from typing import Literal, TypeVar, overload
 
 import numpy as np
 
+from podbench.core.hints import did_you_mean
 from podbench.errors import DimensionError, InputError
 
 
@@ -71,10 +72,12 @@ def check_positive(x, name: str, *, integer: bool = False,
 
 
 def check_choice(value: _T, name: str, choices: Collection) -> _T:
-    """Return ``value`` if it is one of ``choices``, else raise an InputError naming them."""
+    """Return ``value`` if it is one of ``choices``, else raise an InputError naming them
+    (and the closest, letter case aside: ``'halfsine'`` finds ``'half_sine'``)."""
     if value not in choices:
         raise InputError(
             f"Parameter `{name}`: {value!r} is not one of {', '.join(map(repr, choices))}"
+            f"{did_you_mean(value, choices)}"
         )
     return value
 

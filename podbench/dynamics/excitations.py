@@ -582,6 +582,26 @@ class Pulse(_Force):
                 raise _at(f"hits[{k}]", InputError(
                     f"Pulse: hit {k} starts at {start:g} s, after the record's last sample at "
                     f"{(n_samples - 1) * dt:g} s"))
+        self._check_shape_fits(n_samples, dt)
+
+    def _check_shape_fits(self, n_samples: int, dt: float) -> None:
+        """A half-sine or triangle cut by the record's end is not the load its shape names
+        (a rectangular pulse running past the end is a step held to the end: kept)."""
+        if self.shape == "rectangular":
+            return
+        last = (n_samples - 1) * dt
+        for k, (start, _) in enumerate(self._starts(dt)):
+            if self.window(dt, start)[1] <= n_samples:
+                continue
+            in_s = self.duration / 1000  # the duration read as ms: a likely slip if it
+            ms = (f"; a duration in ms? {self.duration:g} ms is {in_s:g} s"  # loads and fits
+                  if in_s >= dt and start + in_s <= last + dt / 2 else "")
+            what = "Pulse" if k == 0 else f"Pulse: hit {k - 1}"
+            raise _at("duration", InputError(
+                f"{what}: a {self.shape} of {self.duration:g} s from {start:g} s ends at "
+                f"{start + self.duration:g} s, after the record's last sample at {last:g} s "
+                f"(n_samples = {n_samples}, dt = {dt:g} s): the record would cut its "
+                f"shape{ms}"))
 
     def _row(self, structure: Structure) -> int:
         row = resolve_sensor(structure, self.location, by=self.by)

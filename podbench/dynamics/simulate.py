@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from podbench.core.hints import did_you_mean
 from podbench.core.response import Response
 from podbench.core.validation import as_finite_array, check_positive
 from podbench.dynamics.exudyn_engine import simulate_exudyn
@@ -152,7 +153,8 @@ def simulate(
         )
     if not isinstance(engine, str) or engine not in ENGINES:
         raise UnknownNameError(
-            f"Parameter `engine`: unknown engine {engine!r}; known engines: {', '.join(ENGINES)}"
+            f"Parameter `engine`: unknown engine {engine!r}{did_you_mean(engine, ENGINES)} "
+            f"(known engines: {', '.join(ENGINES)})"
         )
     n_samples = check_positive(n_samples, "n_samples", integer=True)
     if n_samples < 2:

@@ -53,6 +53,7 @@ from podbench.core.hints import percent_hint
 from podbench.core.recordfiles import read_record
 from podbench.core.records import Record, check_compatible, check_records
 from podbench.core.threads import single_blas_thread
+from podbench.core.units import normalize_unit
 from podbench.core.version import __version__
 from podbench.errors import InputError, PodbenchWarning, RecordTooShortError
 from podbench.sysid import registry
@@ -81,7 +82,11 @@ class PredictResult:
 def read_any(path, *, input_units=None, output_units=None, system=None,
              default_output_units=None, require_outputs: bool = False) -> Record:
     """A record from a file of either layout (:func:`podbench.core.recordfiles.read_record`);
-    ``default_output_units``: the unit of a target without outputs."""
+    ``default_output_units``: the unit of a target without outputs. A unit given for files
+    that carry none must be a known one even when this file carries its own."""
+    for name, unit in (("input_units", input_units), ("output_units", output_units)):
+        if unit is not None:
+            normalize_unit(unit, f"Parameter `{name}`")
     return read_record(path, input_units=input_units, output_units=output_units,
                        require_outputs=require_outputs, system=system,
                        default_output_units=default_output_units)
@@ -252,6 +257,20 @@ def fit_records(est, train, files=None) -> None:
         raise type(exc)(said) from None
 
 
+def _predict_targets(est, records, files, coverage) -> list:
+    """``est.predict`` of every target record; a prediction the model refuses (a target
+    longer than its kernel, say) is one line naming the target file."""
+    preds = []
+    for rec, path in zip(records, files, strict=True):
+        try:
+            preds.append(est.predict(rec, coverage=coverage))
+        except InputError as exc:
+            if str(exc).startswith(str(path)):
+                raise
+            raise type(exc)(f"{path}: {exc}") from None
+    return preds
+
+
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
@@ -341,7 +360,7 @@ def predict_files(method: str | None, train, targets, out, *, solver: str = "aut
         warnings.warn(text, PodbenchWarning, stacklevel=2)
     with single_blas_thread():
         fit_records(est, tr, train)
-        preds = [est.predict(r, coverage=coverage) for r in tg]
+        preds = _predict_targets(est, tg, targets, coverage)
     channels = tr[0].output_channels or ()
     rows = [_row(stem, entry.name, rec, channels, p, coverage)
             for stem, rec, p in zip(stems, tg, preds, strict=True)]
@@ -382,7 +401,7 @@ def _predict_saved(model, method, train, targets, out, *, solver, n_modes, cover
     for rec in tg:
         check_compatible(ref, rec, min_samples=1)
     with single_blas_thread():
-        preds = [est.predict(r, coverage=coverage) for r in tg]
+        preds = _predict_targets(est, tg, targets, coverage)
     name = getattr(est, "abbreviation", "") or type(est).__name__
     channels = ref.output_channels or ()
     rows = [_row(stem, name, rec, channels, p, coverage)

@@ -160,31 +160,41 @@ _POM_METHODS = (POVR, MDS, SingleLoad, MultipleLoad, MixedResponse)
 """The dissertation's methods (Ch. 3), whose ``n_modes`` is the number of POMs."""
 
 
-def check_modes(scenario: Scenario, structure) -> None:
+def check_modes(scenario: Scenario, structure, *, source: str | None = None) -> None:
     """Check every POD method's ``n_modes`` against what its training data can hold, before
     anything is simulated: the POMs are orthonormal vectors over the sensors and span the
     columns of the training records (Eqs. 3.4-3.6), so their number is at most the sensor
-    count and at most ``n_samples`` times the training records.
+    count and at most ``n_samples`` times the training records; MDS and ML identify a k × k
+    matrix from their training cases (Eqs. 3.26, 3.48), so k is at most their number.
+
+    ``source`` names where ``n_modes`` came from when it is not the method's own field (a
+    sweep's axis value, e.g. ``"sweep axis `n_modes` = 40"``).
 
     Raises
     ------
     ScenarioFileError
-        One line naming the scenario file, the field ``methods[i].n_modes`` and the structure.
+        One line naming the scenario file, the field ``methods[i].n_modes`` (or ``source``)
+        and the structure.
     """
     for i, spec in enumerate(scenario.methods):
         if spec.n_modes is None or spec.composite or is_user_method(spec.method):
             continue
-        if method_entry(spec.method, scenario.folder).cls not in _POM_METHODS:
+        cls = method_entry(spec.method, scenario.folder).cls
+        if cls not in _POM_METHODS:
             continue  # another meaning of n_modes (ERA: the order 2 n_modes)
         k = len(spec.train)
         limits = [(scenario.n_samples * k, f"{k} training record{'s' if k > 1 else ''} of "
                    f"scenario.n_samples = {scenario.n_samples}")]
         if structure.n_sensors is not None:
             limits.append((structure.n_sensors, f"{structure.n_sensors} sensors"))
+        if getattr(cls, "records_per_mode", False):
+            limits.append((k, f"{k} training case{'s' if k > 1 else ''}: it identifies a "
+                           "k × k matrix from them, Eqs. 3.26, 3.48"))
         bound, why = min(limits)
         if spec.n_modes > bound:
+            where = source or f"field `methods[{i}].n_modes`"
             raise ScenarioFileError(
-                f"{_display(scenario.path)}: field `methods[{i}].n_modes` on {structure.name}: "
+                f"{_display(scenario.path)}: {where} on {structure.name}: "
                 f"{spec.n_modes} modes, but {spec.method}'s POMs number at most {bound} ({why})")
 
 

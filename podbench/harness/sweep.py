@@ -62,10 +62,17 @@ from podbench.harness.runner import (
     SWEEP_DIAGNOSTICS,
     NoiseSpec,
     check_cases,
+    check_modes,
     run_unit,
 )
 from podbench.study.resolve import resolve_structure
-from podbench.study.scenarios import Scenario, SolverChoice, Sweep, load_scenario
+from podbench.study.scenarios import (
+    Scenario,
+    SolverChoice,
+    Sweep,
+    apply_overrides,
+    load_scenario,
+)
 
 __all__ = ["SWEEP_COLUMNS", "SweepTask", "plan_sweep", "run_task", "run_sweep", "sweep_table",
            "sweep_axes"]
@@ -139,7 +146,10 @@ def plan_sweep(paths, *, cache_dir=None, engine=None, **axes) -> tuple[dict, lis
     """Validate the scenario files and list their tasks in table order.
 
     Returns ``({name: Scenario}, tasks)``; ``axes`` are :func:`sweep_axes` replacements.
-    Raises :class:`ScenarioFileError` / :class:`InputError` on bad input, before any work.
+    Raises :class:`ScenarioFileError` / :class:`InputError` on bad input, before any work,
+    a mode count included that no POD method of the scenario can use on a structure (more
+    than its sensors, its training records' samples, or, for MDS and ML, their training
+    cases: :func:`~podbench.harness.runner.check_modes`).
     """
     scenarios: dict[str, Scenario] = {}
     tasks: list[SweepTask] = []
@@ -153,8 +163,12 @@ def plan_sweep(paths, *, cache_dir=None, engine=None, **axes) -> tuple[dict, lis
         loaded: dict = {}
         for i, entry in enumerate(sc.structures):
             # unknown names, bad structure files and excitations fail here, in the parent
-            check_cases(sc, resolve_structure(entry, sc, field=f"scenario.structures[{i}]"),
-                        loaded)
+            structure = resolve_structure(entry, sc, field=f"scenario.structures[{i}]")
+            check_cases(sc, structure, loaded)
+            for k in ax.n_modes or ():  # more modes than the sensors or training sets hold
+                axis = "--n-modes" if axes.get("n_modes") is not None else "sweep.n_modes"
+                check_modes(apply_overrides(sc, n_modes=k, coupled_train=ax.coupled_train),
+                            structure, source=f"sweep axis `{axis}` = {k}")
             for level in ax.noise:
                 for k in ax.n_modes or (None,):
                     for seed in ax.seeds:

@@ -45,6 +45,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from podbench.core.hints import did_you_mean
 from podbench.core.resources import bundled_structures, unique_paths
 from podbench.core.tomlfile import load_toml
 from podbench.core.userimport import UserImportError, import_module_or_file
@@ -199,8 +200,8 @@ def find_structure(name_or_path, *, search_path=None) -> Path:
     available = list_structures(search_path)
     where = ", ".join(str(d) for d in structure_dirs(search_path)) or "no folder"
     raise UnknownNameError(
-        f"Unknown structure {name!r} (searched {where}); available: "
-        f"{', '.join(available) if available else 'none'}"
+        f"Unknown structure {name!r}{did_you_mean(name, available)} (searched {where}); "
+        f"available: {', '.join(available) if available else 'none'}"
     )
 
 

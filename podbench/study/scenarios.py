@@ -746,7 +746,8 @@ def apply_overrides(scenario: Scenario, *, n_modes: int | None = None, solvers=N
     a user's class receives it as the ``n_modes=`` keyword). MDS and ML identify a k × k
     matrix from their training sets (Eqs. 3.26, 3.48), so k is tied to the number of sets:
     with ``coupled_train = "first"`` they train on their first k cases (the square system of
-    the dissertation; with fewer than k cases the fit fails and the row says so), with
+    the dissertation; fewer than k cases is refused before any work by
+    :func:`podbench.harness.runner.check_modes`), with
     ``"all"`` on all of them (a least-squares fit when there are more cases than modes).
 
     ``solvers`` (a sequence of :class:`SolverChoice`) expands every method that deconvolves

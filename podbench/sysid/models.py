@@ -29,7 +29,11 @@ realization (about as long as the fit: every order of the lag rule) is made on d
 
 Loading reads the archive with ``np.load(allow_pickle=False)``; a file that is not a
 podbench model, has an unknown ``format_version``, or holds pickled objects is refused in
-one line naming the file, before anything is built; only podbench classes are built. A
+one line naming the file, before anything is built; only podbench classes are built. The
+header records each array's shape and dtype and, in the member ``__parameters__``, the
+parameters the state was fitted with: a truncated array, or a header whose ``parameters``
+were edited by hand (another ``solver`` or ``n_modes``: the fitted arrays would predict
+regardless), is refused in one line naming the file and the field. A
 loaded model predicts exactly as the one saved (the same arrays and parameters).
 """
 
@@ -63,6 +67,10 @@ FORMAT_VERSION = 1
 """The model file layout this podbench writes and reads."""
 
 _HEADER = "__header__"
+_FITTED = "__parameters__"
+"""The archive member holding the parameters the state was fitted with, as the header wrote
+them: a header edited by hand (another ``solver`` or ``n_modes``) disagrees with it and is
+refused, instead of predicting with the fitted state under parameters it was not fitted with."""
 _TAG = "__pb__"  # the key of a tagged (non-JSON) value
 
 
@@ -78,7 +86,7 @@ class _Encoder:
                              "stored without pickles")
         key = f"a{len(self.arrays)}"
         self.arrays[key] = a
-        return {_TAG: "array", "key": key}
+        return {_TAG: "array", "key": key, "shape": list(a.shape), "dtype": a.dtype.str}
 
     def value(self, v: Any, where: str):
         if v is None or isinstance(v, (bool, str)):
@@ -142,32 +150,47 @@ class _Decoder:
         self.arrays = arrays
         self.name = name
 
-    def value(self, v):
+    def array(self, v: dict, where: str) -> np.ndarray:
+        """The archive member ``v["key"]``, checked against the shape and dtype the header
+        recorded for it (files written before they were recorded: not checked)."""
+        key = v.get("key")
+        if key not in self.arrays:
+            raise InputError(f"{self.name}: array {key!r}: missing (the header refers to it "
+                             f"for `{where}`: an incomplete or edited model file)")
+        a = np.array(self.arrays[key])
+        shape, dtype = v.get("shape"), v.get("dtype")
+        if shape is not None and list(a.shape) != list(shape) or (
+                dtype is not None and a.dtype.str != dtype):
+            raise InputError(f"{self.name}: array {key!r}: {a.dtype.str} {list(a.shape)}, "
+                             f"but the header recorded {dtype} {shape} for `{where}` (a "
+                             "truncated or edited model file)")
+        return a
+
+    def value(self, v, where: str = "model"):
         if isinstance(v, list):
-            return [self.value(x) for x in v]
+            return [self.value(x, f"{where}[{i}]") for i, x in enumerate(v)]
         if not isinstance(v, dict):
             return v
         tag = v.get(_TAG)
         if tag == "array":
-            if v.get("key") not in self.arrays:
-                raise InputError(f"{self.name}: array {v.get('key')!r}: missing (the header "
-                                 "refers to it: an incomplete or edited model file)")
-            return np.array(self.arrays[v["key"]])
+            return self.array(v, where)
         if tag == "float":
             return float(v["value"])
         if tag == "complex":
-            return complex(self.value(v["value"][0]), self.value(v["value"][1]))
+            return complex(self.value(v["value"][0], where), self.value(v["value"][1], where))
         if tag == "scalar":
-            return np.dtype(v["dtype"]).type(self.value(v["value"]))
+            return np.dtype(v["dtype"]).type(self.value(v["value"], where))
         if tag == "tuple":
-            return tuple(self.value(x) for x in v["items"])
+            return tuple(self.value(x, f"{where}[{i}]") for i, x in enumerate(v["items"]))
         if tag == "dict":
-            return {_hashable(self.value(k)): self.value(x) for k, x in v["items"]}
+            return {_hashable(self.value(k, where)): self.value(x, f"{where}[{k!r}]")
+                    for k, x in v["items"]}
         if tag in ("record", "iorecord"):  # "iorecord": files of before the one record type
-            return Record.from_fields(**{k: self.value(x) for k, x in v["fields"].items()})
+            return Record.from_fields(**{k: self.value(x, f"{where}.{k}")
+                                         for k, x in v["fields"].items()})
         if tag == "object":
             cls = self.cls(v["class"])
-            params = {k: self.value(x) for k, x in v["parameters"].items()}
+            params = {k: self.value(x, f"{where}.{k}") for k, x in v["parameters"].items()}
             accepted = inspect.signature(cls).parameters
             unknown = sorted(set(params) - set(accepted))  # an edited header: one line
             if unknown and not any(p.kind is p.VAR_KEYWORD for p in accepted.values()):
@@ -175,10 +198,11 @@ class _Decoder:
                                  f"parameter of {cls.__name__}")
             obj = cls(**params)
             for k, x in v["state"].items():
-                setattr(obj, k, self.value(x))
+                setattr(obj, k, self.value(x, f"{where}.{k}"))
             return obj
         if tag == "dataclass":
-            return self.cls(v["class"])(**{k: self.value(x) for k, x in v["fields"].items()})
+            return self.cls(v["class"])(**{k: self.value(x, f"{where}.{k}")
+                                           for k, x in v["fields"].items()})
         raise InputError(f"{self.name}: not a podbench model (unknown entry {tag!r})")
 
     def cls(self, path: str):
@@ -311,7 +335,9 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
               "state": body["state"], "provenance": _provenance(method, training_files)}
     text = json.dumps(header, allow_nan=False, ensure_ascii=False)
     buf = io.BytesIO()
-    members: dict[str, Any] = {_HEADER: np.array(text), **enc.arrays}
+    fitted = json.dumps(header["parameters"], allow_nan=False, ensure_ascii=False)
+    members: dict[str, Any] = {_HEADER: np.array(text), _FITTED: np.array(fitted),
+                               **enc.arrays}
     np.savez_compressed(buf, **members)
     atomic_write_bytes(path, buf.getvalue())
     if summary:
@@ -328,7 +354,12 @@ def save_model(method, path, *, training_files: Sequence = (), include_records: 
 
 
 def _open(path: Path) -> dict:
-    name = path.name
+    name = str(path)
+    if path.is_dir():
+        inside = path / "model.npz"
+        hint = (f"; the model podbench fit wrote there is {inside}" if inside.is_file()
+                else "; give the model.npz that podbench fit wrote")
+        raise InputError(f"{path}: a folder, not a model file{hint}")
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     with open(path, "rb") as fh:
@@ -352,7 +383,7 @@ def _open(path: Path) -> dict:
 def read_header(path) -> tuple[dict, dict]:
     """``(header, arrays)`` of a model file, checked (module docstring's refusals)."""
     path = Path(path)
-    name = path.name
+    name = str(path)
     arrays = _open(path)
     raw = arrays.pop(_HEADER, None)
     if raw is None or raw.ndim != 0 or raw.dtype.kind != "U":
@@ -380,17 +411,43 @@ def load_model(path):
     ------
     InputError
         One line naming the file: not a podbench model, an unknown ``format_version``,
-        pickled content, a class that is not podbench's.
+        pickled content, a class that is not podbench's, an array whose shape or dtype is not
+        the one the header recorded, a header ``parameters.<name>`` other than the one the
+        state was fitted with.
     """
     path = Path(path)
     header, arrays = read_header(path)
-    dec = _Decoder(arrays, path.name)
+    dec = _Decoder(arrays, str(path))
     obj = dec.value({_TAG: "object", "class": header["class"],
                      "parameters": header["parameters"], "state": header["state"]})
+    _check_fitted_parameters(header, arrays, str(path))
     if not hasattr(obj, "modes_"):
-        raise InputError(f"{path.name}: the model holds no fitted state (`modes_` missing)")
+        raise InputError(f"{path}: the model holds no fitted state (`modes_` missing)")
     obj.provenance_ = header.get("provenance", {})
     return obj
+
+
+def _check_fitted_parameters(header: dict, arrays: dict, name: str) -> None:
+    """Refuse a header whose ``parameters`` differ from those the state was fitted with
+    (member :data:`_FITTED`; files written before it existed are not checked)."""
+    raw = arrays.get(_FITTED)
+    if raw is None:
+        return
+    try:
+        fitted = json.loads(str(raw))
+    except json.JSONDecodeError:
+        raise InputError(f"{name}: member `{_FITTED}` is not JSON (an edited model "
+                         "file)") from None
+    params = header["parameters"]
+    for key in sorted(set(params) | set(fitted), key=str):
+        if params.get(key) != fitted.get(key):
+            def shown(v):
+                text = json.dumps(v, ensure_ascii=False)
+                return text if len(text) <= 60 else text[:57] + "..."
+            raise InputError(
+                f"{name}: field `parameters.{key}`: {shown(params.get(key))} in the header, "
+                f"but the arrays were fitted with {shown(fitted.get(key))} (an edited model "
+                "file; refit with podbench fit to change a parameter)")
 
 
 class Model:

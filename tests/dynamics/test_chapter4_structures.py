@@ -44,12 +44,12 @@ def _rel(a, b):
 
 
 @pytest.mark.parametrize(
-    ("name", "tol"), [("lti_beam", 1e-9), ("ltv_beam", 1e-8), ("nl_beam", 1e-5)]
+    ("name", "tol"), [("lti_beam", 1e-9), ("ltv_beam", 1e-8), ("nl_beam", 1e-9)]
 )
 @pytest.mark.heavy
 def test_exudyn_agrees_on_the_beams(beams, name, tol):
     # tolerances: the brief asks < 1e-6 (LTI) and < 1e-4 (LTV, NL); measured 4e-12 to 6e-11
-    # (LTI, LTV) and 1e-11 to 7e-7 (NL: exudyn's Newton stops earlier than podbench's)
+    # (LTI, LTV) and 2e-12 to 2.5e-10 (NL, exudyn's Newton judged on its increment)
     s, lti = beams[name], beams["lti_beam"]
     excitations = [
         {"initial_displacement": _w0(lti)},

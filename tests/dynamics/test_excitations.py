@@ -199,6 +199,28 @@ def test_pulse_shapes():
     np.testing.assert_allclose(tri[:9], [0, 0.5, 1.0, 1.5, 2.0, 1.5, 1.0, 0.5, 0], atol=1e-14)
 
 
+def test_a_shaped_pulse_cut_by_the_record_end_is_refused_a_rectangular_one_kept():
+    """A 1.5-s half-sine in a 0.05-s record (1.5 ms meant) loads a ramp, not the half-sine
+    its shape names: refused with the hint; one that ends with the record fits."""
+    s = cantilever()
+    n, dt = 500, 1e-4
+    with pytest.raises(InputError, match=r"half_sine of 1\.5 s from 0\.0001 s ends at 1\.5001 s, "
+                       r"after the record's last sample at 0\.0499 s .*; a duration in ms\? "
+                       r"1\.5 ms is 0\.0015 s") as info:
+        Pulse(23.0, 500.0, 1.5, shape="half_sine").check(s, n, dt)
+    assert info.value.field == "duration"
+    with pytest.raises(InputError, match="triangle of 0.01 s") as info:  # 0.01 ms < dt: no hint
+        Pulse(23.0, 500.0, 0.01, shape="triangle", start=0.045).check(s, n, dt)
+    assert "in ms" not in str(info.value)
+    with pytest.raises(InputError, match="Pulse: hit 0: a half_sine"):
+        Pulse(23.0, 500.0, 1e-3, shape="half_sine", hits=[(0.049, 0.3)]).check(s, n, dt)
+    # the last loaded sample is the record's last: the whole shape fits (samples 490-499)
+    fits = Pulse(23.0, 500.0, 1e-3, shape="half_sine", start=0.049)
+    fits.check(s, n, dt)
+    assert fits.window(dt) == (490, 500)
+    Pulse(23.0, 500.0, 1.5).check(s, n, dt)  # a step held to the record's end
+
+
 def test_pulse_sample_places_the_history_on_the_sensor_row():
     s = cantilever()
     F = Pulse(23.0, 500.0, 5e-4).sample(s, 500, 1e-4)

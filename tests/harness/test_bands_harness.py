@@ -73,3 +73,23 @@ def test_calibration_summary_scores():
     s = calibration_summary(rows)
     assert s["predictions"] == 40 and s["spearman"] > 0.9 and s["within_factor_2"] == 1.0
     assert "LTI" in calibration_markdown(rows, "x")
+
+
+def test_target_scores_count_misses_and_bound_by_one_constant_per_model():
+    from podbench.report.calibration import target_scores
+
+    tot = np.array([0.01, 0.02, 0.04, 0.08, 0.1, 0.2, 0.3, 0.4])
+    # model A: every estimate 3x its error (none within x2; one constant brings all four);
+    # model B: ratios 1, 1, 8 and no estimate (two within x2; a constant keeps two, the
+    # window of width ln 4 cannot hold both 1 and 8; the missing estimate stays a miss)
+    est = np.r_[3 * tot[:4], tot[4], tot[5], 8 * tot[6], np.nan]
+    df = pd.DataFrame({"scenario": "s", "structure": "lti_beam",
+                       "method": ["A"] * 4 + ["B"] * 4, "target": [f"t{i}" for i in range(8)],
+                       "total_error": tot, "error_estimate": est,
+                       "coverage": [0.9, 0.9, 0.8, 0.78, 0.86, 0.94, 0.96, 0.9]})
+    t = target_scores(calibration_rows(df, [], {}))
+    assert t["within_factor_2"] == 2 / 8 and t["no_estimate"] == 1
+    assert t["oracle_model_constant"] == (4 + 2) / 8 and t["oracle_within_factor_2"] == 2 / 8
+    assert (t["cells"], t["cells_in"]) == (2, 1)  # A's mean 0.845, B's 0.915
+    assert math.isclose(t["coverage_lo"], 0.845) and math.isclose(t["coverage_hi"], 0.915)
+    assert t["within_model_spearman"] == 1.0 and t["models_ranked"] == 2

@@ -29,6 +29,9 @@ def beam_forced():
     ("", "", '[sweep]\nsolvers = ["lss"]', "sweep", "did you mean 'ls'?"),
     ("", "", '[sweep]\nsolvers = [{solver = "tls-dt", options = {rcnd = 1e-2}}]', "sweep",
      "did you mean 'rcond'?"),
+    ('shape = "half_sine"', 'shape = "halfsine"', "", "run",
+     "field `cases.load5_half_sine.force`: Parameter `shape`: 'halfsine' is not one of "
+     "'rectangular', 'half_sine', 'triangle'; did you mean 'half_sine'?"),
     ('"lti_beam", "ltv_beam"', '"stiff", "ltv_beam"',
      '[variants.stiff]\nstructure = "lti_bem"\nset = { "E" = 1.0 }', "run",
      "did you mean 'lti_beam'?"),
@@ -56,3 +59,16 @@ def test_a_misspelt_study_or_solver_option_gets_the_closest_name(capsys, argv, n
     assert cli.main([*argv, "-q", "--no-cache"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and needle in err, err
+
+
+def test_python_api_names_get_the_closest_one():
+    import podbench as pb
+    from podbench.errors import UnknownNameError
+
+    with pytest.raises(UnknownNameError, match=r"Unknown structure 'chain_coupld'; did you "
+                                               r"mean 'chain_coupled'\? \(searched "):
+        pb.load_structure("chain_coupld")
+    chain = pb.load_structure("chain_coupled")
+    with pytest.raises(UnknownNameError, match=r"unknown engine 'Exudyn'; did you mean "
+                                               r"'exudyn'\? \(known engines: newmark, exudyn\)"):
+        pb.simulate(chain, 10, 0.01, engine="Exudyn")

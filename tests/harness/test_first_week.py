@@ -206,9 +206,14 @@ def _beam_forced(tmp_path, *edits) -> Path:
     return f
 
 
+CUT_HALF_SINE = ('duration = 1.5e-3, shape = "half_sine"', 'duration = 1.5e-4, shape = "half_sine"')
+"""On a record of 2 or 3 samples the 1.5-ms half-sine would be cut by the record's end and
+refused first (Pulse.check); 0.15 ms loads one or two samples and fits."""
+
+
 @pytest.mark.parametrize("edits, words", [
     ([("n_modes = 4", "n_modes = 40")], "40 modes, but SL's POMs number at most 25 (25 sensors)"),
-    ([("n_samples = 500", "n_samples = 3")],
+    ([("n_samples = 500", "n_samples = 3"), CUT_HALF_SINE],
      "4 modes, but SL's POMs number at most 3 (1 training record of scenario.n_samples = 3)"),
 ])
 def test_more_pod_modes_than_sensors_or_samples_is_refused_before_any_simulation(
@@ -230,7 +235,8 @@ def test_more_pod_modes_than_sensors_or_samples_is_refused_before_any_simulation
 
 def test_a_run_whose_every_row_failed_is_an_error_not_a_table(tmp_path, capsys):
     # 2 samples from rest: each record has rank 1, so every fit of 2 modes fails
-    f = _beam_forced(tmp_path, ("n_samples = 500", "n_samples = 2"), ("n_modes = 4", "n_modes = 2"))
+    f = _beam_forced(tmp_path, ("n_samples = 500", "n_samples = 2"), ("n_modes = 4", "n_modes = 2"),
+                     CUT_HALF_SINE)
     out = tmp_path / "out"
     argv = ["run", str(f), "--out", str(out), "--no-figures", "--no-cache", "-q", "--jobs", "1"]
     assert cli.main(argv) == 2

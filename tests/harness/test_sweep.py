@@ -208,7 +208,7 @@ def test_ml_error_is_first_order_in_the_noise_level(write_scenario):
 
 
 def test_mode_axis_and_coupled_training_sets(write_scenario):
-    p = sweep_file(write_scenario, "n_modes = [3, 5, 6]")
+    p = sweep_file(write_scenario, "n_modes = [3, 5]")
     scenarios, df = run_sweep([p])
     got = df.set_index(["method", "modes"])
     assert got.loc[("SL", 3), "n_modes"] == 3 and got.loc[("SL", 5), "n_modes"] == 5
@@ -218,18 +218,79 @@ def test_mode_axis_and_coupled_training_sets(write_scenario):
     ref = {r["method"]: r for r in run_unit(first3, "chain_coupled").rows}["ML"]
     assert got.loc[("ML", 3), "n_modes"] == 3
     assert got.loc[("ML", 3), "total_error"] == ref["total_error"]
-    # k = 6 > 5 training loads (and > 5 sensors): clear failures, not crashes
-    assert "fewer load cases (5) than modes (6)" in got.loc[("ML", 6), "status"]
-    assert got.loc[("SL", 6), "status"].startswith("failed")
-    assert np.isnan(got.loc[("ML", 6), "total_error"])
+    assert (df.status == "ok").all()
     md = sweep_markdown(df, scenarios["chain_sweep"])
-    assert "| chain_coupled | ML | f6 | 6 | auto | failed |" in md
-    assert "- chain_coupled / ML [auto] / f6, k 6, 1 of 1 points: failed: InputError" in md
+    assert "| chain_coupled | ML | f6 | 5 | auto | " in md
     # "all": least squares over the five loads with three modes, a different fit
     q = sweep_file(write_scenario, 'n_modes = [3]\ncoupled_train = "all"', "chain_all")
     _, df_all = run_sweep([q])
     ml_all = df_all[df_all.method == "ML"].iloc[0]
     assert ml_all["n_modes"] == 3 and ml_all["total_error"] != ref["total_error"]
+
+
+@pytest.mark.parametrize(("table", "axes", "message"), [
+    # k = 6 > the chain's 5 sensors: no POD method can have six POMs
+    ("n_modes = [3, 6]", {}, "sweep axis `sweep.n_modes` = 6 on chain_coupled: 6 modes, but "
+     "SL's POMs number at most 5 (5 sensors)"),
+    ("", {"n_modes": [40]}, "sweep axis `--n-modes` = 40 on chain_coupled: 40 modes"),
+    # ML trained on three loads cannot identify a 4 x 4 matrix, "first" or "all"
+    ('n_modes = [4]\ncoupled_train = "all"', {}, "4 modes, but ML's POMs number at most 3 "
+     "(3 training cases"),
+])
+def test_a_mode_count_no_method_can_use_is_refused_before_any_work(
+        write_scenario, monkeypatch, table, axes, message):
+    import podbench.harness.sweep as sweep_module
+    monkeypatch.setattr(sweep_module, "run_unit", None)  # nothing may be fitted
+    base = CHAIN_FORCED.replace('train = ["f1", "f2", "f3", "f4", "f5"]', 'train = ["f1", "f2", "f3"]')
+    p = sweep_file(write_scenario, table, template=base)
+    with pytest.raises(ScenarioFileError, match="chain_sweep.toml: ") as exc:
+        run_sweep([p], **axes)
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_cli_sweep_point_that_measured_nothing_exits_2_with_the_count(write_scenario, tmp_path,
+                                                                      capsys):
+    """A fit failing at run time is a row; a point none of whose rows was measured is an
+    error (exit 2, counted), after the tables are written for inspection."""
+    p = write_scenario(CHAIN_FORCED.split("[[methods]]")[0] + """
+[[methods]]
+label = "picky"
+method = "picky.py:Picky"
+train = ["f1"]
+
+[[methods]]
+label = "clean"
+method = "picky.py:Picky"
+train = ["f1"]
+options = {{ limit = 3 }}
+[sweep]
+n_modes = [2, 3, 4]
+""", "chain_picky")
+    (p.parent / "picky.py").write_text("""
+import numpy as np
+
+class Picky:
+    def __init__(self, *, n_modes=None, limit=2):
+        self.n_modes, self.limit = n_modes, limit
+    def fit(self, records, *, basis=None):
+        if self.n_modes > self.limit:
+            raise ValueError(f"{self.n_modes} modes is more than {self.limit}")
+        return self
+    def predict(self, record):
+        return np.array(record.W)
+""", encoding="utf-8")
+    out = tmp_path / "res"
+    assert cli.main(["sweep", str(p), "-o", str(out), "-q", "--no-cache"]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert err.startswith("podbench sweep: error: 1 of 3 sweep points measured nothing") and "\n" not in err
+    assert "k 4, seed 0: picky: failed" in err
+    df = pd.read_csv(out / "chain_picky" / "sweep.csv")
+    status = df.set_index(["method", "modes"])["status"]
+    assert status[("picky", 2)] == "ok" and status[("clean", 3)] == "ok"
+    assert status[("picky", 3)].startswith("failed")  # one row of a measured point: kept, exit 0
+    assert "1 row has a failed method" not in captured.out  # three rows failed, the note counts them
+    assert "3 rows have a failed method or twin" in captured.out
 
 
 def test_solver_axis_expands_deconvolving_methods_and_their_twins():

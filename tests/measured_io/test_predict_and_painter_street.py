@@ -58,6 +58,84 @@ def test_predict_writes_errors_and_predictions(tmp_path, capsys):
     assert config["parameters"]["prior"] is None and config["fitted"]["n_lags"] >= 25
 
 
+def test_a_channel_measured_zero_throughout_gets_an_empty_error_said_in_help_and_stdout(
+        tmp_path, capsys):
+    train = _sys_records(tmp_path, [300, 400, 350])
+    target = _sys_records(tmp_path, [500], seed=1)[0]
+    with np.load(target, allow_pickle=False) as z:
+        fields = {k: z[k] for k in z.files}
+    fields["outputs"] = fields["outputs"].copy()
+    fields["outputs"][1] = 0.0  # channel d2 measured 0 throughout
+    quiet = tmp_path / "quiet.npz"
+    np.savez(quiet, **fields)
+    out = tmp_path / "out"
+    assert main(["predict", "--method", "ML", "--train", *train, "--target", str(quiet),
+                 "--out", str(out), "--solver", "ls"]) == 0
+    row = next(csv.DictReader(open(out / "errors.csv")))
+    with np.load(out / "quiet.npz", allow_pickle=False) as z:
+        y_hat = z["y_hat"]
+    y = fields["outputs"]
+    # d1: the relative error of its own channel; d2: undefined (‖y‖ = 0), left empty
+    assert float(row["error:d1"]) == pytest.approx(
+        np.linalg.norm(y_hat[0] - y[0]) / np.linalg.norm(y[0]), rel=1e-5)
+    assert row["error:d2"] == ""
+    assert float(row["total_error"]) == pytest.approx(
+        np.linalg.norm(y_hat - y) / np.linalg.norm(y), rel=1e-5)
+    printed = capsys.readouterr().out
+    assert "note: quiet: 1 output channel measured zero throughout (d2): error:<channel> " \
+           "left empty" in printed
+    with pytest.raises(SystemExit):
+        main(["predict", "--help"])
+    helptext = " ".join(capsys.readouterr().out.split())
+    assert "left empty for a channel whose measured output is zero throughout" in helptext
+
+
+def test_records_the_model_cannot_use_name_their_file(tmp_path, capsys):
+    """A training record at rest is refused before any fit; a target longer than the kernel
+    a 3-sample record gave is refused naming the target; a target at rest has no relative
+    error, and the line says why."""
+    chain = pb.load_structure("chain_coupled")
+    F = np.zeros((5, 400))
+    F[0, 1:40] = 10.0 * np.sin(np.pi * np.arange(1, 40) / 40)
+    push = pb.simulate(chain, 400, 0.002, force=F)
+    files = {}
+    for name, W, Fn in (("push", push.W, push.F), ("rest", 0 * push.W, push.F),
+                        ("short", push.W[:, :3], push.F[:, :3])):
+        files[name] = str(tmp_path / f"{name}.npz")
+        write_record(files[name], Record(W=W, F=Fn, dt=0.002))
+
+    def err(*argv):
+        assert main(list(argv)) == 2
+        text = capsys.readouterr().err.strip()
+        assert "\n" not in text
+        return text
+
+    assert err("fit", "--method", "SL", "--train", files["rest"], "--out", str(tmp_path / "a")) \
+        == "podbench fit: error: rest.npz: field `outputs`: zero throughout (a " \
+           "training record needs a measured response to identify from)"
+    assert err("predict", "--method", "SL", "--train", files["short"], "--target", files["push"],
+               "--out", str(tmp_path / "b")).startswith(
+        f"podbench predict: error: {files['push']}: Parameter `F_new`: 400 samples, "
+        "expected n' <= 3")
+    assert main(["predict", "--method", "SL", "--train", files["push"], "--target",
+                 files["rest"], "--out", str(tmp_path / "c")]) == 0
+    assert "rest: SL total_error (none: the target holds no outputs, or they are zero " \
+           "throughout)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", ["fit", "predict"])
+def test_an_unknown_unit_option_is_refused_even_for_files_that_carry_theirs(tmp_path, capsys,
+                                                                           command):
+    train = _sys_records(tmp_path, [300, 400])  # they state m/s^2
+    extra = ["--target", train[0]] if command == "predict" else []
+    assert main([command, "--method", "ML", "--train", *train, *extra, "--out",
+                 str(tmp_path / "out"), "--output-units", "furlong"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"podbench {command}: error: --output-units: unknown unit 'furlong' (known: N, lbf, m, "
+        "in, m/s, in/s, m/s^2, in/s^2, strain, V)")
+    assert not (tmp_path / "out").exists()
+
+
 def test_predict_refuses_bad_records_before_writing(tmp_path, capsys):
     train = _sys_records(tmp_path, [300, 400])
     bad = tmp_path / "bad.npz"

@@ -391,6 +391,34 @@ def test_fold_predictions_equal_the_refits(make, n_modes):
         np.testing.assert_allclose(R, expect, rtol=0, atol=1e-9 * np.max(np.abs(r.W)))
 
 
+
+def test_fold_models_skip_the_unread_residual(monkeypatch):
+    """ML's fold models (:meth:`fold_predictions`) leave ``fit_residual_`` uncomputed — a
+    convolution of every record that nothing in the band reads — and predict the same bytes
+    as fold models that compute it; the public fit keeps it."""
+    from podbench.sysid.methods import bands, forced
+
+    case = forced_case("coupled")
+    recs = [Record(W=W, F=F, dt=case.dt) for W, F in zip(case.W, case.F, strict=True)]
+    model = MultipleLoad(n_modes=3, solver="cgls").fit(recs)
+    assert np.isfinite(model.fit_residual_)
+    seen = []
+    orig = forced.MultipleLoad._finish
+
+    def spy(self, *a, residual=True, **k):
+        seen.append(residual)
+        return orig(self, *a, residual=residual, **k)
+
+    monkeypatch.setattr(forced.MultipleLoad, "_finish", spy)
+    U, frozen = np.asarray(model.modes_), bands._frozen(model)
+    lean = model.fold_predictions(recs, U, frozen)
+    assert seen == [False] * len(recs)
+    monkeypatch.setattr(forced.MultipleLoad, "_finish",
+                        lambda self, *a, residual=True, **k: orig(self, *a, residual=True, **k))
+    full = model.fold_predictions(recs, U, frozen)
+    for a, b in zip(lean, full, strict=True):
+        assert a.tobytes() == b.tobytes()
+
 def test_block_solve_many_equals_solve_and_falls_back():
     """``"block"``'s batched forward substitution gives each system's own solution and
     diagnostics; systems it cannot batch (another leading-zero count) are solved one by one."""

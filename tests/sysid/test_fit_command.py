@@ -214,3 +214,27 @@ def test_fit_on_the_measured_example_lists_each_mode_once(tmp_path, capsys):
     assert np.diag(mac(shapes, truth.shapes[:, near])).min() > 0.99
     notes = json.loads((out / "model.json").read_text())["modes_rule"]
     assert any("merged" in n for n in notes)
+
+
+@pytest.mark.heavy
+def test_fit_that_keeps_no_physical_mode_says_what_the_rule_left_out(tmp_path, capsys):
+    """ML with the TC prior on three pushes at three different masses: leave-one-record-out
+    cannot validate an input channel the other records never load (its error is about 1),
+    the kernel is shrunk to nearly nothing and no realized mode passes the rule. The empty
+    modes.csv comes with the rule's reasons, not a bare "0 physical modes"."""
+    chain = pb.load_structure("chain_coupled")
+    dt, n = 0.002, 400
+    files = []
+    for j in range(3):
+        F = np.zeros((5, n))
+        F[j, 1:40] = (10.0 + j) * np.sin(np.pi * np.arange(1, 40) / 40)
+        files.append(str(tmp_path / f"push{j}.npz"))
+        write_record(files[-1], pb.simulate(chain, n, dt, force=F))
+    out = tmp_path / "fit"
+    assert main(["fit", "--method", "ML-TC", "--train", *files, "--out", str(out)]) == 0
+    summary = json.loads((out / "model.json").read_text())
+    assert summary["fitted"]["cv_error"] > 0.9
+    assert summary["modes_count"] == 0 and len(pd.read_csv(out / "modes.csv")) == 0
+    printed = capsys.readouterr().out
+    assert f"0 physical modes -> {out}/modes.csv (none kept: " in printed
+    assert all(rule in printed for rule in summary["modes_rule"])

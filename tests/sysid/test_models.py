@@ -133,7 +133,7 @@ def test_bad_model_files_are_refused_in_one_line(tmp_path):
     np.savez(edited, __header__=np.array(json.dumps({**header, "parameters": params})),
              **arrays)
     gap = tmp_path / "gap.npz"  # an array the header refers to, left out
-    key = next(iter(arrays))
+    key = next(k for k in arrays if k != "__parameters__")
     np.savez(gap, __header__=np.array(json.dumps(header)),
              **{k: a for k, a in arrays.items() if k != key})
     cases = [(text, "not a podbench model"), (plain, "no `__header__`"),
@@ -145,6 +145,53 @@ def test_bad_model_files_are_refused_in_one_line(tmp_path):
         with pytest.raises(InputError, match=words) as info:
             load_model(path)
         assert "\n" not in str(info.value) and path.name in str(info.value)
+
+
+def test_an_edited_header_or_a_truncated_array_is_refused_naming_file_and_field(tmp_path):
+    """The fitted arrays predict whatever the header's parameters say, so a hand-edited
+    ``solver`` or ``n_modes`` would be silently ignored: it is refused, as is an array cut
+    short (the header records every array's shape and dtype)."""
+    train, new = _forced()
+    good = save_model(SingleLoad(n_modes=3, solver="block").fit(train[:1]), tmp_path / "m.npz")
+    header, arrays = read_header(good)
+    expected = load_model(good).predict(new)
+
+    def variant(name, header=header, **members):
+        path = tmp_path / name / "model.npz"
+        path.parent.mkdir()
+        np.savez(path, __header__=np.array(json.dumps(header)), **{**arrays, **members})
+        return path
+
+    def edited(**params):
+        return {**header, "parameters": {**header["parameters"], **params}}
+
+    modes_key = header["state"]["modes_"]["key"]
+    cases = [
+        (variant("n_modes", edited(n_modes=2)),
+         "field `parameters.n_modes`: 2 in the header, but the arrays were fitted with 3"),
+        (variant("solver", edited(solver="ls")),
+         'field `parameters.solver`: "ls" in the header, but the arrays were fitted with "block"'),
+        (variant("cut", **{modes_key: arrays[modes_key].ravel()[:7]}),
+         f"array '{modes_key}': <f8 [7], but the header recorded <f8 "
+         f"{list(arrays[modes_key].shape)} for `model.modes_`"),
+    ]
+    folder = good.parent / "fitted"
+    folder.mkdir()
+    good.rename(folder / "model.npz")
+    cases.append((folder, f"a folder, not a model file; the model podbench fit wrote there "
+                          f"is {folder / 'model.npz'}"))
+    for path, words in cases:
+        with pytest.raises(InputError) as info:
+            load_model(path)
+        message = str(info.value)
+        assert message.startswith(f"{path}: ") and words in message and "\n" not in message
+    # the unedited copy, and a file of before the fitted parameters were kept, still predict
+    same = variant("same")
+    older = tmp_path / "older.npz"
+    np.savez(older, __header__=np.array(json.dumps(header)),
+             **{k: a for k, a in arrays.items() if k != "__parameters__"})
+    for path in (same, older):
+        np.testing.assert_array_equal(load_model(path).predict(new), expected)
 
 
 def test_saving_refuses_what_the_format_cannot_hold(tmp_path):

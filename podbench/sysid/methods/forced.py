@@ -815,8 +815,10 @@ class MultipleLoad(_ForcedMethod):
         B = np.vstack([(U.T @ Wj).T for Wj in Ws])  # n_sets·n × k
         return U, povs, pocs, Qs, B, cond
 
-    def _finish(self, system: tuple, Cbar, info, solver, dt) -> None:
-        """Set the fitted state from the solved system (:meth:`_system`)."""
+    def _finish(self, system: tuple, Cbar, info, solver, dt, residual: bool = True) -> None:
+        """Set the fitted state from the solved system (:meth:`_system`); ``residual=False``
+        leaves ``fit_residual_`` unset (a fold model of :meth:`fold_predictions`, which
+        only predicts: the residual is a convolution of every record, read by nothing)."""
         U, povs, pocs, Qs, B, cond = system
         k, n = U.shape[1], B.shape[0] // len(Qs)
         kernel = np.empty((k, k, n))
@@ -828,7 +830,8 @@ class MultipleLoad(_ForcedMethod):
         self.Cbar_ = Cbar
         self.kernel_ = self._truncate(kernel)
         self.condition_number_ = cond
-        self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
+        if residual:
+            self.fit_residual_ = _relative_residual(Qs, Cbar, B, dt)
 
     def fold_predictions(self, records, basis, frozen=None) -> list[np.ndarray] | None:
         """The leave-one-record-out predictions of a prediction band
@@ -853,7 +856,7 @@ class MultipleLoad(_ForcedMethod):
         out = []
         for j, (sy, (Cbar, info)) in enumerate(zip(systems, solved, strict=True)):
             fold = type(est)(**est.get_params(deep=False))
-            fold._finish(sy, Cbar, info, solver, dt)
+            fold._finish(sy, Cbar, info, solver, dt, residual=False)
             fold.inputs_ = "modal"
             out.append(np.asarray(fold.predict(records[j]), dtype=float))
         return out
