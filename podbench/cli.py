@@ -443,7 +443,10 @@ def cmd_fit(args) -> int:
     api.fit(args.method, args.train, args.out, solver=args.solver, n_modes=args.n_modes,
             input_units=args.input_units, output_units=args.output_units, units=args.units)
     summary = json.loads((Path(args.out) / "model.json").read_text())
-    print(f"{summary['method']}: model -> {args.out}/model.npz (summary model.json)")
+    name = summary.get("configuration") or summary["method"]
+    if name != summary["method"]:  # a registered configuration: name it and its method
+        name = f"{name} ({summary['method']})"
+    print(f"{name}: model -> {args.out}/model.npz (summary model.json)")
     if summary.get("modes_table"):
         why = ""
         if not summary["modes_count"]:  # an empty table: say what the rule left out

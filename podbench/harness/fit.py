@@ -130,7 +130,7 @@ def fit_files(method: str, train, out, *, solver: str = "auto", n_modes=None,
         table, summary = modes_table(est)
     model = Model(est, training_files=train)
     config = fitted_config(entry, est, train, [])
-    extra = {"fitted": config["fitted"], "chosen": config["chosen"],
+    extra = {"configuration": entry.name, "fitted": config["fitted"], "chosen": config["chosen"],
              "inputs": config["inputs"], **summary}
     with replace_dir(out) as tmp:
         model.save(tmp / "model.npz", extra=extra)

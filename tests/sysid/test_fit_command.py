@@ -185,6 +185,18 @@ def test_fir_ls_fits_from_the_command_line(chain, tmp_path, capsys):
     assert summary["method"] == "FIR-LS" and summary["chosen"]
 
 
+def test_fit_names_the_configuration_it_was_asked_for(chain, tmp_path, capsys):
+    """A registered configuration (ML-TC: ML with the TC prior) is named as asked, beside
+    the method that fits it (the command printed "ML" alone)."""
+    _, paths = chain
+    assert main(["fit", "--method", "ML-TC", "--train", *paths[:3], "--out",
+                 str(tmp_path / "o")]) == 0
+    assert capsys.readouterr().out.startswith("ML-TC (ML): model -> ")
+    summary = json.loads((tmp_path / "o" / "model.json").read_text())
+    assert (summary["configuration"], summary["method"]) == ("ML-TC", "ML")
+    assert summary["parameters"]["prior"] == "tc"
+
+
 @pytest.mark.heavy
 def test_fit_on_the_measured_example_lists_each_mode_once(tmp_path, capsys):
     """ML on scenarios/examples/measured (impact tests of the coupled chain, 1 % noise per
