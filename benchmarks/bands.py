@@ -35,6 +35,7 @@ Speed is measured here only, never asserted in the tests.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -123,35 +124,46 @@ def _noisy(recs, label, level):
     return out
 
 
-def refit_time(fn, repeat: int) -> float:
-    """The least time (s) over ``repeat`` calls of ``fn`` (a band) spent in the
-    calibration's refits: the leave-one-record-out folds (``bands._residuals``: the refits
-    or the method's ``fold_predictions``, and the folds' envelopes) and the noise refits
-    (``bands._noise_refits``). Plain fit + predict + this time is the floor of the band's
-    cost: what remains above it is the estimate and the band themselves."""
+@contextlib.contextmanager
+def refits_timed(clock=None):
+    """Within the block, the time (s, ``clock``, default :data:`CLOCK`) spent in the band's
+    calibration refits accumulates in the yielded one-element list: the leave-one-record-out
+    folds (``bands._residuals``: the refits or the method's ``fold_predictions``, and the
+    folds' envelopes) and the noise refits (``bands._noise_refits``). Reset it to 0 between
+    runs."""
     from podbench.sysid.methods import bands
 
+    clock = clock or CLOCK
     spent = [0.0]
 
     def timed(f):
         def wrapper(*a, **k):
-            t0 = CLOCK()
+            t0 = clock()
             try:
                 return f(*a, **k)
             finally:
-                spent[0] += CLOCK() - t0
+                spent[0] += clock() - t0
         return wrapper
 
     old = bands._residuals, bands._noise_refits
     bands._residuals, bands._noise_refits = timed(old[0]), timed(old[1])
-    best = float("inf")
     try:
+        yield spent
+    finally:
+        bands._residuals, bands._noise_refits = old
+
+
+def refit_time(fn, repeat: int) -> float:
+    """The least time (s) over ``repeat`` calls of ``fn`` (a band) spent in the
+    calibration's refits (:func:`refits_timed`). Plain fit + predict + this time is the
+    floor of the band's cost: what remains above it is the estimate and the band
+    themselves."""
+    best = float("inf")
+    with refits_timed() as spent:
         for _ in range(repeat):
             spent[0] = 0.0
             fn()
             best = min(best, spent[0])
-    finally:
-        bands._residuals, bands._noise_refits = old
     return best
 
 

@@ -107,24 +107,14 @@ def clear_caches() -> None:
 def in_process(d, train_files, target_files, repeat: int) -> dict:
     """Plain and band CPU times (s) of fit + predict of every target, and the floor (the
     band's refits, :func:`benchmarks.bands.refit_time`'s, timed in the same calls)."""
+    from benchmarks.bands import refits_timed
     from podbench.harness.predict import read_any
-    from podbench.sysid.methods import bands
 
     make, tr = _estimator(d, train_files)
     tg = [read_any(p, default_output_units=tr[0].output_units) for p in target_files]
     clock = time.process_time
-    spent = [0.0]
 
-    def timed(f):
-        def wrapper(*a, **k):
-            t0 = clock()
-            try:
-                return f(*a, **k)
-            finally:
-                spent[0] += clock() - t0
-        return wrapper
-
-    def run(coverage):
+    def run(coverage, spent):
         if not WARM:
             clear_caches()
         spent[0] = 0.0
@@ -133,13 +123,9 @@ def in_process(d, train_files, target_files, repeat: int) -> dict:
         preds = [est.predict(t, coverage=coverage) for t in tg]
         return clock() - t0, spent[0], preds
 
-    t_plain = min(run(None)[0] for _ in range(repeat))
-    old = bands._residuals, bands._noise_refits
-    bands._residuals, bands._noise_refits = timed(old[0]), timed(old[1])
-    try:
-        runs = [run(0.9) for _ in range(repeat)]
-    finally:
-        bands._residuals, bands._noise_refits = old
+    t_plain = min(run(None, [0.0])[0] for _ in range(repeat))
+    with refits_timed(clock) as spent:
+        runs = [run(0.9, spent) for _ in range(repeat)]
     t_band, t_refits, preds = min(runs, key=lambda r: r[0])
     return dict(plain=t_plain, band=t_band, floor=1.0 + t_refits / t_plain,
                 estimates=[p.error_estimate for p in preds])
